@@ -1,0 +1,42 @@
+# Shared build rules: one warnings target, one library rule, one test rule.
+
+add_library(sitepose_warnings INTERFACE)
+target_compile_options(sitepose_warnings INTERFACE
+  $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra -Wpedantic>)
+
+# sitepose_add_library(<module> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
+# Defines sitepose_<module> with alias sitepose::<module>; headers live in
+# include/sitepose/<module>/.
+function(sitepose_add_library module)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  set(target sitepose_${module})
+  add_library(${target} STATIC ${ARG_SOURCES})
+  add_library(sitepose::${module} ALIAS ${target})
+  target_include_directories(${target} PUBLIC
+    $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include>
+    PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+  target_link_libraries(${target} PUBLIC ${ARG_PUBLIC_DEPS}
+    PRIVATE sitepose_warnings ${ARG_PRIVATE_DEPS})
+  set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+endfunction()
+
+# sitepose_add_test(<name> SOURCES ... DEPS ... LABELS unit|integration|regression
+#                   [TIMEOUT seconds])
+# One GoogleTest executable; each TEST() is registered with ctest so failures
+# name the case.
+function(sitepose_add_test name)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 120)
+  endif()
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main
+    sitepose_warnings)
+  target_compile_definitions(${name} PRIVATE
+    SITEPOSE_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+    SITEPOSE_SITEPOSE_EXE="$<TARGET_FILE_DIR:sitepose>/sitepose")
+  include(GoogleTest)
+  gtest_discover_tests(${name}
+    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
+    DISCOVERY_TIMEOUT 60)
+endfunction()

@@ -1,0 +1,39 @@
+#pragma once
+// The tracker's answer for one frame, as consumers (LCM, CAN, files) see it.
+
+#include <cstdint>
+#include <string>
+
+#include "sitepose/core/se3.hpp"
+
+namespace sitepose {
+
+enum class TrackingState {
+  kOk,          // pose from enough static features
+  kRecovering,  // pose predicted or from few features; do not steer on it
+  kLost,        // no pose
+};
+
+const char* to_string(TrackingState state);
+
+struct PoseCounters {
+  int features_extracted = 0;     // left keypoints this frame
+  int features_used_pass1 = 0;    // inliers of pass 1 (background only)
+  int features_used = 0;          // inliers of the final pose
+  int static_objects_unmasked = 0;
+  double masked_area_ratio = 0.0;  // mar of Algorithm 1, [0, 1]
+};
+
+struct PoseEstimate {
+  std::int64_t t_ns = 0;
+  std::int64_t seq = 0;
+  SE3 T_world_cam;  // left camera in the SLAM world frame
+  // Covariance of the tangent perturbation [translation; rotation] applied on
+  // the left of T_world_cam (m^2, rad^2).
+  Matrix6d covariance = Matrix6d::Identity();
+  TrackingState state = TrackingState::kLost;
+  std::string state_reason;  // why RECOVERING / LOST, empty when OK
+  PoseCounters counters;
+};
+
+}  // namespace sitepose

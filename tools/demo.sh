@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Command (1) of the README: installs dependencies, builds and runs
+# `sitepose demo` (simulate a site, track it, print the accuracy).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash tools/install-deps.sh
+bash tools/build.sh
+exec "${SITEPOSE_BUILD_DIR:-build/release}/tools/sitepose/sitepose" demo "$@"

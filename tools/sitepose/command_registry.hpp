@@ -1,0 +1,34 @@
+#pragma once
+// Subcommands of `sitepose` register themselves here, one file each
+// (cmd_<name>.cpp), so main.cpp never changes when a command is added.
+
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace sitepose::cli {
+
+// Runs a parsed subcommand; returns the process exit status
+// (0 ok, 1 failure while running, 2 bad usage or input: FORMATS.md).
+using CommandAction = std::function<int()>;
+
+struct CommandSpec {
+  std::string name;
+  std::string description;
+  // Adds the options to `sub` (bound to variables the action captures) and
+  // returns the action to run once parsing succeeded.
+  std::function<CommandAction(CLI::App& sub)> setup;
+};
+
+void register_command(CommandSpec spec);
+const std::vector<CommandSpec>& registered_commands();
+
+struct CommandRegistrar {
+  explicit CommandRegistrar(CommandSpec spec) { register_command(std::move(spec)); }
+};
+
+// Prints "sitepose <command>: <message>" to stderr and returns `status`.
+int fail(const std::string& command, const std::string& message, int status);
+
+}  // namespace sitepose::cli

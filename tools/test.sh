@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# Command (2) of the README: installs what is missing, builds if needed and
+# runs every test (unit, integration, regression) with ctest.
+# Extra arguments go to ctest, e.g. tools/test.sh -L unit
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash tools/install-deps.sh
+bash tools/build.sh
+build_dir=${SITEPOSE_BUILD_DIR:-build/release}
+ctest --test-dir "$build_dir" --output-on-failure -j "${SITEPOSE_JOBS:-2}" "$@"
