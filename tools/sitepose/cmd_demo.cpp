@@ -16,7 +16,7 @@ int run_demo() {
   return 0;
 }
 
-const CommandRegistrar kDemo{{"demo", "Simulate a site, track it and print the accuracy (embedded default)",
+const CommandRegistrar kDemo{{"", "demo", "Simulate a site, track it and print the accuracy (embedded default)",
                               [](CLI::App&) -> CommandAction { return run_demo; }}};
 
 }  // namespace

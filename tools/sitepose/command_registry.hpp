@@ -1,6 +1,7 @@
 #pragma once
 // Subcommands of `sitepose` register themselves here, one file each
-// (cmd_<name>.cpp), so main.cpp never changes when a command is added.
+// (cmd_<name>.cpp, bench_<name>.cpp, ablate_<name>.cpp), so main.cpp never
+// changes when a command is added.
 
 #include <CLI/CLI.hpp>
 #include <functional>
@@ -14,6 +15,9 @@ namespace sitepose::cli {
 using CommandAction = std::function<int()>;
 
 struct CommandSpec {
+  // "" for a top-level command, or the group it sits under: "bench"
+  // (timings and ratios, never pass/fail) or "ablate" (ablation studies).
+  std::string group;
   std::string name;
   std::string description;
   // Adds the options to `sub` (bound to variables the action captures) and

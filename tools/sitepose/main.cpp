@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <map>
 #include <string>
+#include <tuple>
 
 #include "command_registry.hpp"
 #include "sitepose/core/build_info.hpp"
@@ -21,11 +22,27 @@ int main(int argc, char** argv) {
       ->capture_default_str();
 
   std::vector<cli::CommandSpec> commands = cli::registered_commands();
-  std::sort(commands.begin(), commands.end(),
-            [](const auto& a, const auto& b) { return a.name < b.name; });
+  std::sort(commands.begin(), commands.end(), [](const auto& a, const auto& b) {
+    return std::tie(a.group, a.name) < std::tie(b.group, b.name);
+  });
+  const std::map<std::string, std::string> group_descriptions{
+      {"bench", "Timings and ratios measured in one run (never pass/fail)"},
+      {"ablate", "Ablation studies of the paper, each writing CSV + PNG"}};
+  std::map<std::string, CLI::App*> groups;
   std::map<CLI::App*, cli::CommandAction> actions;
   for (const auto& spec : commands) {
-    CLI::App* sub = app.add_subcommand(spec.name, spec.description);
+    CLI::App* parent = &app;
+    if (!spec.group.empty()) {
+      auto [it, inserted] = groups.try_emplace(spec.group, nullptr);
+      if (inserted) {
+        const auto desc = group_descriptions.find(spec.group);
+        it->second = app.add_subcommand(
+            spec.group, desc != group_descriptions.end() ? desc->second : spec.group);
+        it->second->require_subcommand(1);
+      }
+      parent = it->second;
+    }
+    CLI::App* sub = parent->add_subcommand(spec.name, spec.description);
     actions[sub] = spec.setup(*sub);
   }
 
