@@ -17,6 +17,9 @@ namespace sitepose::config {
 // Optional camera override; sequences normally bring calib.txt.
 struct CameraConfig {
   std::optional<StereoCamera> stereo;  // absent = take it from the source
+
+  // StereoCamera (core) has no operator==; compare every field here.
+  friend bool operator==(const CameraConfig& a, const CameraConfig& b);
 };
 
 // ORB extraction (METHOD.md "Core tracker"; ORB-SLAM2 defaults).
@@ -27,6 +30,8 @@ struct OrbConfig {
   int ini_fast_threshold = 20;    // FAST threshold tried first per cell
   int min_fast_threshold = 7;     // fallback when a cell yields nothing
   int grid_cell_px = 35;          // cell size of the candidate grid
+
+  bool operator==(const OrbConfig&) const = default;
 };
 
 // Stereo matching on rectified pairs.
@@ -36,6 +41,8 @@ struct StereoMatchConfig {
   int max_descriptor_distance = 75;  // of 256 bits (ORB-SLAM2 TH_HIGH 100, tightened)
   int sad_half_window_px = 5;       // 11x11 SAD patch for sub-pixel refinement
   int row_band_px = 2;              // search +- rows around the epipolar row, scaled by level
+
+  bool operator==(const StereoMatchConfig&) const = default;
 };
 
 // Tracking: motion model, local map, motion-only BA, keyframes.
@@ -49,8 +56,10 @@ struct TrackingConfig {
   int min_inliers_recovering = 12;      // fewer -> LOST
   int keyframe_max_interval_frames = 0; // 0 = one second of frames
   double keyframe_tracked_ratio = 0.75; // new keyframe if tracked/ref < ratio
-  int keyframe_min_close_points = 70;   // need close points: add when fewer tracked
-  int keyframe_new_close_points = 100;  // ... and this many could be created
+  int keyframe_min_close_points = 100;  // need close points: add when fewer tracked
+  int keyframe_new_close_points = 70;   // ... and more than this many could be created
+
+  bool operator==(const TrackingConfig&) const = default;
 };
 
 // Local mapping thread.
@@ -60,6 +69,8 @@ struct MappingConfig {
   int local_ba_iterations = 10;
   double keyframe_redundancy = 0.9;   // cull a keyframe when >= 90 % of its points are seen by 3 others
   int min_point_observations = 3;     // a new point seen by fewer keyframes after 3 KFs is culled
+
+  bool operator==(const MappingConfig&) const = default;
 };
 
 enum class MaskingMode { kNone, kBbox, kPixel, kHierarchical, kFull };
@@ -79,6 +90,8 @@ struct DynamicConfig {
   int min_object_points = 8;             // fewer -> unknown (stays masked)
   std::vector<std::string> dynamic_classes{"truck", "roller", "excavator", "dozer",
                                            "car", "person", "machine"};
+
+  bool operator==(const DynamicConfig&) const = default;
 };
 
 struct DetectorConfig {
@@ -86,10 +99,14 @@ struct DetectorConfig {
   std::string model_config;         // opencv-dnn: model description file
   std::string model_weights;        // opencv-dnn: weights file
   double score_threshold = 0.3;
+
+  bool operator==(const DetectorConfig&) const = default;
 };
 
 struct LoggingConfig {
   std::string level = "info";
+
+  bool operator==(const LoggingConfig&) const = default;
 };
 
 struct SiteposeConfig {
@@ -101,6 +118,8 @@ struct SiteposeConfig {
   DynamicConfig dynamic;
   DetectorConfig detector;
   LoggingConfig logging;
+
+  bool operator==(const SiteposeConfig&) const = default;
 };
 
 const char* to_string(MaskingMode mode);

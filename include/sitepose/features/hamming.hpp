@@ -1,0 +1,48 @@
+#pragma once
+// Hamming distance between 256-bit ORB descriptors (32 bytes, one row of a
+// CV_8UC1 N x 32 cv::Mat). Used by every matcher in sitepose; pure, thread-safe.
+
+#include <cstdint>
+#include <cstring>
+#include <opencv2/core.hpp>
+
+namespace sitepose::features {
+
+inline constexpr int kDescriptorBytes = 32;  // 256-bit rBRIEF
+inline constexpr int kDescriptorBits = 8 * kDescriptorBytes;
+
+namespace detail {
+// Bit count of a 64-bit word. With -mpopcnt (CPU flags only come from
+// presets, STYLE.md §10) the builtin is one instruction; without it GCC would
+// call a libgcc routine, so the branch-free SWAR sum is used instead.
+inline int popcount64(std::uint64_t x) {
+#if defined(__POPCNT__)
+  return __builtin_popcountll(x);
+#else
+  x = x - ((x >> 1) & 0x5555555555555555ULL);
+  x = (x & 0x3333333333333333ULL) + ((x >> 2) & 0x3333333333333333ULL);
+  x = (x + (x >> 4)) & 0x0f0f0f0f0f0f0f0fULL;
+  return static_cast<int>((x * 0x0101010101010101ULL) >> 56);
+#endif
+}
+}  // namespace detail
+
+// Number of differing bits (0..256) of two 32-byte descriptors.
+inline int hamming_distance(const std::uint8_t* a, const std::uint8_t* b) {
+  int distance = 0;
+  for (int word = 0; word < kDescriptorBytes / 8; ++word) {
+    std::uint64_t wa = 0;
+    std::uint64_t wb = 0;
+    std::memcpy(&wa, a + 8 * word, 8);  // memcpy: rows need not be 8-aligned
+    std::memcpy(&wb, b + 8 * word, 8);
+    distance += detail::popcount64(wa ^ wb);
+  }
+  return distance;
+}
+
+// Row i of `a` against row j of `b` (both N x 32 CV_8UC1).
+inline int hamming_distance(const cv::Mat& a, int i, const cv::Mat& b, int j) {
+  return hamming_distance(a.ptr<std::uint8_t>(i), b.ptr<std::uint8_t>(j));
+}
+
+}  // namespace sitepose::features

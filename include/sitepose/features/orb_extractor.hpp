@@ -1,0 +1,105 @@
+#pragma once
+// Masked ORB extraction on an image pyramid (METHOD.md "Core tracker";
+// masking per METHOD.md "What the authors' public code does").
+//
+// Pipeline per pyramid level: FAST candidates at the minimum threshold ->
+// candidates whose level-0 pixel is masked are dropped -> per grid cell keep
+// the candidates that pass the initial threshold, or all of them when none
+// does (the ini -> min fallback) -> quadtree selection of the level's budget,
+// strongest candidate per node -> orientation by intensity centroid ->
+// steered BRIEF (OpenCV's ORB descriptor on the Gaussian-blurred level).
+//
+// Coordinates: keypoints are returned in level-0 pixels (x right, y down,
+// pixel centres at integers), with octave = pyramid level, angle in degrees
+// [0, 360) in image axes, response = FAST score, size = 31 * level scale.
+// Threads: one extract() at a time per instance (it owns OpenCV state);
+// separate instances are independent (StereoExtractor runs two at once).
+
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#include <vector>
+
+#include "sitepose/config/sitepose_config.hpp"
+#include "sitepose/core/expected.hpp"
+
+namespace sitepose::features {
+
+// Keypoints stay this far (level pixels) from every level border: the
+// orientation patch has radius 15 and the descriptor window is padded by
+// OpenCV beyond that.
+inline constexpr int kEdgeMarginPx = 16;
+// Intensity-centroid patch radius (ORB paper: patch size 31).
+inline constexpr int kOrientationRadiusPx = 15;
+inline constexpr int kPatchSizePx = 2 * kOrientationRadiusPx + 1;
+
+// The levels of one image. Level 0 shares the input image's pixels.
+struct ImagePyramid {
+  std::vector<cv::Mat> levels;  // CV_8UC1
+  // Exact size ratios level 0 / level l (round-off makes them differ
+  // slightly from the nominal scale factor).
+  std::vector<double> ratio_x;
+  std::vector<double> ratio_y;
+
+  int n_levels() const { return static_cast<int>(levels.size()); }
+  // Level-l pixel -> level-0 pixel, in cv::resize's pixel-centre convention.
+  cv::Point2d to_level0(int level, const cv::Point2d& p_level) const {
+    return {(p_level.x + 0.5) * ratio_x[level] - 0.5, (p_level.y + 0.5) * ratio_y[level] - 0.5};
+  }
+  cv::Point2d from_level0(int level, const cv::Point2d& p0) const {
+    return {(p0.x + 0.5) / ratio_x[level] - 0.5, (p0.y + 0.5) / ratio_y[level] - 0.5};
+  }
+};
+
+// Result of one extraction. descriptors row i belongs to keypoints[i].
+struct OrbFeatures {
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;   // N x 32, CV_8UC1 (empty when N == 0)
+  ImagePyramid pyramid;  // the unblurred levels the keypoints were found on
+};
+
+// Checks every OrbConfig field; the message names the key, value and rule.
+Status validate(const config::OrbConfig& config);
+
+class OrbExtractor {
+ public:
+  // Precondition: validate(config) passed (load_config does it); aborts
+  // otherwise. Use create() for configs that did not go through load_config.
+  explicit OrbExtractor(const config::OrbConfig& config);
+  static Expected<OrbExtractor> create(const config::OrbConfig& config);
+
+  // image: CV_8UC1, at least 2 * (kEdgeMarginPx + 1) pixels each way.
+  // mask: empty, or CV_8UC1 of the image's size, nonzero = masked. No
+  // keypoint whose level-0 pixel (lround(x), lround(y)) is masked is
+  // returned, and masked candidates are removed before the distribution so
+  // the budget goes to unmasked areas.
+  Expected<OrbFeatures> extract(const cv::Mat& image, const cv::Mat& mask = cv::Mat());
+
+  const config::OrbConfig& config() const { return config_; }
+  int n_levels() const { return config_.n_levels; }
+  // Nominal per-level factors: scale = scale_factor^level, sigma2 = scale^2
+  // (keypoint position variance in level-0 pixels², for information matrices).
+  const std::vector<double>& scale_factors() const { return scale_factors_; }
+  const std::vector<double>& inv_scale_factors() const { return inv_scale_factors_; }
+  const std::vector<double>& level_sigma2() const { return level_sigma2_; }
+  const std::vector<double>& inv_level_sigma2() const { return inv_level_sigma2_; }
+  // Feature budget of each level before unused budget is carried upwards.
+  const std::vector<int>& features_per_level() const { return features_per_level_; }
+
+ private:
+  ImagePyramid build_pyramid(const cv::Mat& image) const;
+
+  config::OrbConfig config_;
+  std::vector<double> scale_factors_;
+  std::vector<double> inv_scale_factors_;
+  std::vector<double> level_sigma2_;
+  std::vector<double> inv_level_sigma2_;
+  std::vector<int> features_per_level_;
+  cv::Ptr<cv::ORB> descriptor_;  // used only for its rBRIEF compute()
+};
+
+// Orientation of the patch around (x, y) by the intensity centroid over a
+// disc of radius kOrientationRadiusPx: atan2(m01, m10) in degrees [0, 360),
+// image axes (y down). (x, y) must be >= kOrientationRadiusPx from borders.
+double intensity_centroid_angle_deg(const cv::Mat& image, int x, int y);
+
+}  // namespace sitepose::features

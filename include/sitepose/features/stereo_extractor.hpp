@@ -1,0 +1,69 @@
+#pragma once
+// One call per stereo pair: masked ORB on the left image and ORB on the
+// right image, extracted concurrently, then stereo matching.
+//
+// Only the left image is masked (METHOD.md "What the authors' public code
+// does"): the tracker uses left keypoints; right ones only serve as match
+// candidates. Threads: extract() runs the right image on one short-lived
+// extra thread and the left on the caller's; one extract() at a time per
+// instance. Ownership: the result owns its data (cv::Mat headers share the
+// pyramid buffers allocated for this call, never the caller's images except
+// level 0).
+
+#include <vector>
+
+#include "sitepose/config/sitepose_config.hpp"
+#include "sitepose/core/expected.hpp"
+#include "sitepose/core/stereo_camera.hpp"
+#include "sitepose/core/stereo_frame.hpp"
+#include "sitepose/features/orb_extractor.hpp"
+#include "sitepose/features/stereo_matcher.hpp"
+
+namespace sitepose::features {
+
+// Features of one stereo pair, indexed by left keypoint.
+struct StereoFeatures {
+  std::vector<cv::KeyPoint> keypoints;  // left, level-0 pixels (see OrbExtractor)
+  cv::Mat descriptors;                  // N x 32 CV_8UC1, row i = keypoints[i]
+  std::vector<double> u_right;          // right column of the match, kNoMatch (< 0) if none
+  std::vector<double> depth_m;          // bf / disparity, kNoMatch (< 0) if none
+  // Right-image features (unmasked), for matchers that need both images.
+  std::vector<cv::KeyPoint> right_keypoints;
+  cv::Mat right_descriptors;
+  // Left pyramid (level 0 = the caller's left image), e.g. for patch checks.
+  ImagePyramid left_pyramid;
+  StereoMatchStats stats;
+
+  int size() const { return static_cast<int>(keypoints.size()); }
+  bool has_depth(int i) const { return depth_m[i] > 0.0; }
+};
+
+class StereoExtractor {
+ public:
+  // Preconditions: both configs validated and camera.bf() > 0 (aborts
+  // otherwise); create() checks and returns the error instead.
+  StereoExtractor(const config::OrbConfig& orb, const config::StereoMatchConfig& stereo,
+                  const StereoCamera& camera);
+  static Expected<StereoExtractor> create(const config::OrbConfig& orb,
+                                          const config::StereoMatchConfig& stereo,
+                                          const StereoCamera& camera);
+
+  // left/right: rectified CV_8UC1 images of equal size; left_mask: empty or
+  // CV_8UC1 of the image size, nonzero = masked (applied to the left only).
+  Expected<StereoFeatures> extract(const cv::Mat& left, const cv::Mat& right,
+                                   const cv::Mat& left_mask = cv::Mat());
+  Expected<StereoFeatures> extract(const StereoFrame& frame, const cv::Mat& left_mask = cv::Mat()) {
+    return extract(frame.left, frame.right, left_mask);
+  }
+
+  // Per-level scale tables (identical for both images).
+  const OrbExtractor& orb() const { return left_; }
+  const StereoMatcher& matcher() const { return matcher_; }
+
+ private:
+  OrbExtractor left_;
+  OrbExtractor right_;
+  StereoMatcher matcher_;
+};
+
+}  // namespace sitepose::features

@@ -1,0 +1,104 @@
+#pragma once
+// The map of keyframes and points, and the bookkeeping that keeps them
+// consistent: observations both ways, covisibility weights, spanning tree,
+// representative descriptors, normals and scale ranges.
+//
+// Thread-safety: MapData is NOT thread-safe. It is owned by SharedMap
+// (shared_map.hpp), which is the only way the tracker and the local mapper
+// reach it.
+
+#include <functional>
+#include <optional>
+#include <unordered_map>
+#include <vector>
+
+#include "sitepose/map/map_types.hpp"
+
+namespace sitepose::map {
+
+// Scale pyramid of the extractor: level l has scale factor^l. Map points
+// derive their scale-invariance range from it (ORB-SLAM2).
+struct ScalePyramid {
+  double scale_factor = 1.2;
+  int n_levels = 8;
+  double scale(int level) const;
+  // Predicted pyramid level of a point seen from distance_m, given its range.
+  int predict_level(double distance_m, double max_distance_m) const;
+};
+
+// Minimum shared points for a covisibility edge (ORB-SLAM2 uses 15).
+inline constexpr int kCovisibilityThreshold = 15;
+
+class MapData {
+ public:
+  explicit MapData(ScalePyramid pyramid = {}) : pyramid_(pyramid) {}
+
+  const ScalePyramid& pyramid() const { return pyramid_; }
+
+  // Inserts a keyframe (its id is assigned and returned); its
+  // point_of_keypoint entries must name existing points and are registered as
+  // observations. Updates covisibility and the spanning-tree parent.
+  // Entries naming a missing or bad point, or a point an earlier keypoint of
+  // the same keyframe already names, are cleared (a keyframe observes a point
+  // through one keypoint).
+  KeyFrameId add_keyframe(KeyFrame keyframe);
+  // Creates a point observed by keypoint `index` of `keyframe`; returns its id.
+  PointId add_point(const Eigen::Vector3d& p_world, KeyFrameId keyframe, int index);
+
+  void add_observation(PointId point, KeyFrameId keyframe, int index);
+  // Removes one observation; a point left with < 2 observations becomes bad.
+  void erase_observation(PointId point, KeyFrameId keyframe);
+  void set_point_bad(PointId point);
+  // Removes a keyframe: its observations are erased and its children are
+  // re-parented to the covisible keyframe they share most with. The first
+  // keyframe is never removed (it anchors the gauge).
+  void set_keyframe_bad(KeyFrameId keyframe);
+  // Replaces `old_point` by `new_point` in every keyframe that observed it.
+  void replace_point(PointId old_point, PointId new_point);
+
+  // Recomputes the covisibility edges of a keyframe from its points.
+  void update_connections(KeyFrameId keyframe);
+  // Representative descriptor, mean normal and distance range of a point.
+  void update_point_appearance(PointId point);
+  // Mean normal and distance range only (ORB-SLAM2 UpdateNormalAndDepth):
+  // what changes when a point or a keyframe moves but its views do not.
+  void update_point_geometry(PointId point);
+
+  // Keyframes sharing most points with `keyframe`, best first (up to n).
+  std::vector<KeyFrameId> best_covisible(KeyFrameId keyframe, int n) const;
+
+  // ORB-SLAM2 MapPoint::Observations(): a stereo observation (keypoint with
+  // u_right_px >= 0) counts 2, a monocular one 1. The culling thresholds of
+  // the mapper and the tracker's keyframe decision are stated in this count.
+  // 0 for a missing or bad point.
+  int observation_weight(PointId point) const;
+
+  const KeyFrame* keyframe(KeyFrameId id) const;
+  KeyFrame* keyframe(KeyFrameId id);
+  const MapPoint* point(PointId id) const;
+  MapPoint* point(PointId id);
+  // A point that exists and is not bad.
+  const MapPoint* good_point(PointId id) const;
+
+  std::size_t keyframe_count() const { return keyframes_.size(); }
+  std::size_t point_count() const { return points_.size(); }
+  KeyFrameId first_keyframe() const { return first_keyframe_; }
+  KeyFrameId last_keyframe() const { return last_keyframe_; }
+  const std::unordered_map<KeyFrameId, KeyFrame>& keyframes() const { return keyframes_; }
+  const std::unordered_map<PointId, MapPoint>& points() const { return points_; }
+
+  // Bad points are kept until no tracker snapshot can refer to them; the
+  // mapper calls this once per keyframe to reclaim the memory.
+  std::size_t purge_bad_points();
+
+ private:
+  ScalePyramid pyramid_;
+  std::unordered_map<KeyFrameId, KeyFrame> keyframes_;
+  std::unordered_map<PointId, MapPoint> points_;
+  KeyFrameId next_keyframe_id_ = 0;
+  PointId next_point_id_ = 0;
+  KeyFrameId first_keyframe_ = kNoKeyFrame;
+  KeyFrameId last_keyframe_ = kNoKeyFrame;
+};
+
+}  // namespace sitepose::map

@@ -1,0 +1,154 @@
+#pragma once
+// The local mapper (ORB-SLAM2 LocalMapping, written for sitepose). For each
+// keyframe the tracker hands over, in order:
+//   1. process it: refresh descriptor, normal and scale range of the points
+//      it tracked, its covisibility; the points created with it become
+//      "recent";
+//   2. cull recent points: found_ratio < 0.25, or observation weight
+//      (map_data.hpp, stereo counts 2) <= mapping.min_point_observations
+//      once 2 keyframes have passed since creation; a point leaves the recent
+//      list after 3 keyframes;
+//   3. triangulate new points with its best 10 covisible keyframes (stops
+//      after the first when another keyframe is waiting) whose centres are
+//      at least one stereo baseline away (new_points.hpp);
+//   4. fuse duplicates with its neighbours (10 best covisible and their 5
+//      best) both ways (fuse.hpp);
+//   5. local BA when no other keyframe is waiting (local_ba_problem.hpp):
+//      copied out under read(), solved unlocked, aborted when a keyframe is
+//      enqueued, written back under write();
+//   6. cull redundant covisible keyframes (keyframe_culling.hpp), then
+//      purge bad points so memory stays bounded.
+//
+// Contract with the tracker: it inserts the keyframe and its new stereo
+// points with MapData::add_keyframe / add_point under SharedMap::write(),
+// then calls enqueue(id). Keyframes covisible with the one being processed
+// may be removed (step 6), never the map's first keyframe nor one still
+// waiting in the queue; bad points are purged at the end of each keyframe,
+// so the tracker must look its points up again (MapData::good_point) after
+// every frame rather than keep pointers.
+//
+// Threading: start(), stop() and the destructor belong to the owner's
+// thread; every other member may be called from any thread. Two ways to run:
+//   * start() runs the steps on a thread named "sp-mapping" (std::jthread)
+//     that waits on a condition variable for keyframes; stop() ends it
+//     after the keyframe in progress (aborting its BA); keyframes still
+//     queued stay queued. The destructor calls stop().
+//   * process_pending() runs everything queued on the caller's thread
+//     (deterministic tests, `sitepose run --deterministic`); it must not
+//     be called while the thread runs.
+// Locks: the queue mutex is never held while the SharedMap lock is taken,
+// and the map lock is held only to copy out and to apply results (the
+// searches and the Ceres solve run unlocked), per shared_map.hpp.
+// Ownership: the camera and configs are copied; `map` must outlive the
+// mapper.
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <mutex>
+#include <stop_token>
+#include <thread>
+#include <vector>
+
+#include "sitepose/config/sitepose_config.hpp"
+#include "sitepose/core/expected.hpp"
+#include "sitepose/core/stereo_camera.hpp"
+#include "sitepose/map/shared_map.hpp"
+#include "sitepose/mapping/fuse.hpp"
+#include "sitepose/mapping/new_points.hpp"
+#include "sitepose/optim/local_ba.hpp"
+
+namespace sitepose::mapping {
+
+struct MappingStats {
+  std::int64_t keyframes_processed = 0;
+  std::int64_t keyframes_missing = 0;   // enqueued but gone from the map when their turn came
+  std::int64_t points_triangulated = 0;  // step 3
+  std::int64_t points_culled = 0;        // step 2
+  std::int64_t fuse_observations_added = 0;  // step 4
+  std::int64_t fuse_points_merged = 0;       // step 4
+  std::int64_t ba_runs = 0;
+  std::int64_t ba_aborted = 0;      // stopped early by an enqueue or stop()
+  std::int64_t ba_failures = 0;     // optim::LocalBa returned an error (logged)
+  std::int64_t ba_outliers_erased = 0;
+  std::int64_t keyframes_culled = 0;  // step 6
+  std::int64_t points_purged = 0;     // bad points reclaimed
+  double last_ba_ms = 0.0;   // wall time of the last solve (unlocked part)
+  double total_ba_ms = 0.0;
+  double last_keyframe_ms = 0.0;  // wall time of all steps for the last keyframe
+  double total_keyframe_ms = 0.0;
+};
+
+class LocalMapper {
+ public:
+  // Reads mapping.{local_ba_keyframes, local_ba_iterations,
+  // keyframe_redundancy, min_point_observations} and
+  // tracking.{chi2_mono, chi2_stereo, close_depth_baselines}.
+  LocalMapper(const StereoCamera& camera, const config::MappingConfig& mapping,
+              const config::TrackingConfig& tracking, map::SharedMap& map);
+  ~LocalMapper();
+  LocalMapper(const LocalMapper&) = delete;
+  LocalMapper& operator=(const LocalMapper&) = delete;
+
+  // Queues a keyframe already inserted into the map; a running local BA is
+  // asked to stop so the new keyframe is handled sooner.
+  void enqueue(map::KeyFrameId keyframe);
+
+  // Runs all queued keyframes on the calling thread. Fails (kRuntime) when
+  // the thread is running, or with the first error of a step (the rest of
+  // the queue is still processed).
+  Status process_pending();
+
+  void start();
+  void stop();
+  bool running() const;
+
+  // Blocks until the queue is empty and no keyframe is in progress; returns
+  // at once when the thread is not running.
+  void wait_until_idle();
+  // No keyframe queued or in progress.
+  bool is_idle() const;
+  // False while a keyframe is in progress (ORB-SLAM2 AcceptKeyFrames): the
+  // tracker then inserts only when its own rules insist, and holds back when
+  // queue_size() >= 3.
+  bool accepts_keyframes() const;
+  std::size_t queue_size() const;
+  MappingStats stats() const;
+
+ private:
+  void run(std::stop_token stop_token);
+  Status process_keyframe(map::KeyFrameId keyframe);
+  bool process_new_keyframe(map::KeyFrameId keyframe);
+  void cull_recent_points(map::KeyFrameId keyframe);
+  void create_new_points(map::KeyFrameId keyframe);
+  void fuse_neighbours(map::KeyFrameId keyframe);
+  Status local_bundle_adjustment(map::KeyFrameId keyframe);
+  void cull_keyframes(map::KeyFrameId keyframe);
+  bool queue_empty() const;
+
+  StereoCamera camera_;
+  config::MappingConfig mapping_;
+  config::TrackingConfig tracking_;
+  map::SharedMap& map_;
+  optim::LocalBa local_ba_;
+  NewPointParams new_point_params_;
+  FuseParams fuse_params_;
+  double close_depth_m_;
+
+  // Touched only by the thread processing keyframes (worker or the caller of
+  // process_pending, never both).
+  std::vector<map::PointId> recent_points_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable_any queue_cv_;  // guarded by mutex_: keyframe queued
+  std::condition_variable idle_cv_;       // guarded by mutex_: became idle
+  std::deque<map::KeyFrameId> queue_;     // guarded by mutex_
+  bool busy_ = false;                     // guarded by mutex_
+  MappingStats stats_;                    // guarded by mutex_
+  std::atomic<bool> abort_ba_{false};     // read by the Ceres callback
+  std::atomic<bool> running_{false};
+  std::jthread thread_;                   // owner's thread only
+};
+
+}  // namespace sitepose::mapping

@@ -1,0 +1,44 @@
+#pragma once
+// Writes a simulated sequence in the sitepose layout (FORMATS.md):
+//   image_0/NNNNNN.png, image_1/NNNNNN.png   8-bit gray
+//   calib.txt     P0, P1 (rectified pair); with distorted output also
+//                 D0, D1: k1 k2 p1 p2 (images are then NOT rectified)
+//   times.txt     seconds, one line per frame
+//   poses.txt     T_world_cam of the left camera, world = left camera at frame 0
+//   labels/boxes.csv      frame,instance,class,x,y,w,h,moving (visible objects)
+//   labels/masks/NNNNNN.png  CV_16UC1 instance ids of the left image
+//   meta.json     scenario, seed, fps, frames, camera, T_site_world,
+//                 per-frame occlusion ratios and exposure gains
+// Runs on the calling thread (rendering uses OpenCV's pool).
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "sitepose/core/expected.hpp"
+#include "sitepose/sim/simulator.hpp"
+
+namespace sitepose::sim {
+
+struct WriteOptions {
+  // Write into a non-empty folder; the files of a sequence already there
+  // (image_0, image_1, labels, calib.txt, times.txt, poses.txt, meta.json)
+  // are removed first so no stale frame survives. Other files are kept.
+  bool force = false;
+  // Called after each frame with (frames done, total).
+  std::function<void(int, int)> progress;
+};
+
+struct WriteSummary {
+  int frames = 0;
+  double max_occlusion_ratio = 0.0;
+  double mean_occlusion_ratio = 0.0;
+  double seconds = 0.0;  // wall time of rendering and writing
+};
+
+// Errors: kInvalidArgument when `dir` is non-empty without force (naming
+// it), kIoError naming the file that could not be written.
+Expected<WriteSummary> write_sequence(const Simulator& sim, const std::string& dir,
+                                      const WriteOptions& options = {});
+
+}  // namespace sitepose::sim

@@ -1,0 +1,50 @@
+#pragma once
+// Matching map points to the keypoints of a frame by projecting them with a
+// pose guess (ORB-SLAM2 SearchByProjection, written for sitepose). Pure
+// functions over value snapshots of map points; no map access.
+
+#include <vector>
+
+#include "sitepose/core/se3.hpp"
+#include "sitepose/core/stereo_camera.hpp"
+#include "sitepose/map/map_data.hpp"
+#include "sitepose/tracking/prepared_frame.hpp"
+
+namespace sitepose::tracking {
+
+// ORB-SLAM2 ORBmatcher thresholds (Hamming distance of 256 bits).
+inline constexpr int kDescriptorDistanceHigh = 100;
+inline constexpr int kDescriptorDistanceLow = 50;
+
+// What a tracker needs of a map point, copied out under the map lock.
+struct PointView {
+  map::PointId id = map::kNoPoint;
+  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();
+  map::Descriptor descriptor{};
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  double min_distance_m = 0.0;
+  double max_distance_m = 0.0;
+  int octave_hint = -1;  // level where it was last seen (motion-model search), -1 unknown
+};
+
+PointView make_point_view(const map::MapPoint& point);
+
+struct SearchParams {
+  double radius_px = 7.0;   // scaled by the level's scale factor
+  double ratio = 1.0;       // best < ratio * second best (1.0 = off)
+  int max_distance = kDescriptorDistanceHigh;
+  bool check_view_angle = false;  // local-map search: viewing cos >= 0.5, scale range
+};
+
+// For every point: project with T_cam_world; among usable, still unmatched
+// keypoints near the projection (stereo ones also near the predicted u_r),
+// pick the best descriptor. `match_of_keypoint` (size frame.size(), -1 =
+// free) receives the point index; returns the number of new matches and
+// appends the indices of points that were inside the frustum to `visible`.
+int search_by_projection(const PreparedFrame& frame, const StereoCamera& camera,
+                         const map::ScalePyramid& pyramid, const SE3& T_cam_world,
+                         const std::vector<PointView>& points, const std::vector<std::uint8_t>& usable,
+                         const SearchParams& params, std::vector<int>& match_of_keypoint,
+                         std::vector<int>* visible);
+
+}  // namespace sitepose::tracking

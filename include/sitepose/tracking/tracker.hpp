@@ -1,0 +1,142 @@
+#pragma once
+// The stereo tracker (METHOD.md "Core tracker", "Two-pass coarse-to-fine
+// tracking"), split in three steps so the dynamic layer can run two passes
+// on one extraction:
+//
+//   prepare()  — ORB extraction (left and right concurrently) and stereo
+//                matching, once per frame; tags keypoints with instance ids.
+//   estimate() — a pose from the keypoints marked usable: motion model (or
+//                relocalisation), then the local map, with motion-only BA.
+//                const: changes no tracker or map state, so pass 1 leaves no
+//                trace and pass 2 can start from pass 1's pose.
+//   commit()   — accepts one estimate: motion model, map statistics,
+//                keyframe decision and insertion, hand-over to the mapper.
+//
+// Thread: one thread (the track stage) calls all three; the map is shared
+// with the local mapper through map::SharedMap (see its ownership rule).
+
+#include <functional>
+#include <optional>
+#include <vector>
+
+#include "sitepose/config/sitepose_config.hpp"
+#include "sitepose/core/expected.hpp"
+#include "sitepose/core/pose_estimate.hpp"
+#include "sitepose/core/stereo_frame.hpp"
+#include "sitepose/features/stereo_extractor.hpp"
+#include "sitepose/map/shared_map.hpp"
+#include "sitepose/optim/motion_only_ba.hpp"
+#include "sitepose/tracking/prepared_frame.hpp"
+#include "sitepose/tracking/projection_search.hpp"
+
+namespace sitepose::tracking {
+
+// How the tracker talks to the local mapper without depending on it.
+struct MapperLink {
+  std::function<void(map::KeyFrameId)> enqueue;  // hand a new keyframe over
+  std::function<int()> queue_size;               // keyframes not processed yet
+  std::function<bool()> is_idle;                 // nothing queued or running
+  std::function<void()> interrupt;               // abort a running local BA
+};
+
+struct EstimateTimings {
+  double motion_model_ms = 0.0;  // incl. relocalisation when it was needed
+  double local_map_ms = 0.0;     // projection search of the local map
+  double motion_ba_ms = 0.0;     // all motion-only BA solves of this estimate
+  double total_ms = 0.0;
+};
+
+// One pass's answer. Keypoint indices refer to the PreparedFrame.
+struct PassResult {
+  bool valid = false;        // a pose was estimated
+  bool needs_initialisation = false;  // the map is empty
+  SE3 T_cam_world;
+  std::optional<Matrix6d> covariance_world_cam;
+  std::vector<map::PointId> point_of_keypoint;  // inlier matches, kNoPoint otherwise
+  std::vector<map::PointId> visible_points;     // in the frustum of the local map
+  int n_inliers = 0;
+  int n_usable_keypoints = 0;
+  bool relocalised = false;
+  std::string failure;  // why valid == false or the state is degraded
+  EstimateTimings timings;
+};
+
+struct TrackerCounters {
+  int frames = 0;
+  int keyframes_created = 0;
+  int relocalisations = 0;
+  int frames_lost = 0;
+};
+
+class Tracker {
+ public:
+  Tracker(const StereoCamera& camera, const config::SiteposeConfig& config, map::SharedMap& map,
+          MapperLink mapper = {});
+
+  // instance_labels: empty, or CV_16UC1 of the image size with the detector
+  // instance id under each pixel (0 = background). extraction_mask: empty
+  // or CV_8UC1, nonzero = keep the feature budget away from these pixels
+  // (the background then gets the full budget and the masked area a share
+  // of its own, so pass 2 still has object keypoints to unmask).
+  Expected<PreparedFrame> prepare(const StereoFrame& frame, const cv::Mat& instance_labels = {},
+                                  const cv::Mat& extraction_mask = {});
+
+  // usable: per keypoint of `frame`, 1 = may be used. start: the pose to
+  // start from (pass 2 starts at pass 1's); default: the motion model.
+  PassResult estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                      const std::optional<SE3>& start = std::nullopt) const;
+
+  // Accepts `result` for `frame` (usable: the keypoints allowed into new map
+  // points); initialises the map from the first frame with enough stereo
+  // points. Returns the pose the outputs publish.
+  PoseEstimate commit(const PreparedFrame& frame, const PassResult& result,
+                      const std::vector<std::uint8_t>& usable);
+
+  // prepare + estimate(all keypoints) + commit: plain stereo SLAM (mode none).
+  Expected<PoseEstimate> track(const StereoFrame& frame);
+
+  const StereoCamera& camera() const { return camera_; }
+  const TrackerCounters& counters() const { return counters_; }
+  TrackingState state() const { return state_; }
+  std::optional<SE3> last_T_world_cam() const;
+
+ private:
+  // Motion model or relocalisation, then the local map; see estimate().
+  bool track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                          const SE3& predicted, PassResult& result) const;
+  bool relocalise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                  PassResult& result) const;
+  void track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                       PassResult& result) const;
+  // Motion-only BA over the matches in result.point_of_keypoint; drops
+  // outliers and fills pose, covariance and inlier count.
+  void optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
+                     const std::vector<int>& match_of_keypoint, PassResult& result) const;
+
+  bool initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable);
+  bool need_keyframe(const PreparedFrame& frame, const PassResult& result) const;
+  void create_keyframe(const PreparedFrame& frame, const PassResult& result,
+                       const std::vector<std::uint8_t>& usable);
+
+  StereoCamera camera_;
+  config::SiteposeConfig config_;
+  map::SharedMap& map_;
+  MapperLink mapper_;
+  features::StereoExtractor extractor_;
+  features::OrbExtractor object_extractor_;  // smaller budget for masked areas
+  optim::MotionOnlyBa motion_ba_;
+  map::ScalePyramid pyramid_;
+
+  TrackingState state_ = TrackingState::kLost;
+  bool has_last_ = false;
+  SE3 last_T_cam_world_;
+  SE3 velocity_;  // T_cam_current_cam_last of the last step
+  bool has_velocity_ = false;
+  std::vector<std::pair<map::PointId, int>> last_matches_;  // point, octave
+  map::KeyFrameId reference_keyframe_ = map::kNoKeyFrame;
+  std::int64_t last_keyframe_seq_ = -1;
+  std::int64_t last_keyframe_t_ns_ = 0;
+  TrackerCounters counters_;
+};
+
+}  // namespace sitepose::tracking

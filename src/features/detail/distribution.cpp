@@ -1,0 +1,157 @@
+#include "detail/distribution.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <queue>
+
+namespace sitepose::features::detail {
+
+std::vector<cv::KeyPoint> apply_cell_thresholds(const std::vector<cv::KeyPoint>& candidates,
+                                                 const cv::Rect& area, int cell_px,
+                                                 int ini_threshold) {
+  const int n_cols = std::max(1, static_cast<int>(std::lround(double(area.width) / cell_px)));
+  const int n_rows = std::max(1, static_cast<int>(std::lround(double(area.height) / cell_px)));
+  const double cell_w = double(area.width) / n_cols;
+  const double cell_h = double(area.height) / n_rows;
+
+  std::vector<int> cell_of(candidates.size());
+  std::vector<char> cell_has_strong(static_cast<size_t>(n_cols) * n_rows, 0);
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    const cv::Point2f& p = candidates[i].pt;
+    const int col = std::clamp(static_cast<int>((p.x - area.x) / cell_w), 0, n_cols - 1);
+    const int row = std::clamp(static_cast<int>((p.y - area.y) / cell_h), 0, n_rows - 1);
+    cell_of[i] = row * n_cols + col;
+    if (candidates[i].response >= float(ini_threshold)) cell_has_strong[cell_of[i]] = 1;
+  }
+  std::vector<cv::KeyPoint> kept;
+  kept.reserve(candidates.size());
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    if (candidates[i].response >= float(ini_threshold) || !cell_has_strong[cell_of[i]]) {
+      kept.push_back(candidates[i]);
+    }
+  }
+  return kept;
+}
+
+namespace {
+
+struct Node {
+  float x0, y0, x1, y1;
+  std::vector<int> members;
+  float area() const { return (x1 - x0) * (y1 - y0); }
+};
+
+}  // namespace
+
+std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates,
+                                     const cv::Rect2f& area, int target) {
+  std::vector<int> picked;
+  if (target <= 0 || candidates.empty()) return picked;
+  if (static_cast<int>(candidates.size()) <= target) {
+    picked.resize(candidates.size());
+    std::iota(picked.begin(), picked.end(), 0);
+    return picked;
+  }
+
+  std::vector<Node> nodes;
+  // Near-square roots so that splits in four keep cells near-square.
+  const int n_roots = std::max(1, static_cast<int>(std::lround(area.width / std::max(area.height, 1.0f))));
+  const float root_w = area.width / n_roots;
+  for (int r = 0; r < n_roots; ++r) {
+    nodes.push_back({area.x + r * root_w, area.y, area.x + (r + 1) * root_w, area.y + area.height, {}});
+  }
+  for (int i = 0; i < static_cast<int>(candidates.size()); ++i) {
+    const float x = candidates[i].pt.x;
+    const int r = std::clamp(static_cast<int>((x - area.x) / root_w), 0, n_roots - 1);
+    nodes[r].members.push_back(i);
+  }
+
+  // Largest node first, so cells shrink evenly over the image (spatial
+  // spread); among equal sizes the more crowded one, then creation order.
+  auto larger_first = [&nodes](int a, int b) {
+    const float area_a = nodes[a].area();
+    const float area_b = nodes[b].area();
+    if (area_a != area_b) return area_a < area_b;
+    if (nodes[a].members.size() != nodes[b].members.size()) {
+      return nodes[a].members.size() < nodes[b].members.size();
+    }
+    return a > b;
+  };
+  std::priority_queue<int, std::vector<int>, decltype(larger_first)> splittable(larger_first);
+  std::vector<int> final_nodes;
+  int n_nodes = 0;
+  // A node narrower than a pixel cannot separate candidates any more.
+  auto enqueue = [&](int id) {
+    const Node& n = nodes[id];
+    if (n.members.size() > 1 && n.x1 - n.x0 > 1.0f && n.y1 - n.y0 > 1.0f) {
+      splittable.push(id);
+    } else {
+      final_nodes.push_back(id);
+    }
+  };
+  for (int r = 0; r < n_roots; ++r) {
+    if (nodes[r].members.empty()) continue;
+    ++n_nodes;
+    enqueue(r);
+  }
+
+  std::vector<int> last_children;
+  while (n_nodes < target && !splittable.empty()) {
+    const int id = splittable.top();
+    splittable.pop();
+    const Node parent = std::move(nodes[id]);
+    const float xm = 0.5f * (parent.x0 + parent.x1);
+    const float ym = 0.5f * (parent.y0 + parent.y1);
+    Node children[4] = {{parent.x0, parent.y0, xm, ym, {}},
+                        {xm, parent.y0, parent.x1, ym, {}},
+                        {parent.x0, ym, xm, parent.y1, {}},
+                        {xm, ym, parent.x1, parent.y1, {}}};
+    for (const int m : parent.members) {
+      const cv::Point2f& p = candidates[m].pt;
+      children[(p.x < xm ? 0 : 1) + (p.y < ym ? 0 : 2)].members.push_back(m);
+    }
+    --n_nodes;
+    last_children.clear();
+    for (Node& child : children) {
+      if (child.members.empty()) continue;
+      ++n_nodes;
+      nodes.push_back(std::move(child));
+      last_children.push_back(static_cast<int>(nodes.size()) - 1);
+      enqueue(last_children.back());
+    }
+  }
+  while (!splittable.empty()) {
+    final_nodes.push_back(splittable.top());
+    splittable.pop();
+  }
+
+  auto strongest = [&](int id) {
+    const auto& members = nodes[id].members;
+    int best = members.front();
+    for (const int m : members) {
+      if (candidates[m].response > candidates[best].response ||
+          (candidates[m].response == candidates[best].response && m < best)) {
+        best = m;
+      }
+    }
+    return best;
+  };
+  // The last split may overshoot by up to three nodes: drop the weakest of
+  // its children only, so the spread elsewhere is untouched.
+  std::vector<char> dropped(nodes.size(), 0);
+  if (n_nodes > target) {
+    std::sort(last_children.begin(), last_children.end(), [&](int a, int b) {
+      return candidates[strongest(a)].response < candidates[strongest(b)].response;
+    });
+    for (int k = 0; k < n_nodes - target; ++k) dropped[last_children[k]] = 1;
+  }
+  picked.reserve(final_nodes.size());
+  for (const int id : final_nodes) {
+    if (!dropped[id]) picked.push_back(strongest(id));
+  }
+  std::sort(picked.begin(), picked.end());
+  return picked;
+}
+
+}  // namespace sitepose::features::detail

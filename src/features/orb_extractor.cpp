@@ -1,0 +1,242 @@
+#include "sitepose/features/orb_extractor.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "detail/distribution.hpp"
+
+namespace sitepose::features {
+namespace {
+
+// FAST needs a 3-pixel ring around a candidate.
+constexpr int kFastRadiusPx = 3;
+
+template <typename T>
+Status invalid(const char* key, T value, const std::string& rule) {
+  return make_error(ErrorCode::kInvalidArgument, fmt::format("orb.{} = {}: {}", key, value, rule));
+}
+
+// Row half-widths of the orientation disc: |u| <= kDiscHalfWidth[|v|].
+const std::array<int, kOrientationRadiusPx + 1>& disc_half_widths() {
+  static const std::array<int, kOrientationRadiusPx + 1> widths = [] {
+    std::array<int, kOrientationRadiusPx + 1> w{};
+    const double r2 = double(kOrientationRadiusPx) * kOrientationRadiusPx;
+    for (int v = 0; v <= kOrientationRadiusPx; ++v) {
+      w[v] = static_cast<int>(std::floor(std::sqrt(r2 - double(v) * v) + 1e-9));
+    }
+    return w;
+  }();
+  return widths;
+}
+
+}  // namespace
+
+Status validate(const config::OrbConfig& c) {
+  if (c.n_features < 1 || c.n_features > 100000) {
+    return invalid("n_features", c.n_features, "must be in [1, 100000]");
+  }
+  if (!(c.scale_factor > 1.0 && c.scale_factor <= 2.0)) {
+    return invalid("scale_factor", c.scale_factor, "must be in (1, 2]");
+  }
+  if (c.n_levels < 1 || c.n_levels > 16) {
+    return invalid("n_levels", c.n_levels, "must be in [1, 16]");
+  }
+  if (c.ini_fast_threshold < 1 || c.ini_fast_threshold > 254) {
+    return invalid("ini_fast_threshold", c.ini_fast_threshold, "must be in [1, 254]");
+  }
+  if (c.min_fast_threshold < 1 || c.min_fast_threshold > c.ini_fast_threshold) {
+    return invalid("min_fast_threshold", c.min_fast_threshold,
+                   "must be in [1, ini_fast_threshold = " + std::to_string(c.ini_fast_threshold) + "]");
+  }
+  if (c.grid_cell_px < 8 || c.grid_cell_px > 1000) {
+    return invalid("grid_cell_px", c.grid_cell_px, "must be in [8, 1000]");
+  }
+  return ok_status();
+}
+
+OrbExtractor::OrbExtractor(const config::OrbConfig& config) : config_(config) {
+  SITEPOSE_CHECK(validate(config).has_value());
+  const int n = config.n_levels;
+  scale_factors_.resize(n);
+  inv_scale_factors_.resize(n);
+  level_sigma2_.resize(n);
+  inv_level_sigma2_.resize(n);
+  for (int l = 0; l < n; ++l) {
+    scale_factors_[l] = std::pow(config.scale_factor, l);
+    inv_scale_factors_[l] = 1.0 / scale_factors_[l];
+    level_sigma2_[l] = scale_factors_[l] * scale_factors_[l];
+    inv_level_sigma2_[l] = 1.0 / level_sigma2_[l];
+  }
+  // Budget per level falls geometrically with the level's area ratio so that
+  // features per unit of image area stay constant (as in ORB-SLAM2).
+  features_per_level_.resize(n);
+  const double f = 1.0 / config.scale_factor;
+  double per_level = config.n_features * (1.0 - f) / (1.0 - std::pow(f, n));
+  int assigned = 0;
+  for (int l = 0; l < n - 1; ++l) {
+    features_per_level_[l] = static_cast<int>(std::lround(per_level));
+    assigned += features_per_level_[l];
+    per_level *= f;
+  }
+  features_per_level_[n - 1] = std::max(config.n_features - assigned, 0);
+
+  // One level per compute() call: the keypoints are given in that level's
+  // pixels, so OpenCV blurs exactly our level image (7x7, sigma 2) and uses
+  // our angle; its border filter is kEdgeMarginPx, which our keypoints meet.
+  descriptor_ = cv::ORB::create(config.n_features, static_cast<float>(config.scale_factor), 1,
+                                kEdgeMarginPx, 0, 2, cv::ORB::HARRIS_SCORE, kPatchSizePx,
+                                config.ini_fast_threshold);
+}
+
+Expected<OrbExtractor> OrbExtractor::create(const config::OrbConfig& config) {
+  SITEPOSE_TRY_STATUS(validate(config));
+  return OrbExtractor(config);
+}
+
+ImagePyramid OrbExtractor::build_pyramid(const cv::Mat& image) const {
+  ImagePyramid pyramid;
+  const int n = config_.n_levels;
+  pyramid.levels.resize(n);
+  pyramid.ratio_x.resize(n);
+  pyramid.ratio_y.resize(n);
+  pyramid.levels[0] = image;
+  pyramid.ratio_x[0] = 1.0;
+  pyramid.ratio_y[0] = 1.0;
+  for (int l = 1; l < n; ++l) {
+    const cv::Size size(std::max(1, static_cast<int>(std::lround(image.cols * inv_scale_factors_[l]))),
+                        std::max(1, static_cast<int>(std::lround(image.rows * inv_scale_factors_[l]))));
+    cv::resize(pyramid.levels[l - 1], pyramid.levels[l], size, 0, 0, cv::INTER_LINEAR);
+    pyramid.ratio_x[l] = double(image.cols) / size.width;
+    pyramid.ratio_y[l] = double(image.rows) / size.height;
+  }
+  return pyramid;
+}
+
+Expected<OrbFeatures> OrbExtractor::extract(const cv::Mat& image, const cv::Mat& mask) {
+  constexpr int kMinSide = 2 * (kEdgeMarginPx + 1);
+  if (image.empty() || image.type() != CV_8UC1) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "ORB extraction: image must be a non-empty CV_8UC1 image, got type " +
+                          std::to_string(image.type()) + " size " + std::to_string(image.cols) + "x" +
+                          std::to_string(image.rows));
+  }
+  if (image.cols < kMinSide || image.rows < kMinSide) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "ORB extraction: image " + std::to_string(image.cols) + "x" +
+                          std::to_string(image.rows) + " is smaller than " + std::to_string(kMinSide) +
+                          "x" + std::to_string(kMinSide));
+  }
+  if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != image.size())) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "ORB extraction: mask must be empty or CV_8UC1 of the image size " +
+                          std::to_string(image.cols) + "x" + std::to_string(image.rows) + ", got type " +
+                          std::to_string(mask.type()) + " size " + std::to_string(mask.cols) + "x" +
+                          std::to_string(mask.rows));
+  }
+
+  OrbFeatures out;
+  out.pyramid = build_pyramid(image);
+  const ImagePyramid& pyramid = out.pyramid;
+  std::vector<cv::Mat> level_descriptors;
+  int carried_budget = 0;
+
+  for (int level = 0; level < config_.n_levels; ++level) {
+    const cv::Mat& img = pyramid.levels[level];
+    const int budget = features_per_level_[level] + carried_budget;
+    carried_budget = budget;
+    const cv::Rect area(kEdgeMarginPx, kEdgeMarginPx, img.cols - 2 * kEdgeMarginPx,
+                        img.rows - 2 * kEdgeMarginPx);
+    if (area.width <= 0 || area.height <= 0 || budget <= 0) continue;
+
+    // FAST cannot fire within 3 px of the ROI edge, so widening the ROI by
+    // that much yields candidates exactly inside `area`.
+    const cv::Rect roi(area.x - kFastRadiusPx, area.y - kFastRadiusPx, area.width + 2 * kFastRadiusPx,
+                       area.height + 2 * kFastRadiusPx);
+    std::vector<cv::KeyPoint> raw;
+    cv::FAST(img(roi), raw, config_.min_fast_threshold, true, cv::FastFeatureDetector::TYPE_9_16);
+
+    // Shift to level pixels and drop masked candidates before selection.
+    std::vector<cv::KeyPoint> candidates;
+    candidates.reserve(raw.size());
+    for (cv::KeyPoint& kp : raw) {
+      kp.pt.x += float(roi.x);
+      kp.pt.y += float(roi.y);
+      if (!mask.empty()) {
+        const cv::Point2d p0 = pyramid.to_level0(level, cv::Point2d(kp.pt.x, kp.pt.y));
+        // Test exactly the pixel the returned float keypoint rounds to.
+        const int u = std::clamp(static_cast<int>(std::lround(float(p0.x))), 0, mask.cols - 1);
+        const int v = std::clamp(static_cast<int>(std::lround(float(p0.y))), 0, mask.rows - 1);
+        if (mask.at<std::uint8_t>(v, u) != 0) continue;
+      }
+      candidates.push_back(kp);
+    }
+    candidates = detail::apply_cell_thresholds(candidates, area, config_.grid_cell_px,
+                                               config_.ini_fast_threshold);
+    const std::vector<int> picked = detail::distribute_quadtree(
+        candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)),
+        budget);
+    if (picked.empty()) continue;
+    // Unused budget (texture-poor or masked level) moves to the next level.
+    carried_budget = budget - static_cast<int>(picked.size());
+
+    std::vector<cv::KeyPoint> kps;
+    kps.reserve(picked.size());
+    for (const int i : picked) {
+      cv::KeyPoint kp = candidates[i];
+      kp.angle = static_cast<float>(
+          intensity_centroid_angle_deg(img, static_cast<int>(kp.pt.x), static_cast<int>(kp.pt.y)));
+      kp.octave = 0;  // level-local for compute(); set to `level` below
+      kp.size = float(kPatchSizePx);
+      kp.class_id = -1;
+      kps.push_back(kp);
+    }
+    cv::Mat desc;
+    const size_t n_before = kps.size();
+    descriptor_->compute(img, kps, desc);
+    // Our keypoints satisfy OpenCV's border filter, so none may be dropped
+    // and rows stay aligned with keypoints.
+    SITEPOSE_CHECK(kps.size() == n_before && desc.rows == static_cast<int>(n_before));
+
+    for (cv::KeyPoint& kp : kps) {
+      const cv::Point2d p0 = pyramid.to_level0(level, cv::Point2d(kp.pt.x, kp.pt.y));
+      kp.pt = cv::Point2f(float(p0.x), float(p0.y));
+      kp.octave = level;
+      kp.size = float(kPatchSizePx * scale_factors_[level]);
+      out.keypoints.push_back(kp);
+    }
+    level_descriptors.push_back(desc);
+  }
+  if (!level_descriptors.empty()) cv::vconcat(level_descriptors, out.descriptors);
+  return out;
+}
+
+double intensity_centroid_angle_deg(const cv::Mat& image, int x, int y) {
+  SITEPOSE_CHECK(x >= kOrientationRadiusPx && y >= kOrientationRadiusPx &&
+                 x < image.cols - kOrientationRadiusPx && y < image.rows - kOrientationRadiusPx);
+  const auto& half_width = disc_half_widths();
+  const std::uint8_t* center = image.ptr<std::uint8_t>(y) + x;
+  const auto step = static_cast<std::ptrdiff_t>(image.step1());
+  int m10 = 0;
+  int m01 = 0;
+  for (int u = -kOrientationRadiusPx; u <= kOrientationRadiusPx; ++u) m10 += u * center[u];
+  // Rows +v and -v together: their x-moments add, their y-moments subtract.
+  for (int v = 1; v <= kOrientationRadiusPx; ++v) {
+    int row_difference = 0;
+    const int d = half_width[v];
+    for (int u = -d; u <= d; ++u) {
+      const int below = center[u + v * step];
+      const int above = center[u - v * step];
+      row_difference += below - above;
+      m10 += u * (below + above);
+    }
+    m01 += v * row_difference;
+  }
+  return cv::fastAtan2(static_cast<float>(m01), static_cast<float>(m10));
+}
+
+}  // namespace sitepose::features

@@ -1,0 +1,247 @@
+#include "sitepose/features/stereo_matcher.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include <fmt/format.h>
+#include <utility>
+
+#include "detail/subpixel.hpp"
+#include "sitepose/features/hamming.hpp"
+
+namespace sitepose::features {
+namespace {
+
+template <typename T>
+Status invalid(const char* key, T value, const std::string& rule) {
+  return make_error(ErrorCode::kInvalidArgument, fmt::format("stereo.{} = {}: {}", key, value, rule));
+}
+
+constexpr int kMaxSadHalfWindowPx = 15;
+
+// Right keypoint indices by level-0 row: a keypoint of level l is listed on
+// every row within +-row_band_px * scale(l) of its own (ORB-SLAM2's
+// per-level search band), stored as one flat array with row offsets.
+struct RowIndex {
+  std::vector<int> begin;  // rows + 1 offsets into `ids`
+  std::vector<int> ids;
+
+  RowIndex(const std::vector<cv::KeyPoint>& keypoints, int rows, double row_band_px,
+           double scale_factor) {
+    std::vector<std::pair<int, int>> spans(keypoints.size());
+    begin.assign(rows + 1, 0);
+    for (size_t i = 0; i < keypoints.size(); ++i) {
+      const double band = row_band_px * std::pow(scale_factor, keypoints[i].octave);
+      const double v = keypoints[i].pt.y;
+      const int lo = std::max(0, static_cast<int>(std::floor(v - band)));
+      const int hi = std::min(rows - 1, static_cast<int>(std::ceil(v + band)));
+      spans[i] = {lo, hi};
+      for (int r = lo; r <= hi; ++r) ++begin[r + 1];
+    }
+    for (int r = 0; r < rows; ++r) begin[r + 1] += begin[r];
+    ids.resize(begin[rows]);
+    std::vector<int> fill(begin.begin(), begin.end() - 1);
+    for (size_t i = 0; i < keypoints.size(); ++i) {
+      for (int r = spans[i].first; r <= spans[i].second; ++r) ids[fill[r]++] = static_cast<int>(i);
+    }
+  }
+};
+
+// Zero-mean SAD per pixel between the left window at (xl, y) and the right
+// window at (xr, y) of one level: removing each window's mean makes the cost
+// insensitive to a gain offset between the two cameras.
+double zero_mean_sad(const cv::Mat& left, int xl, const cv::Mat& right, int xr, int y, int w) {
+  const int side = 2 * w + 1;
+  const int n = side * side;
+  std::array<int, (2 * kMaxSadHalfWindowPx + 1) * (2 * kMaxSadHalfWindowPx + 1)> diff;  // n used
+  int sum = 0;
+  int k = 0;
+  for (int dy = -w; dy <= w; ++dy) {
+    const std::uint8_t* lrow = left.ptr<std::uint8_t>(y + dy) + xl - w;
+    const std::uint8_t* rrow = right.ptr<std::uint8_t>(y + dy) + xr - w;
+    for (int dx = 0; dx < side; ++dx, ++k) {
+      diff[k] = int(lrow[dx]) - int(rrow[dx]);
+      sum += diff[k];
+    }
+  }
+  // sum |n * d_k - sum| / n^2 = mean |d_k - mean(d)|, kept in integers.
+  long total = 0;
+  for (k = 0; k < n; ++k) total += std::abs(n * diff[k] - sum);
+  return double(total) / (double(n) * n);
+}
+
+}  // namespace
+
+Status validate(const config::StereoMatchConfig& c) {
+  if (!(c.min_disparity_px > 0.0)) {
+    return invalid("min_disparity_px", c.min_disparity_px, "must be > 0");
+  }
+  if (!(c.max_disparity_px > c.min_disparity_px)) {
+    return invalid("max_disparity_px", c.max_disparity_px,
+                   fmt::format("must be > min_disparity_px = {}", c.min_disparity_px));
+  }
+  if (c.max_descriptor_distance < 0 || c.max_descriptor_distance > kDescriptorBits) {
+    return invalid("max_descriptor_distance", c.max_descriptor_distance,
+                   "must be in [0, 256]");
+  }
+  if (c.sad_half_window_px < 1 || c.sad_half_window_px > kMaxSadHalfWindowPx) {
+    return invalid("sad_half_window_px", c.sad_half_window_px,
+                   "must be in [1, " + std::to_string(kMaxSadHalfWindowPx) + "]");
+  }
+  if (c.row_band_px < 0 || c.row_band_px > 50) {
+    return invalid("row_band_px", c.row_band_px, "must be in [0, 50]");
+  }
+  return ok_status();
+}
+
+StereoMatcher::StereoMatcher(const config::StereoMatchConfig& config, double bf_px_m)
+    : config_(config), bf_px_m_(bf_px_m) {
+  SITEPOSE_CHECK(validate(config).has_value());
+  SITEPOSE_CHECK(bf_px_m > 0.0);
+}
+
+Expected<StereoMatcher> StereoMatcher::create(const config::StereoMatchConfig& config, double bf_px_m) {
+  SITEPOSE_TRY_STATUS(validate(config));
+  if (!(bf_px_m > 0.0)) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      fmt::format("stereo matcher: bf = fx * baseline = {}: must be > 0", bf_px_m));
+  }
+  return StereoMatcher(config, bf_px_m);
+}
+
+double sad_outlier_threshold(std::vector<double> sad_costs) {
+  if (sad_costs.empty()) return 0.0;
+  const auto mid = sad_costs.begin() + static_cast<std::ptrdiff_t>(sad_costs.size() / 2);
+  std::nth_element(sad_costs.begin(), mid, sad_costs.end());
+  return kSadOutlierFactor * *mid;
+}
+
+Expected<StereoMatches> StereoMatcher::match(const OrbFeatures& left, const OrbFeatures& right) const {
+  const ImagePyramid& lp = left.pyramid;
+  const ImagePyramid& rp = right.pyramid;
+  if (lp.n_levels() == 0 || lp.n_levels() != rp.n_levels() ||
+      lp.levels[0].size() != rp.levels[0].size()) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "stereo matching: left and right pyramids differ (levels " +
+                          std::to_string(lp.n_levels()) + " vs " + std::to_string(rp.n_levels()) +
+                          ", level-0 size " + std::to_string(lp.n_levels() ? lp.levels[0].cols : 0) + "x" +
+                          std::to_string(lp.n_levels() ? lp.levels[0].rows : 0) + " vs " +
+                          std::to_string(rp.n_levels() ? rp.levels[0].cols : 0) + "x" +
+                          std::to_string(rp.n_levels() ? rp.levels[0].rows : 0) + ")");
+  }
+  const int n_left = static_cast<int>(left.keypoints.size());
+  if (left.descriptors.rows != n_left || static_cast<int>(right.keypoints.size()) != right.descriptors.rows) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "stereo matching: descriptor rows do not match keypoint counts (left " +
+                          std::to_string(left.descriptors.rows) + "/" + std::to_string(n_left) + ", right " +
+                          std::to_string(right.descriptors.rows) + "/" +
+                          std::to_string(right.keypoints.size()) + ")");
+  }
+
+  StereoMatches out;
+  out.u_right.assign(n_left, kNoMatch);
+  out.depth_m.assign(n_left, kNoMatch);
+  out.stats.n_left = n_left;
+  if (n_left == 0) return out;
+
+  // Nominal level scale, recovered from the pyramid (level 1 ratio) so the
+  // matcher needs no OrbConfig; exact per-level ratios are used for pixels.
+  const double scale_factor = lp.n_levels() > 1 ? lp.ratio_x[1] : 1.0;
+  const int rows = lp.levels[0].rows;
+  const RowIndex index(right.keypoints, rows, config_.row_band_px, scale_factor);
+  const int w = config_.sad_half_window_px;
+  constexpr int kL = kSadSearchRadiusPx;
+
+  std::vector<std::pair<double, int>> sad_of_match;
+  sad_of_match.reserve(n_left);
+  std::array<double, 2 * kL + 1> costs{};
+
+  for (int i = 0; i < n_left; ++i) {
+    const cv::KeyPoint& kl = left.keypoints[i];
+    const int level = kl.octave;
+    const int row = std::clamp(static_cast<int>(std::lround(kl.pt.y)), 0, rows - 1);
+    const double min_u = kl.pt.x - config_.max_disparity_px;
+    const double max_u = kl.pt.x - config_.min_disparity_px;
+
+    int best_distance = kDescriptorBits + 1;
+    int best_j = -1;
+    const std::uint8_t* dl = left.descriptors.ptr<std::uint8_t>(i);
+    for (int k = index.begin[row]; k < index.begin[row + 1]; ++k) {
+      const int j = index.ids[k];
+      const cv::KeyPoint& kr = right.keypoints[j];
+      if (kr.octave < level - 1 || kr.octave > level + 1) continue;
+      if (kr.pt.x < min_u || kr.pt.x > max_u) continue;
+      const int distance = hamming_distance(dl, right.descriptors.ptr<std::uint8_t>(j));
+      if (distance < best_distance) {
+        best_distance = distance;
+        best_j = j;
+      }
+    }
+    if (best_j < 0) {
+      ++out.stats.n_no_candidate;
+      continue;
+    }
+    if (best_distance > config_.max_descriptor_distance) {
+      ++out.stats.n_descriptor_too_far;
+      continue;
+    }
+
+    // Refine on the left keypoint's level around the right candidate.
+    const cv::Mat& limg = lp.levels[level];
+    const cv::Mat& rimg = rp.levels[level];
+    const cv::Point2d pl = lp.from_level0(level, cv::Point2d(kl.pt.x, kl.pt.y));
+    const int xl = static_cast<int>(std::lround(pl.x));
+    const int yl = static_cast<int>(std::lround(pl.y));
+    const cv::Point2d pr = rp.from_level0(level, cv::Point2d(right.keypoints[best_j].pt.x, kl.pt.y));
+    const int xr0 = static_cast<int>(std::lround(pr.x));
+    if (yl - w < 0 || yl + w >= limg.rows || xl - w < 0 || xl + w >= limg.cols || xr0 - kL - w < 0 ||
+        xr0 + kL + w >= rimg.cols) {
+      ++out.stats.n_window_outside;
+      continue;
+    }
+    int best_shift = 0;
+    for (int s = -kL; s <= kL; ++s) {
+      costs[s + kL] = zero_mean_sad(limg, xl, rimg, xr0 + s, yl, w);
+      if (costs[s + kL] < costs[best_shift + kL]) best_shift = s;
+    }
+    if (best_shift == -kL || best_shift == kL) {
+      ++out.stats.n_refinement_failed;
+      continue;
+    }
+    const auto offset = detail::parabola_vertex_offset(costs[best_shift + kL - 1], costs[best_shift + kL],
+                                                       costs[best_shift + kL + 1]);
+    if (!offset) {
+      ++out.stats.n_refinement_failed;
+      continue;
+    }
+    const double xr_level = xr0 + best_shift + *offset;
+    const double u_right = rp.to_level0(level, cv::Point2d(xr_level, pl.y)).x;
+    const double disparity = kl.pt.x - u_right;
+    if (disparity < config_.min_disparity_px || disparity > config_.max_disparity_px) {
+      ++out.stats.n_out_of_range;
+      continue;
+    }
+    out.u_right[i] = u_right;
+    out.depth_m[i] = bf_px_m_ / disparity;
+    sad_of_match.emplace_back(costs[best_shift + kL], i);
+  }
+
+  std::vector<double> sads(sad_of_match.size());
+  for (size_t k = 0; k < sad_of_match.size(); ++k) sads[k] = sad_of_match[k].first;
+  const double threshold = sad_outlier_threshold(std::move(sads));
+  for (const auto& [sad, i] : sad_of_match) {
+    if (sad > threshold) {
+      out.u_right[i] = kNoMatch;
+      out.depth_m[i] = kNoMatch;
+      ++out.stats.n_sad_outlier;
+    } else {
+      ++out.stats.n_matched;
+    }
+  }
+  return out;
+}
+
+}  // namespace sitepose::features

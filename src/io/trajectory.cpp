@@ -1,0 +1,183 @@
+#include "sitepose/io/trajectory.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <sstream>
+
+#include "detail/text.hpp"
+
+namespace sitepose::io {
+namespace {
+
+// Files store a few digits only; a rotation block or quaternion further from
+// orthonormal / unit than this is not a pose but a broken line.
+constexpr double kRotationTolerance = 1e-2;
+
+Expected<SE3> pose_from_kitti_row(const std::string& path, std::size_t line_no,
+                                  const std::vector<double>& v) {
+  Eigen::Matrix<double, 3, 4> T;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) T(r, c) = v[static_cast<std::size_t>(r * 4 + c)];
+  }
+  const Eigen::Matrix3d R = T.leftCols<3>();
+  const double orth_error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (orth_error > kRotationTolerance || R.determinant() <= 0.0) {
+    std::ostringstream msg;
+    msg << detail::where(path, line_no)
+        << "expected a rotation in the first 3 columns (R^T R = I, det = +1); max |R^T R - I| = "
+        << orth_error << ", det = " << R.determinant();
+    return make_error(ErrorCode::kParseError, msg.str());
+  }
+  return SE3::from_matrix3x4(T);
+}
+
+bool pose_is_finite(const SE3& pose) {
+  return pose.translation().allFinite() && pose.rotation().coeffs().allFinite();
+}
+
+// fclose-checked FILE handle so a full disk is reported, not ignored.
+struct FileCloser {
+  void operator()(std::FILE* f) const {
+    if (f != nullptr) std::fclose(f);
+  }
+};
+using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
+
+Expected<FilePtr> open_for_writing(const std::string& path) {
+  FilePtr file(std::fopen(path.c_str(), "w"));
+  if (!file) {
+    return make_error(ErrorCode::kIoError,
+                      path + ": cannot open for writing: " + std::strerror(errno));
+  }
+  return file;
+}
+
+Status finish_writing(const std::string& path, FilePtr file) {
+  const bool write_failed = std::ferror(file.get()) != 0;
+  const int close_rc = std::fclose(file.release());
+  if (write_failed || close_rc != 0) {
+    return make_error(ErrorCode::kIoError, path + ": write failed: " + std::strerror(errno));
+  }
+  return ok_status();
+}
+
+}  // namespace
+
+Expected<Trajectory> read_tum_trajectory(const std::string& path) {
+  SITEPOSE_TRY(const std::vector<std::string> lines, detail::read_lines(path));
+  Trajectory trajectory;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    if (detail::is_comment_or_blank(lines[i])) continue;
+    const std::size_t line_no = i + 1;
+    SITEPOSE_TRY(const std::vector<double> v,
+                 detail::parse_number_line(path, line_no, lines[i], 8));
+    const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);  // w, x, y, z
+    if (std::abs(q.norm() - 1.0) > kRotationTolerance) {
+      std::ostringstream msg;
+      msg << detail::where(path, line_no) << "expected a unit quaternion (qx qy qz qw), norm is "
+          << q.norm();
+      return make_error(ErrorCode::kParseError, msg.str());
+    }
+    if (!trajectory.empty() && !(v[0] > trajectory.back().t_s)) {
+      std::ostringstream msg;
+      msg.precision(9);
+      msg << std::fixed << detail::where(path, line_no) << "expected a time after "
+          << trajectory.back().t_s << " s, got " << v[0] << " s (times must increase)";
+      return make_error(ErrorCode::kParseError, msg.str());
+    }
+    trajectory.push_back({v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3]))});
+  }
+  return trajectory;
+}
+
+Status write_tum_trajectory(const std::string& path, const Trajectory& trajectory) {
+  for (std::size_t i = 0; i < trajectory.size(); ++i) {
+    if (!std::isfinite(trajectory[i].t_s) || !pose_is_finite(trajectory[i].T_world_cam)) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        path + ": refusing to write pose " + std::to_string(i) +
+                            ": non-finite time or pose");
+    }
+  }
+  SITEPOSE_TRY(FilePtr file, open_for_writing(path));
+  std::fprintf(file.get(), "# t x y z qx qy qz qw (T_world_cam of the left camera)\n");
+  for (const StampedPose& p : trajectory) {
+    const Eigen::Vector3d& t = p.T_world_cam.translation();
+    const Eigen::Quaterniond& q = p.T_world_cam.rotation();
+    std::fprintf(file.get(), "%.9f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", p.t_s, t.x(), t.y(),
+                 t.z(), q.x(), q.y(), q.z(), q.w());
+  }
+  return finish_writing(path, std::move(file));
+}
+
+Expected<std::vector<SE3>> read_kitti_poses(const std::string& path) {
+  SITEPOSE_TRY(const std::vector<std::string> lines, detail::read_lines(path));
+  const std::size_t end = detail::content_end(lines);
+  std::vector<SE3> poses;
+  poses.reserve(end);
+  for (std::size_t i = 0; i < end; ++i) {
+    SITEPOSE_TRY(const std::vector<double> v, detail::parse_number_line(path, i + 1, lines[i], 12));
+    SITEPOSE_TRY(SE3 pose, pose_from_kitti_row(path, i + 1, v));
+    poses.push_back(pose);
+  }
+  return poses;
+}
+
+Status write_kitti_poses(const std::string& path, const std::vector<SE3>& poses) {
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (!pose_is_finite(poses[i])) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        path + ": refusing to write pose " + std::to_string(i) + ": non-finite");
+    }
+  }
+  SITEPOSE_TRY(FilePtr file, open_for_writing(path));
+  for (const SE3& pose : poses) {
+    const Eigen::Matrix<double, 3, 4> T = pose.matrix3x4();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 4; ++c) {
+        std::fprintf(file.get(), (r == 0 && c == 0) ? "%.9g" : " %.9g", T(r, c));
+      }
+    }
+    std::fprintf(file.get(), "\n");
+  }
+  return finish_writing(path, std::move(file));
+}
+
+Expected<std::vector<double>> read_times(const std::string& path) {
+  SITEPOSE_TRY(const std::vector<std::string> lines, detail::read_lines(path));
+  const std::size_t end = detail::content_end(lines);
+  std::vector<double> times;
+  times.reserve(end);
+  for (std::size_t i = 0; i < end; ++i) {
+    SITEPOSE_TRY(const std::vector<double> v, detail::parse_number_line(path, i + 1, lines[i], 1));
+    if (!times.empty() && !(v[0] > times.back())) {
+      std::ostringstream msg;
+      msg.precision(9);
+      msg << std::fixed << detail::where(path, i + 1) << "expected a time after " << times.back()
+          << " s, got " << v[0] << " s (times must increase)";
+      return make_error(ErrorCode::kParseError, msg.str());
+    }
+    times.push_back(v[0]);
+  }
+  return times;
+}
+
+Expected<Trajectory> read_kitti_trajectory(const std::string& poses_path,
+                                           const std::string& times_path) {
+  SITEPOSE_TRY(const std::vector<SE3> poses, read_kitti_poses(poses_path));
+  SITEPOSE_TRY(const std::vector<double> times, read_times(times_path));
+  if (poses.size() != times.size()) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      poses_path + " has " + std::to_string(poses.size()) + " poses but " +
+                          times_path + " has " + std::to_string(times.size()) +
+                          " times; expected one time per pose");
+  }
+  Trajectory trajectory;
+  trajectory.reserve(poses.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) trajectory.push_back({times[i], poses[i]});
+  return trajectory;
+}
+
+}  // namespace sitepose::io

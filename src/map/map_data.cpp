@@ -1,0 +1,327 @@
+#include "sitepose/map/map_data.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "sitepose/core/expected.hpp"
+#include "sitepose/features/hamming.hpp"
+
+namespace sitepose::map {
+
+Descriptor descriptor_from_row(const cv::Mat& descriptors, int row) {
+  SITEPOSE_CHECK(descriptors.cols == 32 && descriptors.type() == CV_8UC1);
+  Descriptor d;
+  std::copy_n(descriptors.ptr<std::uint8_t>(row), d.size(), d.begin());
+  return d;
+}
+
+int descriptor_distance(const Descriptor& a, const Descriptor& b) {
+  return features::hamming_distance(a.data(), b.data());
+}
+
+double ScalePyramid::scale(int level) const { return std::pow(scale_factor, level); }
+
+int ScalePyramid::predict_level(double distance_m, double max_distance_m) const {
+  const double ratio = max_distance_m / distance_m;
+  if (!(ratio > 0.0)) return 0;
+  // The epsilon keeps an exact power of the factor on its own level.
+  const int level = static_cast<int>(std::ceil(std::log(ratio) / std::log(scale_factor) - 1e-9));
+  return std::clamp(level, 0, n_levels - 1);
+}
+
+KeyFrameId MapData::add_keyframe(KeyFrame keyframe) {
+  const KeyFrameId id = next_keyframe_id_++;
+  keyframe.id = id;
+  keyframe.point_of_keypoint.resize(keyframe.keypoints.size(), kNoPoint);
+  auto& kf = keyframes_[id] = std::move(keyframe);
+  if (first_keyframe_ == kNoKeyFrame) first_keyframe_ = id;
+  last_keyframe_ = id;
+  for (int i = 0; i < static_cast<int>(kf.point_of_keypoint.size()); ++i) {
+    const PointId pid = kf.point_of_keypoint[i];
+    if (pid == kNoPoint) continue;
+    MapPoint* p = point(pid);
+    // A second keypoint naming the same point would leave the two sides of
+    // the observation inconsistent; the first keypoint keeps it.
+    if (p == nullptr || p->bad || p->observations.count(id) != 0) {
+      kf.point_of_keypoint[i] = kNoPoint;
+      continue;
+    }
+    p->observations[id] = i;
+  }
+  update_connections(id);
+  return id;
+}
+
+PointId MapData::add_point(const Eigen::Vector3d& p_world, KeyFrameId keyframe_id, int index) {
+  KeyFrame* kf = keyframe(keyframe_id);
+  SITEPOSE_CHECK(kf != nullptr && index >= 0 && index < static_cast<int>(kf->keypoints.size()));
+  const PointId id = next_point_id_++;
+  MapPoint& p = points_[id];
+  p.id = id;
+  p.p_world = p_world;
+  p.reference_keyframe = keyframe_id;
+  p.first_keyframe = keyframe_id;
+  p.observations[keyframe_id] = index;
+  kf->point_of_keypoint[index] = id;
+  update_point_appearance(id);
+  return id;
+}
+
+void MapData::add_observation(PointId point_id, KeyFrameId keyframe_id, int index) {
+  MapPoint* p = point(point_id);
+  KeyFrame* kf = keyframe(keyframe_id);
+  if (p == nullptr || p->bad || kf == nullptr || kf->bad) return;
+  // A keyframe observes a point through at most one keypoint.
+  if (auto it = p->observations.find(keyframe_id); it != p->observations.end()) {
+    kf->point_of_keypoint[it->second] = kNoPoint;
+  }
+  const PointId previous = kf->point_of_keypoint[index];
+  if (previous != kNoPoint && previous != point_id) erase_observation(previous, keyframe_id);
+  p->observations[keyframe_id] = index;
+  kf->point_of_keypoint[index] = point_id;
+}
+
+void MapData::erase_observation(PointId point_id, KeyFrameId keyframe_id) {
+  MapPoint* p = point(point_id);
+  if (p == nullptr) return;
+  auto it = p->observations.find(keyframe_id);
+  if (it == p->observations.end()) return;
+  if (KeyFrame* kf = keyframe(keyframe_id); kf != nullptr) {
+    if (kf->point_of_keypoint[it->second] == point_id) kf->point_of_keypoint[it->second] = kNoPoint;
+  }
+  p->observations.erase(it);
+  if (p->reference_keyframe == keyframe_id && !p->observations.empty()) {
+    p->reference_keyframe = p->observations.begin()->first;
+  }
+  // A point needs two views (a stereo creation counts as one) to stay
+  // trustworthy once it has lost one; ORB-SLAM2 culls at <= 2 observations.
+  if (p->observations.size() < 2) set_point_bad(point_id);
+}
+
+void MapData::set_point_bad(PointId point_id) {
+  MapPoint* p = point(point_id);
+  if (p == nullptr || p->bad) return;
+  p->bad = true;
+  for (const auto& [kf_id, index] : p->observations) {
+    if (KeyFrame* kf = keyframe(kf_id); kf != nullptr && kf->point_of_keypoint[index] == point_id) {
+      kf->point_of_keypoint[index] = kNoPoint;
+    }
+  }
+  p->observations.clear();
+}
+
+void MapData::replace_point(PointId old_id, PointId new_id) {
+  if (old_id == new_id) return;
+  MapPoint* old_point = point(old_id);
+  MapPoint* new_point = point(new_id);
+  if (old_point == nullptr || new_point == nullptr || old_point->bad || new_point->bad) return;
+  const auto observations = old_point->observations;
+  for (const auto& [kf_id, index] : observations) {
+    KeyFrame* kf = keyframe(kf_id);
+    if (kf == nullptr) continue;
+    if (new_point->observations.count(kf_id) == 0) {
+      kf->point_of_keypoint[index] = new_id;
+      new_point->observations[kf_id] = index;
+    } else {
+      kf->point_of_keypoint[index] = kNoPoint;
+    }
+  }
+  new_point->n_visible += old_point->n_visible;
+  new_point->n_found += old_point->n_found;
+  old_point->observations.clear();
+  old_point->bad = true;
+  update_point_appearance(new_id);
+}
+
+void MapData::set_keyframe_bad(KeyFrameId keyframe_id) {
+  KeyFrame* kf = keyframe(keyframe_id);
+  if (kf == nullptr || kf->bad || keyframe_id == first_keyframe_) return;
+  for (const auto& [other, weight] : kf->covisibility) {
+    if (KeyFrame* o = keyframe(other); o != nullptr) o->covisibility.erase(keyframe_id);
+  }
+  for (int i = 0; i < static_cast<int>(kf->point_of_keypoint.size()); ++i) {
+    const PointId pid = kf->point_of_keypoint[i];
+    if (pid != kNoPoint) erase_observation(pid, keyframe_id);
+  }
+  // Re-parent the children: each goes to its most covisible keyframe that is
+  // already connected to the tree (the parent's side), else to our parent.
+  std::set<KeyFrameId> attached{kf->parent};
+  std::set<KeyFrameId> pending = kf->children;
+  while (!pending.empty()) {
+    KeyFrameId best_child = kNoKeyFrame;
+    KeyFrameId best_parent = kNoKeyFrame;
+    int best_weight = -1;
+    for (KeyFrameId child : pending) {
+      const KeyFrame* c = keyframe(child);
+      if (c == nullptr) continue;
+      for (const auto& [candidate, weight] : c->covisibility) {
+        if (attached.count(candidate) != 0 && weight > best_weight) {
+          best_weight = weight;
+          best_child = child;
+          best_parent = candidate;
+        }
+      }
+    }
+    if (best_child == kNoKeyFrame) break;
+    keyframe(best_child)->parent = best_parent;
+    if (KeyFrame* p = keyframe(best_parent); p != nullptr) p->children.insert(best_child);
+    attached.insert(best_child);
+    pending.erase(best_child);
+  }
+  for (KeyFrameId child : pending) {
+    if (KeyFrame* c = keyframe(child); c != nullptr) {
+      c->parent = kf->parent;
+      if (KeyFrame* p = keyframe(kf->parent); p != nullptr) p->children.insert(child);
+    }
+  }
+  if (KeyFrame* p = keyframe(kf->parent); p != nullptr) p->children.erase(keyframe_id);
+  if (last_keyframe_ == keyframe_id) last_keyframe_ = kf->parent;
+  keyframes_.erase(keyframe_id);
+}
+
+void MapData::update_connections(KeyFrameId keyframe_id) {
+  KeyFrame* kf = keyframe(keyframe_id);
+  if (kf == nullptr) return;
+  std::map<KeyFrameId, int> counts;
+  for (PointId pid : kf->point_of_keypoint) {
+    const MapPoint* p = good_point(pid);
+    if (p == nullptr) continue;
+    for (const auto& [other, index] : p->observations) {
+      if (other != keyframe_id) ++counts[other];
+    }
+  }
+  // Drop old edges, then add those over the threshold (or the best one, so a
+  // keyframe is never disconnected).
+  for (const auto& [other, weight] : kf->covisibility) {
+    if (KeyFrame* o = keyframe(other); o != nullptr) o->covisibility.erase(keyframe_id);
+  }
+  kf->covisibility.clear();
+  KeyFrameId best = kNoKeyFrame;
+  int best_count = 0;
+  for (const auto& [other, count] : counts) {
+    if (count > best_count) {
+      best_count = count;
+      best = other;
+    }
+    if (count >= kCovisibilityThreshold) {
+      kf->covisibility[other] = count;
+      keyframe(other)->covisibility[keyframe_id] = count;
+    }
+  }
+  if (kf->covisibility.empty() && best != kNoKeyFrame) {
+    kf->covisibility[best] = best_count;
+    keyframe(best)->covisibility[keyframe_id] = best_count;
+  }
+  // Spanning tree: a new keyframe hangs under the one it shares most with.
+  if (kf->parent == kNoKeyFrame && keyframe_id != first_keyframe_ && best != kNoKeyFrame) {
+    kf->parent = best;
+    keyframe(best)->children.insert(keyframe_id);
+  }
+}
+
+void MapData::update_point_appearance(PointId point_id) {
+  MapPoint* p = point(point_id);
+  if (p == nullptr || p->bad || p->observations.empty()) return;
+  std::vector<const KeyPointData*> views;
+  for (const auto& [kf_id, index] : p->observations) {
+    const KeyFrame* kf = keyframe(kf_id);
+    if (kf == nullptr) continue;
+    views.push_back(&kf->keypoints[index]);
+  }
+  if (views.empty()) return;
+  // Representative descriptor: least median distance to the others.
+  int best = 0;
+  int best_median = 1 << 30;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    std::vector<int> d;
+    for (std::size_t j = 0; j < views.size(); ++j) {
+      if (i != j) d.push_back(descriptor_distance(views[i]->descriptor, views[j]->descriptor));
+    }
+    int median = 0;
+    if (!d.empty()) {
+      std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+      median = d[d.size() / 2];
+    }
+    if (median < best_median) {
+      best_median = median;
+      best = static_cast<int>(i);
+    }
+  }
+  p->descriptor = views[best]->descriptor;
+  update_point_geometry(point_id);
+}
+
+void MapData::update_point_geometry(PointId point_id) {
+  MapPoint* p = point(point_id);
+  if (p == nullptr || p->bad || p->observations.empty()) return;
+  Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
+  for (const auto& [kf_id, index] : p->observations) {
+    if (const KeyFrame* kf = keyframe(kf_id); kf != nullptr) {
+      normal_sum += (p->p_world - kf->camera_center()).normalized();
+    }
+  }
+  if (normal_sum.squaredNorm() > 0.0) p->normal = normal_sum.normalized();
+  // Scale invariance range from the reference keyframe's view.
+  const KeyFrame* ref = keyframe(p->reference_keyframe);
+  if (ref == nullptr || p->observations.count(ref->id) == 0) {
+    ref = keyframe(p->observations.begin()->first);
+  }
+  if (ref == nullptr) return;
+  const int level = ref->keypoints[p->observations.at(ref->id)].octave;
+  const double distance = (p->p_world - ref->camera_center()).norm();
+  p->max_distance_m = distance * pyramid_.scale(level);
+  p->min_distance_m = p->max_distance_m / pyramid_.scale(pyramid_.n_levels - 1);
+}
+
+std::vector<KeyFrameId> MapData::best_covisible(KeyFrameId keyframe_id, int n) const {
+  const KeyFrame* kf = keyframe(keyframe_id);
+  if (kf == nullptr) return {};
+  std::vector<std::pair<int, KeyFrameId>> sorted;
+  for (const auto& [other, weight] : kf->covisibility) sorted.emplace_back(weight, other);
+  std::sort(sorted.begin(), sorted.end(), std::greater<>());
+  std::vector<KeyFrameId> result;
+  for (const auto& [weight, other] : sorted) {
+    if (static_cast<int>(result.size()) >= n) break;
+    result.push_back(other);
+  }
+  return result;
+}
+
+int MapData::observation_weight(PointId point_id) const {
+  const MapPoint* p = good_point(point_id);
+  if (p == nullptr) return 0;
+  int weight = 0;
+  for (const auto& [kf_id, index] : p->observations) {
+    const KeyFrame* kf = keyframe(kf_id);
+    if (kf == nullptr) continue;
+    weight += kf->keypoints[index].u_right_px >= 0.0 ? 2 : 1;
+  }
+  return weight;
+}
+
+const KeyFrame* MapData::keyframe(KeyFrameId id) const {
+  auto it = keyframes_.find(id);
+  return it == keyframes_.end() ? nullptr : &it->second;
+}
+KeyFrame* MapData::keyframe(KeyFrameId id) {
+  auto it = keyframes_.find(id);
+  return it == keyframes_.end() ? nullptr : &it->second;
+}
+const MapPoint* MapData::point(PointId id) const {
+  auto it = points_.find(id);
+  return it == points_.end() ? nullptr : &it->second;
+}
+MapPoint* MapData::point(PointId id) {
+  auto it = points_.find(id);
+  return it == points_.end() ? nullptr : &it->second;
+}
+const MapPoint* MapData::good_point(PointId id) const {
+  const MapPoint* p = point(id);
+  return (p == nullptr || p->bad) ? nullptr : p;
+}
+
+std::size_t MapData::purge_bad_points() {
+  return std::erase_if(points_, [](const auto& entry) { return entry.second.bad; });
+}
+
+}  // namespace sitepose::map

@@ -1,0 +1,414 @@
+#include "sitepose/mapping/local_mapper.hpp"
+
+#include <pthread.h>
+
+#include <algorithm>
+#include <chrono>
+#include <set>
+#include <unordered_set>
+
+#include "sitepose/core/log.hpp"
+#include "sitepose/mapping/keyframe_culling.hpp"
+#include "sitepose/mapping/local_ba_problem.hpp"
+#include "sitepose/mapping/map_snapshot.hpp"
+
+namespace sitepose::mapping {
+namespace {
+
+// ORB-SLAM2 LocalMapping constants (stereo case).
+constexpr double kMinFoundRatio = 0.25;       // MapPointCulling
+constexpr int kRecentCullAfterKeyframes = 2;  // cull weak points once 2 KFs have passed
+constexpr int kRecentKeepKeyframes = 3;       // then leave the recent list
+constexpr int kTriangulationNeighbours = 10;  // CreateNewMapPoints nn (stereo)
+constexpr int kFuseNeighbours = 10;           // SearchInNeighbors nn (stereo)
+constexpr int kFuseSecondNeighbours = 5;      // ... and 5 of each of those
+constexpr int kMaxFixedKeyframes = 20;        // cap of the fixed ring in local BA
+
+double elapsed_ms(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+}
+
+}  // namespace
+
+LocalMapper::LocalMapper(const StereoCamera& camera, const config::MappingConfig& mapping,
+                         const config::TrackingConfig& tracking, map::SharedMap& map)
+    : camera_(camera),
+      mapping_(mapping),
+      tracking_(tracking),
+      map_(map),
+      local_ba_(camera, mapping, tracking),
+      close_depth_m_(tracking.close_depth_baselines * camera.baseline_m) {
+  // load_config() enforces these bounds; reaching here without them is a bug.
+  SITEPOSE_CHECK(mapping_.local_ba_keyframes >= 1);
+  SITEPOSE_CHECK(mapping_.keyframe_redundancy > 0.0 && mapping_.keyframe_redundancy <= 1.0);
+  SITEPOSE_CHECK(mapping_.min_point_observations >= 1);
+  SITEPOSE_CHECK(camera_.baseline_m > 0.0 && camera_.fx > 0.0);
+  new_point_params_.chi2_mono = tracking_.chi2_mono;
+  new_point_params_.chi2_stereo = tracking_.chi2_stereo;
+  fuse_params_.chi2_mono = tracking_.chi2_mono;
+  fuse_params_.chi2_stereo = tracking_.chi2_stereo;
+}
+
+LocalMapper::~LocalMapper() { stop(); }
+
+void LocalMapper::enqueue(map::KeyFrameId keyframe) {
+  {
+    std::lock_guard lock(mutex_);
+    queue_.push_back(keyframe);
+    abort_ba_.store(true);  // ORB-SLAM2 InterruptBA: the newer keyframe matters more
+  }
+  queue_cv_.notify_one();
+}
+
+Status LocalMapper::process_pending() {
+  if (running_.load()) {
+    return make_error(ErrorCode::kRuntime,
+                      "LocalMapper::process_pending: the mapping thread is running; use wait_until_idle()");
+  }
+  Status first_error;
+  for (;;) {
+    map::KeyFrameId id = map::kNoKeyFrame;
+    {
+      std::lock_guard lock(mutex_);
+      if (queue_.empty()) break;
+      id = queue_.front();
+      queue_.pop_front();
+      busy_ = true;
+    }
+    Status status = process_keyframe(id);
+    {
+      std::lock_guard lock(mutex_);
+      busy_ = false;
+    }
+    if (!status && first_error) first_error = std::move(status);
+  }
+  idle_cv_.notify_all();
+  return first_error;
+}
+
+void LocalMapper::start() {
+  if (running_.load()) return;
+  running_.store(true);
+  thread_ = std::jthread([this](std::stop_token stop_token) { run(stop_token); });
+  // Names the thread for top/gdb/perf; the kernel limit is 15 characters.
+  pthread_setname_np(thread_.native_handle(), "sp-mapping");
+}
+
+void LocalMapper::stop() {
+  if (!thread_.joinable()) return;
+  abort_ba_.store(true);
+  thread_.request_stop();  // wakes the condition_variable_any wait
+  thread_.join();
+  thread_ = std::jthread();
+  {
+    // Under the lock so a waiter cannot miss the change between its test and its wait.
+    std::lock_guard lock(mutex_);
+    running_.store(false);
+  }
+  idle_cv_.notify_all();
+}
+
+bool LocalMapper::running() const { return running_.load(); }
+
+void LocalMapper::run(std::stop_token stop_token) {
+  while (!stop_token.stop_requested()) {
+    map::KeyFrameId id = map::kNoKeyFrame;
+    {
+      std::unique_lock lock(mutex_);
+      if (!queue_cv_.wait(lock, stop_token, [this] { return !queue_.empty(); })) break;
+      id = queue_.front();
+      queue_.pop_front();
+      busy_ = true;
+    }
+    const Status status = process_keyframe(id);
+    if (!status) spdlog::warn("local mapping: keyframe={} {}", id, status.error().message);
+    {
+      std::lock_guard lock(mutex_);
+      busy_ = false;
+    }
+    idle_cv_.notify_all();
+  }
+}
+
+void LocalMapper::wait_until_idle() {
+  std::unique_lock lock(mutex_);
+  idle_cv_.wait(lock, [this] { return !running_.load() || (queue_.empty() && !busy_); });
+}
+
+bool LocalMapper::is_idle() const {
+  std::lock_guard lock(mutex_);
+  return queue_.empty() && !busy_;
+}
+
+bool LocalMapper::accepts_keyframes() const {
+  std::lock_guard lock(mutex_);
+  return !busy_;
+}
+
+std::size_t LocalMapper::queue_size() const {
+  std::lock_guard lock(mutex_);
+  return queue_.size();
+}
+
+MappingStats LocalMapper::stats() const {
+  std::lock_guard lock(mutex_);
+  return stats_;
+}
+
+bool LocalMapper::queue_empty() const {
+  std::lock_guard lock(mutex_);
+  return queue_.empty();
+}
+
+Status LocalMapper::process_keyframe(map::KeyFrameId keyframe) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!process_new_keyframe(keyframe)) {
+    std::lock_guard lock(mutex_);
+    ++stats_.keyframes_missing;
+    return ok_status();
+  }
+  cull_recent_points(keyframe);
+  create_new_points(keyframe);
+  fuse_neighbours(keyframe);
+  Status ba_status;
+  if (queue_empty()) ba_status = local_bundle_adjustment(keyframe);
+  cull_keyframes(keyframe);
+  const std::size_t purged = map_.write([](map::MapData& m) { return m.purge_bad_points(); });
+  const double ms = elapsed_ms(start);
+  {
+    std::lock_guard lock(mutex_);
+    ++stats_.keyframes_processed;
+    stats_.points_purged += static_cast<std::int64_t>(purged);
+    stats_.last_keyframe_ms = ms;
+    stats_.total_keyframe_ms += ms;
+  }
+  spdlog::debug("local mapping: keyframe={} ms={:.1f}", keyframe, ms);
+  return ba_status;
+}
+
+bool LocalMapper::process_new_keyframe(map::KeyFrameId keyframe) {
+  return map_.write([&](map::MapData& m) {
+    const map::KeyFrame* kf = m.keyframe(keyframe);
+    if (kf == nullptr || kf->bad) return false;
+    for (map::PointId pid : kf->point_of_keypoint) {
+      const map::MapPoint* p = m.good_point(pid);
+      if (p == nullptr) continue;
+      if (p->first_keyframe == keyframe) {
+        recent_points_.push_back(pid);  // created by the tracker with this keyframe
+      } else {
+        m.update_point_appearance(pid);  // tracked: one more view
+      }
+    }
+    m.update_connections(keyframe);
+    return true;
+  });
+}
+
+void LocalMapper::cull_recent_points(map::KeyFrameId keyframe) {
+  const int culled = map_.write([&](map::MapData& m) {
+    int n = 0;
+    std::erase_if(recent_points_, [&](map::PointId pid) {
+      const map::MapPoint* p = m.good_point(pid);
+      if (p == nullptr) return true;
+      const map::KeyFrameId age = keyframe - p->first_keyframe;
+      if (p->found_ratio() < kMinFoundRatio ||
+          (age >= kRecentCullAfterKeyframes && m.observation_weight(pid) <= mapping_.min_point_observations)) {
+        m.set_point_bad(pid);
+        ++n;
+        return true;
+      }
+      return age >= kRecentKeepKeyframes;
+    });
+    return n;
+  });
+  std::lock_guard lock(mutex_);
+  stats_.points_culled += culled;
+}
+
+void LocalMapper::create_new_points(map::KeyFrameId keyframe) {
+  struct Copy {
+    KeyFrameSnapshot current;
+    std::vector<KeyFrameSnapshot> neighbours;
+    map::ScalePyramid pyramid;
+  };
+  const Copy copy = map_.read([&](const map::MapData& m) {
+    Copy c;
+    c.pyramid = m.pyramid();
+    c.current = snapshot_keyframe(*m.keyframe(keyframe));
+    for (map::KeyFrameId id : m.best_covisible(keyframe, kTriangulationNeighbours)) {
+      c.neighbours.push_back(snapshot_keyframe(*m.keyframe(id)));
+    }
+    return c;
+  });
+
+  struct Created {
+    map::KeyFrameId other;
+    NewPoint point;
+  };
+  std::vector<Created> created;
+  std::vector<bool> used_current(copy.current.keypoints.size(), false);
+  for (std::size_t n = 0; n < copy.neighbours.size(); ++n) {
+    // Behind the tracker: the next keyframe matters more than more points.
+    if (n > 0 && !queue_empty()) break;
+    const KeyFrameSnapshot& other = copy.neighbours[n];
+    // ORB-SLAM2 stereo rule: below one stereo baseline the pair adds nothing.
+    if ((other.camera_center() - copy.current.camera_center()).norm() < camera_.baseline_m) continue;
+    const std::vector<KeypointMatch> matches = search_for_triangulation(
+        camera_, copy.pyramid, copy.current, other, new_point_params_, used_current);
+    for (const NewPoint& p : triangulate_matches(camera_, copy.pyramid, copy.current, other, matches,
+                                                 new_point_params_)) {
+      used_current[p.index1] = true;
+      created.push_back({other.id, p});
+    }
+  }
+  if (created.empty()) return;
+
+  const int n_created = map_.write([&](map::MapData& m) {
+    int n = 0;
+    for (const Created& c : created) {
+      const map::KeyFrame* kf = m.keyframe(keyframe);
+      const map::KeyFrame* other = m.keyframe(c.other);
+      if (kf == nullptr || other == nullptr) continue;
+      // The slots may have been filled since the copy.
+      if (kf->point_of_keypoint[c.point.index1] != map::kNoPoint ||
+          other->point_of_keypoint[c.point.index2] != map::kNoPoint) {
+        continue;
+      }
+      const map::PointId pid = m.add_point(c.point.p_world, keyframe, c.point.index1);
+      m.add_observation(pid, c.other, c.point.index2);
+      m.update_point_appearance(pid);
+      recent_points_.push_back(pid);
+      ++n;
+    }
+    return n;
+  });
+  std::lock_guard lock(mutex_);
+  stats_.points_triangulated += n_created;
+}
+
+void LocalMapper::fuse_neighbours(map::KeyFrameId keyframe) {
+  struct Copy {
+    KeyFrameSnapshot current;
+    std::vector<KeyFrameSnapshot> targets;
+    std::vector<PointSnapshot> current_points;  // fused into the targets
+    std::vector<PointSnapshot> target_points;   // fused into the current keyframe
+    map::ScalePyramid pyramid;
+  };
+  const Copy copy = map_.read([&](const map::MapData& m) {
+    Copy c;
+    c.pyramid = m.pyramid();
+    c.current = snapshot_keyframe(*m.keyframe(keyframe));
+    std::vector<map::KeyFrameId> target_ids;
+    std::set<map::KeyFrameId> seen{keyframe};
+    for (map::KeyFrameId id : m.best_covisible(keyframe, kFuseNeighbours)) {
+      if (seen.insert(id).second) target_ids.push_back(id);
+    }
+    const std::size_t first_ring = target_ids.size();
+    for (std::size_t i = 0; i < first_ring; ++i) {
+      for (map::KeyFrameId id : m.best_covisible(target_ids[i], kFuseSecondNeighbours)) {
+        if (seen.insert(id).second) target_ids.push_back(id);
+      }
+    }
+    std::unordered_set<map::PointId> in_current;
+    for (map::PointId pid : c.current.point_of_keypoint) {
+      const map::MapPoint* p = m.good_point(pid);
+      if (p != nullptr && in_current.insert(pid).second) c.current_points.push_back(snapshot_point(*p));
+    }
+    std::unordered_set<map::PointId> in_targets;
+    for (map::KeyFrameId id : target_ids) {
+      const map::KeyFrame* kf = m.keyframe(id);
+      c.targets.push_back(snapshot_keyframe(*kf));
+      for (map::PointId pid : kf->point_of_keypoint) {
+        const map::MapPoint* p = m.good_point(pid);
+        if (p != nullptr && in_current.count(pid) == 0 && in_targets.insert(pid).second) {
+          c.target_points.push_back(snapshot_point(*p));
+        }
+      }
+    }
+    return c;
+  });
+
+  std::vector<FuseProposal> proposals;
+  for (const KeyFrameSnapshot& target : copy.targets) {
+    const map::KeypointGrid grid = make_keypoint_grid(camera_, target);
+    const auto found = fuse_into_keyframe(camera_, copy.pyramid, target, grid, copy.current_points, fuse_params_);
+    proposals.insert(proposals.end(), found.begin(), found.end());
+  }
+  {
+    const map::KeypointGrid grid = make_keypoint_grid(camera_, copy.current);
+    const auto found =
+        fuse_into_keyframe(camera_, copy.pyramid, copy.current, grid, copy.target_points, fuse_params_);
+    proposals.insert(proposals.end(), found.begin(), found.end());
+  }
+
+  const FuseOutcome outcome = map_.write([&](map::MapData& m) {
+    FuseOutcome o = apply_fuse_proposals(m, proposals);
+    // Refresh what the fusion changed, then the keyframe's covisibility.
+    std::unordered_set<map::PointId> refresh(o.touched.begin(), o.touched.end());
+    if (const map::KeyFrame* kf = m.keyframe(keyframe); kf != nullptr) {
+      refresh.insert(kf->point_of_keypoint.begin(), kf->point_of_keypoint.end());
+    }
+    for (map::PointId pid : refresh) {
+      if (m.good_point(pid) != nullptr) m.update_point_appearance(pid);
+    }
+    m.update_connections(keyframe);
+    return o;
+  });
+  std::lock_guard lock(mutex_);
+  stats_.fuse_observations_added += outcome.observations_added;
+  stats_.fuse_points_merged += outcome.points_merged;
+}
+
+Status LocalMapper::local_bundle_adjustment(map::KeyFrameId keyframe) {
+  {
+    // Cleared under the queue lock: an enqueue after this point aborts the solve.
+    std::lock_guard lock(mutex_);
+    if (!queue_.empty()) return ok_status();
+    abort_ba_.store(false);
+  }
+  const LocalBaProblem problem = map_.read([&](const map::MapData& m) {
+    return build_local_ba_problem(m, keyframe, mapping_.local_ba_keyframes, kMaxFixedKeyframes);
+  });
+  if (problem.n_free_keyframes == 0 || problem.input.observations.empty()) return ok_status();
+
+  const auto start = std::chrono::steady_clock::now();
+  Expected<optim::LocalBaResult> result = local_ba_.solve(problem.input, &abort_ba_);
+  const double ms = elapsed_ms(start);
+  if (!result) {
+    std::lock_guard lock(mutex_);
+    ++stats_.ba_failures;
+    return make_error(result.error().code,
+                      "local mapping: keyframe " + std::to_string(keyframe) + ": " + result.error().message);
+  }
+  const LocalBaApplied applied =
+      map_.write([&](map::MapData& m) { return apply_local_ba(m, problem, *result); });
+  std::lock_guard lock(mutex_);
+  ++stats_.ba_runs;
+  if (result->aborted) ++stats_.ba_aborted;
+  stats_.ba_outliers_erased += applied.outliers_erased;
+  stats_.last_ba_ms = ms;
+  stats_.total_ba_ms += ms;
+  return ok_status();
+}
+
+void LocalMapper::cull_keyframes(map::KeyFrameId keyframe) {
+  const std::vector<map::KeyFrameId> candidates = map_.read([&](const map::MapData& m) {
+    return redundant_keyframes(m, keyframe, mapping_.keyframe_redundancy, close_depth_m_);
+  });
+  if (candidates.empty()) return;
+  // Removing one keyframe lowers the redundancy of the others: test again
+  // on the live map, one at a time.
+  const int culled = map_.write([&](map::MapData& m) {
+    int n = 0;
+    for (map::KeyFrameId id : candidates) {
+      if (!is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_)) continue;
+      m.set_keyframe_bad(id);
+      ++n;
+    }
+    return n;
+  });
+  std::lock_guard lock(mutex_);
+  stats_.keyframes_culled += culled;
+}
+
+}  // namespace sitepose::mapping

@@ -1,0 +1,347 @@
+#include "sitepose/sim/simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "detail/models.hpp"
+#include "detail/rng.hpp"
+
+namespace sitepose::sim {
+namespace {
+
+using detail::mix64;
+using detail::Rng;
+
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+constexpr double kSamePoseEpsilon = 1e-9;  // m and rad: "the pose changed"
+
+Eigen::Matrix3d body_from_camera(const CameraSpec& c) {
+  const double th = c.pitch_down_deg * kDegToRad;
+  Eigen::Matrix3d R;
+  if (c.side == "right") {
+    R.col(2) = Eigen::Vector3d(0, -std::cos(th), -std::sin(th));
+    R.col(1) = Eigen::Vector3d(0, std::sin(th), -std::cos(th));
+  } else {
+    R.col(2) = Eigen::Vector3d(0, std::cos(th), -std::sin(th));
+    R.col(1) = Eigen::Vector3d(0, -std::sin(th), -std::cos(th));
+  }
+  R.col(0) = R.col(1).cross(R.col(2));
+  return R;
+}
+
+SE3 planar_pose(double x, double y, double yaw_rad) {
+  return SE3(Eigen::Quaterniond(Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ())),
+             Eigen::Vector3d(x, y, 0.0));
+}
+
+bool same_pose(const SE3& a, const SE3& b) {
+  return (a.translation() - b.translation()).norm() <= kSamePoseEpsilon &&
+         rotation_angle_rad(a.rotation().inverse() * b.rotation()) <= kSamePoseEpsilon;
+}
+
+}  // namespace
+
+Expected<Simulator> Simulator::create(const Scenario& scenario_in, const SimOptions& options) {
+  Simulator sim;
+  sim.scenario_ = scenario_in;
+  Scenario& s = sim.scenario_;
+  if (options.seed) {
+    if (*options.seed < 0) return make_error(ErrorCode::kInvalidArgument, "seed = " + std::to_string(*options.seed) + ": must be >= 0");
+    s.seed = *options.seed;
+  }
+  // A new image size keeps the field of view: focal lengths scale with it.
+  if (options.width) {
+    s.camera.fx *= static_cast<double>(*options.width) / s.camera.width;
+    s.camera.width = *options.width;
+  }
+  if (options.height) {
+    s.camera.fy *= static_cast<double>(*options.height) / s.camera.height;
+    s.camera.height = *options.height;
+  }
+  if (s.camera.width < 16 || s.camera.height < 16 || s.camera.width > 8192 || s.camera.height > 8192) {
+    return make_error(ErrorCode::kInvalidArgument, "image size " + std::to_string(s.camera.width) + "x" +
+                                                       std::to_string(s.camera.height) + ": must be in [16, 8192]");
+  }
+  if (options.fps) {
+    if (!(*options.fps > 0.0 && *options.fps <= 120.0)) {
+      return make_error(ErrorCode::kInvalidArgument, "fps = " + std::to_string(*options.fps) + ": must be in (0, 120]");
+    }
+    s.fps = *options.fps;
+  }
+  sim.frames_ = s.frame_count();
+  if (options.frames) {
+    if (*options.frames < 1) return make_error(ErrorCode::kInvalidArgument, "frames = " + std::to_string(*options.frames) + ": must be >= 1");
+    sim.frames_ = *options.frames;
+  }
+  if (s.realism.motion_blur_samples % 2 == 0) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "realism.motion_blur_samples = " + std::to_string(s.realism.motion_blur_samples) +
+                          ": must be odd (labels come from the middle sample)");
+  }
+  sim.camera_ = StereoCamera{s.camera.fx, s.camera.fy, s.camera.width / 2.0, s.camera.height / 2.0,
+                             s.camera.baseline_m, s.camera.width, s.camera.height};
+  SITEPOSE_TRY_STATUS(sim.camera_.validate());
+
+  // Ego speed profile: segments back to back, then a stop.
+  std::vector<SpeedChange> changes;
+  double t = 0.0;
+  for (const EgoSegment& seg : s.ego.segments) {
+    changes.push_back({t, seg.speed_mps});
+    t += seg.duration_s;
+  }
+  changes.push_back({t, 0.0});
+  sim.ego_profile_ = SpeedProfile(changes, s.ego.accel_mps2);
+
+  Rng rng(mix64(static_cast<std::uint64_t>(s.seed)) ^ 0x5173ull);
+  for (double& p : sim.vib_phase_) p = rng.uniform(0, 2 * std::numbers::pi);
+  for (double& p : sim.exposure_phase_) p = rng.uniform(0, 2 * std::numbers::pi);
+
+  // The background covers the lane stretch the camera travels over.
+  const double duration = std::max(1.0, (sim.frames_ - 1) / s.fps);
+  double x_min = 0.0, x_max = 0.0;
+  for (int k = 0; k <= 400; ++k) {
+    const double x = sim.ego_profile_.distance_m(duration * k / 400.0);
+    x_min = std::min(x_min, x);
+    x_max = std::max(x_max, x);
+  }
+  detail::BackgroundLayout layout;
+  layout.x_min_m = s.ego.start_x_m + x_min;
+  layout.x_max_m = s.ego.start_x_m + x_max;
+  layout.view_sign = s.camera.side == "right" ? -1.0 : 1.0;
+  layout.structures_min_m = s.world.structures_min_m;
+  layout.structures_max_m = s.world.structures_max_m;
+  layout.tyre_tracks = s.world.tyre_tracks;
+  Rng world_rng(mix64(static_cast<std::uint64_t>(s.seed) * 7919ull + 1ull));
+  // Shift the site so the background pattern does not depend on the start.
+  sim.background_ = std::make_shared<const Mesh>(detail::make_background(world_rng, layout));
+
+  std::uint16_t next_id = 1;
+  for (const MachineSpec& m : s.machines) {
+    Object o;
+    o.instance = next_id++;
+    o.class_name = m.class_name;
+    Rng mrng(mix64(static_cast<std::uint64_t>(s.seed) * 104729ull + o.instance));
+    const detail::MachineLook look{m.paint, m.label};
+    Mesh mesh = m.class_name == "roller" ? detail::make_roller(mrng, look)
+                : m.class_name == "truck" ? detail::make_truck(mrng, look)
+                                          : detail::make_excavator(mrng, look);
+    o.mesh = std::make_shared<const Mesh>(std::move(mesh));
+    o.parked = planar_pose(m.x_m, m.y_m, m.yaw_deg * kDegToRad);
+    if (!m.waypoints.empty()) {
+      std::vector<Eigen::Vector2d> pts;
+      for (const auto& w : m.waypoints) pts.emplace_back(w[0], w[1]);
+      o.has_path = true;
+      o.path = Polyline(pts);
+      o.reverse = m.reverse;
+      std::vector<SpeedChange> mc{{m.start_s, m.speed_mps}};
+      for (const StopSpec& stop : m.stops) {
+        mc.push_back({std::max(stop.at_s, m.start_s), 0.0});
+        mc.push_back({std::max(stop.at_s, m.start_s) + stop.duration_s, m.speed_mps});
+      }
+      o.profile = SpeedProfile(mc, m.accel_mps2);
+    }
+    sim.objects_.push_back(std::move(o));
+  }
+  Rng cone_rng(mix64(static_cast<std::uint64_t>(s.seed) * 31337ull));
+  const MeshPtr cone = std::make_shared<const Mesh>(detail::make_cone(cone_rng));
+  for (const ConeSpec& c : s.cones) {
+    Object o;
+    o.instance = next_id++;
+    o.class_name = "cone";
+    o.mesh = cone;
+    o.parked = planar_pose(c.x_m, c.y_m, 0.0);
+    sim.objects_.push_back(std::move(o));
+  }
+
+  sim.T_site_world_ = sim.T_site_cam(0.0);
+
+  if (s.realism.distorted) {
+    // For every pixel of the distorted image, where it lies in the rectified one.
+    std::vector<cv::Point2f> pixels;
+    pixels.reserve(static_cast<size_t>(s.camera.width) * s.camera.height);
+    for (int v = 0; v < s.camera.height; ++v)
+      for (int u = 0; u < s.camera.width; ++u) pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
+    const cv::Matx33d K(sim.camera_.fx, 0, sim.camera_.cx, 0, sim.camera_.fy, sim.camera_.cy, 0, 0, 1);
+    const cv::Vec4d D(s.realism.distortion.k1, s.realism.distortion.k2, s.realism.distortion.p1,
+                      s.realism.distortion.p2);
+    std::vector<cv::Point2f> ideal;
+    cv::undistortPoints(pixels, ideal, K, D, cv::noArray(), K);
+    sim.distort_map_x_.create(s.camera.height, s.camera.width, CV_32FC1);
+    sim.distort_map_y_.create(s.camera.height, s.camera.width, CV_32FC1);
+    for (int v = 0; v < s.camera.height; ++v) {
+      for (int u = 0; u < s.camera.width; ++u) {
+        const cv::Point2f& p = ideal[static_cast<size_t>(v) * s.camera.width + u];
+        sim.distort_map_x_.at<float>(v, u) = p.x;
+        sim.distort_map_y_.at<float>(v, u) = p.y;
+      }
+    }
+  }
+  return sim;
+}
+
+SE3 Simulator::T_site_cam(double t_s) const {
+  const Scenario& s = scenario_;
+  const double x = s.ego.start_x_m + ego_profile_.distance_m(t_s);
+  const SE3 T_site_body = planar_pose(x, s.ego.start_y_m, 0.0);
+  // Drum vibration: full amplitude while driving, a quarter at standstill.
+  const VibrationSpec& vib = s.ego.vibration;
+  const double activity = 0.25 + 0.75 * std::min(1.0, std::abs(ego_profile_.speed_mps(t_s)) / 0.3);
+  const double w = 2.0 * std::numbers::pi * vib.frequency_hz * t_s;
+  auto wave = [&](int i) {
+    return 0.7 * std::sin(w + vib_phase_[i]) + 0.3 * std::sin(1.37 * w + vib_phase_[(i + 1) % 4]);
+  };
+  const double dz = vib.amplitude_m * activity * wave(0);
+  const double roll = vib.amplitude_deg * kDegToRad * activity * wave(1);
+  const double pitch = vib.amplitude_deg * kDegToRad * activity * wave(2);
+  const SE3 T_body_vib(Eigen::Quaterniond(Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()) *
+                                          Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY())),
+                       Eigen::Vector3d(0, 0, dz));
+  const SE3 T_vib_cam(body_from_camera(s.camera), Eigen::Vector3d(0, 0, s.camera.height_m));
+  return T_site_body * T_body_vib * T_vib_cam;
+}
+
+SE3 Simulator::object_pose(const Object& o, double t_s) const {
+  if (!o.has_path) return o.parked;
+  const double s = o.profile.distance_m(t_s);
+  const Eigen::Vector2d p = o.path.position(s);
+  const double yaw = o.path.heading_rad(s) + (o.reverse ? std::numbers::pi : 0.0);
+  return planar_pose(p.x(), p.y(), yaw);
+}
+
+Scene Simulator::scene_at(double t_s) const {
+  Scene scene;
+  scene.instances.push_back({background_, SE3::identity(), 0});
+  for (const Object& o : objects_) scene.instances.push_back({o.mesh, object_pose(o, t_s), o.instance});
+  return scene;
+}
+
+cv::Mat Simulator::render_radiance(double t_s, bool right_camera, RenderBuffers* labels) const {
+  const int n = scenario_.realism.motion_blur_samples;
+  const SE3 T_left_right(Eigen::Quaterniond::Identity(), Eigen::Vector3d(camera_.baseline_m, 0, 0));
+  cv::Mat sum;
+  for (int i = 0; i < n; ++i) {
+    const double ts = n == 1 ? t_s : t_s + scenario_.realism.exposure_time_s * (static_cast<double>(i) / (n - 1) - 0.5);
+    SE3 T = T_site_cam(ts);
+    if (right_camera) T = T * T_left_right;
+    RenderBuffers buffers;
+    renderer_.render(scene_at(ts), camera_, T, buffers);
+    if (labels && i == n / 2) *labels = buffers;
+    if (n == 1) return buffers.radiance;
+    if (sum.empty()) sum = buffers.radiance.clone();
+    else sum += buffers.radiance;
+  }
+  return sum / n;
+}
+
+double Simulator::exposure_gain(int k) const {
+  const RealismSpec& r = scenario_.realism;
+  const double t = k / scenario_.fps;
+  // Slow drift of the auto exposure plus a per-frame step.
+  const double slow = 0.6 * std::sin(2 * std::numbers::pi * t / 9.7 + exposure_phase_[0]) +
+                      0.4 * std::sin(2 * std::numbers::pi * t / 3.1 + exposure_phase_[1]);
+  Rng rng(mix64(static_cast<std::uint64_t>(scenario_.seed) ^ (static_cast<std::uint64_t>(k) << 20) ^ 0xE7ull));
+  const double step = rng.uniform(-1.0, 1.0);
+  return r.brightness * (1.0 + r.exposure_variation * (0.7 * slow + 0.3 * step));
+}
+
+cv::Mat Simulator::to_image(const cv::Mat& radiance, double gain, int frame_index, int camera_index) const {
+  const RealismSpec& r = scenario_.realism;
+  cv::Mat out(radiance.size(), CV_8UC1);
+  const float g = static_cast<float>(gain);
+  const float contrast = static_cast<float>(r.contrast);
+  const float sigma = static_cast<float>(r.noise_sigma * 1.7320508);  // Irwin-Hall(4) has std 1/sqrt(3)
+  const std::uint64_t base = mix64(static_cast<std::uint64_t>(scenario_.seed) * 0x9E37ull +
+                                   static_cast<std::uint64_t>(frame_index) * 4ull + camera_index);
+  cv::parallel_for_(cv::Range(0, radiance.rows), [&](const cv::Range& rows) {
+    for (int v = rows.start; v < rows.end; ++v) {
+      const float* in = radiance.ptr<float>(v);
+      uchar* o = out.ptr<uchar>(v);
+      std::uint64_t state = mix64(base + static_cast<std::uint64_t>(v));
+      for (int u = 0; u < radiance.cols; ++u) {
+        // xorshift64: four 16-bit uniforms per step.
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        const float sum4 = static_cast<float>((state & 0xFFFF) + ((state >> 16) & 0xFFFF) +
+                                              ((state >> 32) & 0xFFFF) + (state >> 48)) *
+                           (1.0f / 65536.0f);
+        const float value = 128.0f + (in[u] * g - 128.0f) * contrast + (sum4 - 2.0f) * sigma;
+        o[u] = cv::saturate_cast<uchar>(value);
+      }
+    }
+  }, 8);
+  return out;
+}
+
+SimFrame Simulator::render(int k) const {
+  SimFrame f;
+  f.index = k;
+  f.t_s = k / scenario_.fps;
+  f.t_ns = static_cast<std::int64_t>(std::llround(f.t_s * 1e9));
+  f.T_site_cam = T_site_cam(f.t_s);
+  f.T_world_cam = T_site_world_.inverse() * f.T_site_cam;
+  RenderBuffers labels;
+  cv::Mat rad_left = render_radiance(f.t_s, false, &labels);
+  cv::Mat rad_right = render_radiance(f.t_s, true, nullptr);
+  f.depth_m = labels.depth_m;
+  f.instance_mask = labels.instance;
+  if (distorted()) {
+    cv::Mat tmp;
+    cv::remap(rad_left, tmp, distort_map_x_, distort_map_y_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    rad_left = tmp;
+    cv::remap(rad_right, tmp, distort_map_x_, distort_map_y_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    rad_right = tmp;
+    cv::remap(labels.instance, f.instance_mask, distort_map_x_, distort_map_y_, cv::INTER_NEAREST,
+              cv::BORDER_CONSTANT, 0);
+  }
+  f.exposure_gain = exposure_gain(k);
+  f.left = to_image(rad_left, f.exposure_gain, k, 0);
+  f.right = to_image(rad_right, f.exposure_gain * scenario_.realism.right_gain, k, 1);
+
+  // Ground truth per object: pose, moving flag, tight box of its mask pixels.
+  const double t_other = (k == 0 ? 1 : k - 1) / scenario_.fps;
+  std::vector<int> index_of(objects_.size() + 1, -1);
+  for (size_t i = 0; i < objects_.size(); ++i) {
+    const Object& o = objects_[i];
+    ObjectTruth truth;
+    truth.instance = o.instance;
+    truth.class_name = o.class_name;
+    truth.T_site_obj = object_pose(o, f.t_s);
+    truth.moving = !same_pose(truth.T_site_obj, object_pose(o, t_other));
+    index_of[o.instance] = static_cast<int>(i);
+    f.objects.push_back(truth);
+  }
+  std::vector<int> u0(objects_.size(), INT32_MAX), v0(objects_.size(), INT32_MAX), u1(objects_.size(), -1),
+      v1(objects_.size(), -1), count(objects_.size(), 0);
+  long covered = 0, machines = 0;
+  for (int v = 0; v < f.instance_mask.rows; ++v) {
+    const std::uint16_t* row = f.instance_mask.ptr<std::uint16_t>(v);
+    for (int u = 0; u < f.instance_mask.cols; ++u) {
+      const std::uint16_t id = row[u];
+      if (id == 0 || id >= index_of.size() || index_of[id] < 0) continue;
+      const size_t i = static_cast<size_t>(index_of[id]);
+      u0[i] = std::min(u0[i], u);
+      u1[i] = std::max(u1[i], u);
+      v0[i] = std::min(v0[i], v);
+      v1[i] = std::max(v1[i], v);
+      ++count[i];
+      ++covered;
+      if (objects_[i].class_name != "cone") ++machines;
+    }
+  }
+  for (size_t i = 0; i < objects_.size(); ++i) {
+    if (count[i] == 0) continue;
+    f.objects[i].visible = true;
+    f.objects[i].pixels = count[i];
+    f.objects[i].box = cv::Rect(u0[i], v0[i], u1[i] - u0[i] + 1, v1[i] - v0[i] + 1);
+  }
+  const double area = static_cast<double>(f.instance_mask.total());
+  f.occlusion_ratio = covered / area;
+  f.machine_occlusion_ratio = machines / area;
+  return f;
+}
+
+}  // namespace sitepose::sim

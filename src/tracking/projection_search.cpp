@@ -1,0 +1,93 @@
+#include "sitepose/tracking/projection_search.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "sitepose/features/hamming.hpp"
+
+namespace sitepose::tracking {
+
+PointView make_point_view(const map::MapPoint& point) {
+  PointView view;
+  view.id = point.id;
+  view.p_world = point.p_world;
+  view.descriptor = point.descriptor;
+  view.normal = point.normal;
+  view.min_distance_m = point.min_distance_m;
+  view.max_distance_m = point.max_distance_m;
+  return view;
+}
+
+int search_by_projection(const PreparedFrame& frame, const StereoCamera& camera,
+                         const map::ScalePyramid& pyramid, const SE3& T_cam_world,
+                         const std::vector<PointView>& points, const std::vector<std::uint8_t>& usable,
+                         const SearchParams& params, std::vector<int>& match_of_keypoint,
+                         std::vector<int>* visible) {
+  // Best distance per keypoint so a better point can take a keypoint over.
+  std::vector<int> best_distance_of_keypoint(frame.size(), std::numeric_limits<int>::max());
+  for (int k = 0; k < frame.size(); ++k) {
+    if (match_of_keypoint[k] >= 0) best_distance_of_keypoint[k] = -1;  // taken before: keep
+  }
+  const Eigen::Vector3d camera_center = T_cam_world.inverse().translation();
+  int n_matches = 0;
+  for (int i = 0; i < static_cast<int>(points.size()); ++i) {
+    const PointView& point = points[i];
+    const Eigen::Vector3d p_cam = T_cam_world * point.p_world;
+    if (p_cam.z() <= 0.0) continue;
+    const Eigen::Vector2d uv = camera.project(p_cam);
+    if (!camera.in_image(uv)) continue;
+    int level = point.octave_hint;
+    double radius_scale = 1.0;
+    if (params.check_view_angle) {
+      const Eigen::Vector3d ray = point.p_world - camera_center;
+      const double distance = ray.norm();
+      if (distance < 0.8 * point.min_distance_m || distance > 1.2 * point.max_distance_m) continue;
+      const double view_cos = ray.dot(point.normal) / distance;
+      if (view_cos < 0.5) continue;
+      level = pyramid.predict_level(distance, point.max_distance_m);
+      // ORB-SLAM2: a wider window when the view direction differs.
+      radius_scale = view_cos > 0.998 ? 2.5 : 4.0;
+    }
+    if (visible != nullptr) visible->push_back(i);
+    const int search_level = level < 0 ? 0 : level;
+    const double radius = params.radius_px * radius_scale * pyramid.scale(search_level);
+    const int min_level = level < 0 ? -1 : std::max(0, level - 1);
+    const int max_level = level < 0 ? -1 : level + 1;
+    const double u_right = camera.project_right_u(p_cam);
+
+    int best = std::numeric_limits<int>::max();
+    int second = std::numeric_limits<int>::max();
+    int best_level = -1;
+    int second_level = -1;
+    int best_keypoint = -1;
+    for (int k : frame.grid.query(uv, radius, min_level, max_level)) {
+      if (!usable[k]) continue;
+      if (best_distance_of_keypoint[k] < 0) continue;  // matched in an earlier search
+      if (frame.features.u_right[k] >= 0.0 && std::abs(u_right - frame.features.u_right[k]) > radius) {
+        continue;
+      }
+      const int d = features::hamming_distance(point.descriptor.data(),
+                                               frame.features.descriptors.ptr<std::uint8_t>(k));
+      if (d < best) {
+        second = best;
+        second_level = best_level;
+        best = d;
+        best_level = frame.octave[k];
+        best_keypoint = k;
+      } else if (d < second) {
+        second = d;
+        second_level = frame.octave[k];
+      }
+    }
+    if (best_keypoint < 0 || best > params.max_distance) continue;
+    // Ratio test only between candidates of the same level (ORB-SLAM2).
+    if (params.ratio < 1.0 && best_level == second_level && best > params.ratio * second) continue;
+    if (best >= best_distance_of_keypoint[best_keypoint]) continue;
+    if (match_of_keypoint[best_keypoint] < 0) ++n_matches;
+    match_of_keypoint[best_keypoint] = i;
+    best_distance_of_keypoint[best_keypoint] = best;
+  }
+  return n_matches;
+}
+
+}  // namespace sitepose::tracking

@@ -1,0 +1,578 @@
+#include "sitepose/tracking/tracker.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <future>
+#include <opencv2/calib3d.hpp>
+
+#include "sitepose/features/hamming.hpp"
+
+namespace sitepose::tracking {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// ORB-SLAM2 thresholds, named (METHOD.md "Core tracker").
+constexpr int kMinMatchesMotionModel = 20;   // else widen the window / relocalise
+constexpr int kMinInliersMotionModel = 10;
+constexpr double kMotionModelRadiusPx = 7.0;  // stereo (ORB-SLAM2 TrackWithMotionModel)
+constexpr double kLocalMapRadiusPx = 1.0;     // times 2.5 / 4 by viewing angle
+constexpr double kLocalMapRatio = 0.8;
+constexpr int kMaxLocalKeyframes = 80;
+constexpr int kMinInitialisationPoints = 100;  // stereo points to start a map
+constexpr int kMinNewClosePoints = 100;        // new keyframe: create at least this many
+constexpr int kRelocalisationKeyframes = 6;
+constexpr int kRelocalisationMinMatches = 15;
+
+// The object share of the feature budget: enough for pass 2 to use static
+// machines, small enough not to starve the background.
+constexpr double kObjectBudgetFraction = 0.4;
+
+config::OrbConfig object_orb_config(const config::OrbConfig& orb) {
+  config::OrbConfig object = orb;
+  object.n_features = std::max(100, static_cast<int>(orb.n_features * kObjectBudgetFraction));
+  return object;
+}
+
+}  // namespace
+
+Tracker::Tracker(const StereoCamera& camera, const config::SiteposeConfig& config,
+                 map::SharedMap& map, MapperLink mapper)
+    : camera_(camera),
+      config_(config),
+      map_(map),
+      mapper_(std::move(mapper)),
+      extractor_(config.orb, config.stereo, camera),
+      object_extractor_(object_orb_config(config.orb)),
+      motion_ba_(camera, config.tracking),
+      pyramid_{config.orb.scale_factor, config.orb.n_levels} {}
+
+std::optional<SE3> Tracker::last_T_world_cam() const {
+  if (!has_last_) return std::nullopt;
+  return last_T_cam_world_.inverse();
+}
+
+Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat& instance_labels,
+                                         const cv::Mat& extraction_mask) {
+  const auto start = Clock::now();
+  if (frame.left.empty() || frame.right.empty() || frame.left.size() != frame.right.size() ||
+      frame.left.type() != CV_8UC1 || frame.right.type() != CV_8UC1) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "frame " + std::to_string(frame.seq) +
+                          ": left and right must be 8-bit gray images of equal size");
+  }
+  if (frame.left.cols != camera_.width || frame.left.rows != camera_.height) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "frame " + std::to_string(frame.seq) + ": image size " +
+                          std::to_string(frame.left.cols) + "x" + std::to_string(frame.left.rows) +
+                          " differs from the camera's " + std::to_string(camera_.width) + "x" +
+                          std::to_string(camera_.height));
+  }
+  if (!instance_labels.empty() &&
+      (instance_labels.type() != CV_16UC1 || instance_labels.size() != frame.left.size())) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "instance labels must be CV_16UC1 of the image size");
+  }
+  PreparedFrame out;
+  out.seq = frame.seq;
+  out.t_ns = frame.t_ns();
+
+  const bool split_budget = !extraction_mask.empty() && cv::countNonZero(extraction_mask) > 0;
+  if (!split_budget) {
+    SITEPOSE_TRY(out.features, extractor_.extract(frame.left, frame.right));
+  } else {
+    // Background with the full budget, masked areas with their own share;
+    // right image concurrently. One stereo matching over the union.
+    auto right_future = std::async(std::launch::async, [&] {
+      features::OrbExtractor right(config_.orb);
+      return right.extract(frame.right);
+    });
+    features::OrbExtractor left_background(config_.orb);
+    auto background = left_background.extract(frame.left, extraction_mask);
+    cv::Mat inverse_mask;
+    cv::bitwise_not(extraction_mask, inverse_mask);
+    auto objects = object_extractor_.extract(frame.left, inverse_mask);
+    auto right = right_future.get();
+    if (!background) return Unexpected{background.error()};
+    if (!objects) return Unexpected{objects.error()};
+    if (!right) return Unexpected{right.error()};
+    features::OrbFeatures left = std::move(*background);
+    left.keypoints.insert(left.keypoints.end(), objects->keypoints.begin(), objects->keypoints.end());
+    if (!objects->descriptors.empty()) {
+      if (left.descriptors.empty()) {
+        left.descriptors = objects->descriptors;
+      } else {
+        cv::vconcat(left.descriptors, objects->descriptors, left.descriptors);
+      }
+    }
+    SITEPOSE_TRY(auto stereo, extractor_.matcher().match(left, *right));
+    out.features.keypoints = std::move(left.keypoints);
+    out.features.descriptors = left.descriptors;
+    out.features.u_right = std::move(stereo.u_right);
+    out.features.depth_m = std::move(stereo.depth_m);
+    out.features.right_keypoints = std::move(right->keypoints);
+    out.features.right_descriptors = right->descriptors;
+    out.features.left_pyramid = std::move(left.pyramid);
+    out.features.stats = stereo.stats;
+  }
+  const int n = out.features.size();
+  out.uv_px.reserve(n);
+  out.octave.reserve(n);
+  out.instance.assign(n, 0);
+  for (int i = 0; i < n; ++i) {
+    const cv::KeyPoint& kp = out.features.keypoints[i];
+    out.uv_px.emplace_back(kp.pt.x, kp.pt.y);
+    out.octave.push_back(kp.octave);
+    if (!instance_labels.empty()) {
+      const int x = std::clamp(static_cast<int>(std::lround(kp.pt.x)), 0, instance_labels.cols - 1);
+      const int y = std::clamp(static_cast<int>(std::lround(kp.pt.y)), 0, instance_labels.rows - 1);
+      out.instance[i] = instance_labels.at<std::uint16_t>(y, x);
+    }
+  }
+  out.grid = map::KeypointGrid(camera_.width, camera_.height, out.uv_px, out.octave);
+  out.timings.total_ms = ms_since(start);
+  return out;
+}
+
+void Tracker::optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
+                            const std::vector<int>& match_of_keypoint, PassResult& result) const {
+  const auto start = Clock::now();
+  std::vector<optim::PoseObservation> observations;
+  std::vector<int> keypoint_of_observation;
+  for (int k = 0; k < frame.size(); ++k) {
+    if (match_of_keypoint[k] < 0) continue;
+    optim::PoseObservation obs;
+    obs.p_world = points[match_of_keypoint[k]].p_world;
+    obs.uv_left_px = frame.uv_px[k];
+    obs.u_right_px = frame.features.u_right[k];
+    obs.sigma2_px2 = pyramid_.scale(frame.octave[k]) * pyramid_.scale(frame.octave[k]);
+    observations.push_back(obs);
+    keypoint_of_observation.push_back(k);
+  }
+  result.point_of_keypoint.assign(frame.size(), map::kNoPoint);
+  result.n_inliers = 0;
+  auto solved = motion_ba_.solve(result.T_cam_world, observations);
+  result.timings.motion_ba_ms += ms_since(start);
+  if (!solved) {
+    result.failure = solved.error().message;
+    return;
+  }
+  result.T_cam_world = solved->T_cam_world;
+  result.covariance_world_cam = solved->covariance_world_cam;
+  for (std::size_t j = 0; j < observations.size(); ++j) {
+    if (!solved->inlier[j]) continue;
+    const int k = keypoint_of_observation[j];
+    result.point_of_keypoint[k] = points[match_of_keypoint[k]].id;
+    ++result.n_inliers;
+  }
+}
+
+bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                                 const SE3& predicted, PassResult& result) const {
+  if (last_matches_.empty()) return false;
+  std::vector<PointView> points;
+  map_.read([&](const map::MapData& map) {
+    points.reserve(last_matches_.size());
+    for (const auto& [id, octave] : last_matches_) {
+      const map::MapPoint* p = map.good_point(id);
+      if (p == nullptr) continue;
+      PointView view = make_point_view(*p);
+      view.octave_hint = octave;
+      points.push_back(view);
+    }
+  });
+  SearchParams params;
+  params.radius_px = kMotionModelRadiusPx;
+  std::vector<int> match(frame.size(), -1);
+  int n = search_by_projection(frame, camera_, pyramid_, predicted, points, usable, params, match, nullptr);
+  if (n < kMinMatchesMotionModel) {
+    std::fill(match.begin(), match.end(), -1);
+    params.radius_px *= 2.0;
+    n = search_by_projection(frame, camera_, pyramid_, predicted, points, usable, params, match, nullptr);
+  }
+  if (n < kMinMatchesMotionModel) return false;
+  result.T_cam_world = predicted;
+  optimise_pose(frame, points, match, result);
+  return result.n_inliers >= kMinInliersMotionModel;
+}
+
+bool Tracker::relocalise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                         PassResult& result) const {
+  // Candidates: the reference keyframe and its best covisible ones (the
+  // machine rarely goes far while tracking is lost). Brute-force descriptor
+  // matching, then PnP RANSAC, then motion-only BA.
+  struct Candidate {
+    SE3 T_cam_world;
+    std::vector<PointView> points;
+  };
+  std::vector<Candidate> candidates;
+  map_.read([&](const map::MapData& map) {
+    map::KeyFrameId ref = reference_keyframe_;
+    if (map.keyframe(ref) == nullptr) ref = map.last_keyframe();
+    if (map.keyframe(ref) == nullptr) return;
+    std::vector<map::KeyFrameId> ids{ref};
+    for (auto id : map.best_covisible(ref, kRelocalisationKeyframes - 1)) ids.push_back(id);
+    for (auto id : ids) {
+      const map::KeyFrame* kf = map.keyframe(id);
+      Candidate c;
+      c.T_cam_world = kf->T_cam_world();
+      for (map::PointId pid : kf->point_of_keypoint) {
+        if (const map::MapPoint* p = map.good_point(pid); p != nullptr) c.points.push_back(make_point_view(*p));
+      }
+      candidates.push_back(std::move(c));
+    }
+  });
+  for (const Candidate& c : candidates) {
+    std::vector<int> match(frame.size(), -1);
+    std::vector<cv::Point3d> object_points;
+    std::vector<cv::Point2d> image_points;
+    std::vector<int> keypoint_of_pair;
+    for (int k = 0; k < frame.size(); ++k) {
+      if (!usable[k]) continue;
+      const std::uint8_t* d = frame.features.descriptors.ptr<std::uint8_t>(k);
+      int best = 256, second = 256, best_i = -1;
+      for (int i = 0; i < static_cast<int>(c.points.size()); ++i) {
+        const int dist = features::hamming_distance(d, c.points[i].descriptor.data());
+        if (dist < best) {
+          second = best;
+          best = dist;
+          best_i = i;
+        } else if (dist < second) {
+          second = dist;
+        }
+      }
+      if (best_i < 0 || best > kDescriptorDistanceLow || best > 0.75 * second) continue;
+      match[k] = best_i;
+      const Eigen::Vector3d& p = c.points[best_i].p_world;
+      object_points.emplace_back(p.x(), p.y(), p.z());
+      image_points.emplace_back(frame.uv_px[k].x(), frame.uv_px[k].y());
+      keypoint_of_pair.push_back(k);
+    }
+    if (static_cast<int>(object_points.size()) < kRelocalisationMinMatches) continue;
+    const cv::Matx33d K(camera_.fx, 0, camera_.cx, 0, camera_.fy, camera_.cy, 0, 0, 1);
+    cv::Mat rvec, tvec;
+    std::vector<int> inliers;
+    const Eigen::Matrix3d R0 = c.T_cam_world.rotation_matrix();
+    cv::Mat R0_cv(3, 3, CV_64F);
+    for (int r = 0; r < 3; ++r)
+      for (int col = 0; col < 3; ++col) R0_cv.at<double>(r, col) = R0(r, col);
+    cv::Rodrigues(R0_cv, rvec);
+    tvec = (cv::Mat_<double>(3, 1) << c.T_cam_world.translation().x(), c.T_cam_world.translation().y(),
+            c.T_cam_world.translation().z());
+    if (!cv::solvePnPRansac(object_points, image_points, K, cv::noArray(), rvec, tvec, true, 200, 4.0,
+                            0.99, inliers, cv::SOLVEPNP_ITERATIVE) ||
+        static_cast<int>(inliers.size()) < kRelocalisationMinMatches) {
+      continue;
+    }
+    cv::Mat R_cv;
+    cv::Rodrigues(rvec, R_cv);
+    Eigen::Matrix3d R;
+    for (int r = 0; r < 3; ++r)
+      for (int col = 0; col < 3; ++col) R(r, col) = R_cv.at<double>(r, col);
+    std::vector<int> inlier_match(frame.size(), -1);
+    for (int i : inliers) inlier_match[keypoint_of_pair[i]] = match[keypoint_of_pair[i]];
+    result.T_cam_world = SE3(R, Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
+    optimise_pose(frame, c.points, inlier_match, result);
+    if (result.n_inliers >= kMinInliersMotionModel) {
+      result.relocalised = true;
+      return true;
+    }
+  }
+  return false;
+}
+
+void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                              PassResult& result) const {
+  const auto start = Clock::now();
+  // Local keyframes: those sharing the tracked points, plus their best
+  // covisible ones; local points: all their points.
+  std::vector<PointView> points;
+  std::vector<int> match(frame.size(), -1);
+  map_.read([&](const map::MapData& map) {
+    std::map<map::KeyFrameId, int> votes;
+    for (int k = 0; k < frame.size(); ++k) {
+      const map::MapPoint* p = map.good_point(result.point_of_keypoint[k]);
+      if (p == nullptr) continue;
+      for (const auto& [kf, index] : p->observations) ++votes[kf];
+    }
+    if (votes.empty() && map.keyframe(reference_keyframe_) != nullptr) votes[reference_keyframe_] = 1;
+    std::vector<std::pair<int, map::KeyFrameId>> ranked;
+    for (const auto& [kf, n] : votes) ranked.emplace_back(n, kf);
+    std::sort(ranked.begin(), ranked.end(), std::greater<>());
+    std::set<map::KeyFrameId> local;
+    for (const auto& [n, kf] : ranked) {
+      if (static_cast<int>(local.size()) >= kMaxLocalKeyframes) break;
+      local.insert(kf);
+    }
+    for (const auto& [n, kf] : ranked) {
+      if (static_cast<int>(local.size()) >= kMaxLocalKeyframes) break;
+      for (auto neighbour : map.best_covisible(kf, 10)) local.insert(neighbour);
+    }
+    std::set<map::PointId> seen;
+    for (int k = 0; k < frame.size(); ++k) {
+      if (result.point_of_keypoint[k] == map::kNoPoint) continue;
+      if (const map::MapPoint* p = map.good_point(result.point_of_keypoint[k]); p != nullptr) {
+        seen.insert(p->id);
+        match[k] = static_cast<int>(points.size());
+        points.push_back(make_point_view(*p));
+      }
+    }
+    for (map::KeyFrameId id : local) {
+      const map::KeyFrame* kf = map.keyframe(id);
+      if (kf == nullptr) continue;
+      for (map::PointId pid : kf->point_of_keypoint) {
+        if (pid == map::kNoPoint || !seen.insert(pid).second) continue;
+        if (const map::MapPoint* p = map.good_point(pid); p != nullptr) points.push_back(make_point_view(*p));
+      }
+    }
+  });
+  SearchParams params;
+  params.radius_px = kLocalMapRadiusPx;
+  params.ratio = kLocalMapRatio;
+  params.check_view_angle = true;
+  std::vector<int> visible;
+  search_by_projection(frame, camera_, pyramid_, result.T_cam_world, points, usable, params, match, &visible);
+  result.visible_points.clear();
+  for (int i : visible) result.visible_points.push_back(points[i].id);
+  result.timings.local_map_ms += ms_since(start);  // BA time is counted in motion_ba_ms
+  optimise_pose(frame, points, match, result);
+}
+
+PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                             const std::optional<SE3>& start) const {
+  const auto t0 = Clock::now();
+  PassResult result;
+  result.point_of_keypoint.assign(frame.size(), map::kNoPoint);
+  result.n_usable_keypoints = static_cast<int>(std::count(usable.begin(), usable.end(), 1));
+  const bool map_empty = map_.read([](const map::MapData& map) { return map.keyframe_count() == 0; });
+  if (map_empty) {
+    result.needs_initialisation = true;
+    result.failure = "map not initialised";
+    return result;
+  }
+  const auto t_motion = Clock::now();
+  bool tracked = false;
+  if (start) {
+    // Pass 2: start from pass 1's pose; the local map search finds all.
+    result.T_cam_world = *start;
+    tracked = true;
+  } else if (has_last_ && state_ != TrackingState::kLost) {
+    const SE3 predicted = has_velocity_ ? velocity_ * last_T_cam_world_ : last_T_cam_world_;
+    tracked = track_motion_model(frame, usable, predicted, result);
+  }
+  if (!tracked) tracked = relocalise(frame, usable, result);
+  result.timings.motion_model_ms = ms_since(t_motion) - result.timings.motion_ba_ms;
+  if (!tracked) {
+    result.failure = "motion model and relocalisation found too few matches";
+    result.timings.total_ms = ms_since(t0);
+    return result;
+  }
+  track_local_map(frame, usable, result);
+  result.valid = result.n_inliers >= config_.tracking.min_inliers_recovering;
+  if (!result.valid) result.failure = "only " + std::to_string(result.n_inliers) + " inliers";
+  result.timings.total_ms = ms_since(t0);
+  return result;
+}
+
+bool Tracker::initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable) {
+  int n_stereo = 0;
+  for (int k = 0; k < frame.size(); ++k) n_stereo += (usable[k] && frame.features.has_depth(k)) ? 1 : 0;
+  if (n_stereo < kMinInitialisationPoints) return false;
+  // The world frame is the first keyframe's left camera.
+  PassResult origin;
+  origin.valid = true;
+  origin.T_cam_world = SE3();
+  origin.point_of_keypoint.assign(frame.size(), map::kNoPoint);
+  create_keyframe(frame, origin, usable);
+  last_T_cam_world_ = SE3();
+  has_last_ = true;
+  has_velocity_ = false;
+  return true;
+}
+
+bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result) const {
+  const int queued = mapper_.queue_size ? mapper_.queue_size() : 0;
+  const bool mapper_idle = mapper_.is_idle ? mapper_.is_idle() : true;
+  int reference_matches = 0;
+  map_.read([&](const map::MapData& map) {
+    const map::KeyFrame* ref = map.keyframe(reference_keyframe_);
+    if (ref == nullptr) return;
+    const std::size_t min_observations = map.keyframe_count() <= 2 ? 2 : 3;
+    for (map::PointId pid : ref->point_of_keypoint) {
+      const map::MapPoint* p = map.good_point(pid);
+      if (p != nullptr && p->observations.size() >= min_observations) ++reference_matches;
+    }
+  });
+  // Close points (reliable stereo depth): tracked vs could-be-created.
+  const double close_depth_m = config_.tracking.close_depth_baselines * camera_.baseline_m;
+  int tracked_close = 0;
+  int untracked_close = 0;
+  for (int k = 0; k < frame.size(); ++k) {
+    const double depth = frame.features.depth_m[k];
+    if (depth <= 0.0 || depth >= close_depth_m) continue;
+    if (result.point_of_keypoint[k] != map::kNoPoint) {
+      ++tracked_close;
+    } else {
+      ++untracked_close;
+    }
+  }
+  const bool need_close = tracked_close < config_.tracking.keyframe_min_close_points &&
+                          untracked_close > config_.tracking.keyframe_new_close_points;
+  const std::int64_t interval_ns =
+      config_.tracking.keyframe_max_interval_frames > 0 ? 0 : static_cast<std::int64_t>(1e9);
+  const bool long_since_keyframe =
+      config_.tracking.keyframe_max_interval_frames > 0
+          ? frame.seq - last_keyframe_seq_ >= config_.tracking.keyframe_max_interval_frames
+          : frame.t_ns - last_keyframe_t_ns_ >= interval_ns;
+  const double ratio = config_.tracking.keyframe_tracked_ratio;
+  const bool c1 = long_since_keyframe || mapper_idle ||
+                  result.n_inliers < 0.25 * reference_matches || need_close;
+  const bool c2 = (result.n_inliers < ratio * reference_matches || need_close) && result.n_inliers > 15;
+  if (!(c1 && c2)) return false;
+  if (mapper_idle) return true;
+  // Stereo: insert while the mapper is busy only if its queue is short.
+  if (mapper_.interrupt) mapper_.interrupt();
+  return queued < 3;
+}
+
+void Tracker::create_keyframe(const PreparedFrame& frame, const PassResult& result,
+                              const std::vector<std::uint8_t>& usable) {
+  map::KeyFrame kf;
+  kf.frame_seq = frame.seq;
+  kf.t_ns = frame.t_ns;
+  kf.T_world_cam = result.T_cam_world.inverse();
+  kf.keypoints.resize(frame.size());
+  for (int k = 0; k < frame.size(); ++k) {
+    map::KeyPointData& kp = kf.keypoints[k];
+    kp.uv_px = frame.uv_px[k];
+    kp.octave = frame.octave[k];
+    kp.u_right_px = frame.features.u_right[k];
+    kp.depth_m = frame.features.depth_m[k];
+    kp.descriptor = map::descriptor_from_row(frame.features.descriptors, k);
+    kp.instance = frame.instance[k];
+  }
+  kf.point_of_keypoint = result.point_of_keypoint;
+  // New stereo points, nearest first: all close ones, at least 100
+  // (ORB-SLAM2 Tracking::CreateNewKeyFrame).
+  std::vector<std::pair<double, int>> by_depth;
+  for (int k = 0; k < frame.size(); ++k) {
+    if (usable[k] && frame.features.has_depth(k)) by_depth.emplace_back(frame.features.depth_m[k], k);
+  }
+  std::sort(by_depth.begin(), by_depth.end());
+  const double close_depth_m = config_.tracking.close_depth_baselines * camera_.baseline_m;
+  const SE3 T_world_cam = kf.T_world_cam;
+  const map::KeyFrameId id = map_.write([&](map::MapData& map) {
+    const map::KeyFrameId kf_id = map.add_keyframe(std::move(kf));
+    int created = 0;
+    int considered = 0;
+    for (const auto& [depth, k] : by_depth) {
+      const map::KeyFrame* key = map.keyframe(kf_id);
+      if (key->point_of_keypoint[k] == map::kNoPoint) {
+        const Eigen::Vector3d p_cam = camera_.unproject(frame.uv_px[k], depth);
+        map.add_point(T_world_cam * p_cam, kf_id, k);
+        ++created;
+      }
+      ++considered;
+      if (depth > close_depth_m && considered > kMinNewClosePoints) break;
+    }
+    (void)created;
+    return kf_id;
+  });
+  reference_keyframe_ = id;
+  last_keyframe_seq_ = frame.seq;
+  last_keyframe_t_ns_ = frame.t_ns;
+  ++counters_.keyframes_created;
+  if (mapper_.enqueue) mapper_.enqueue(id);
+}
+
+PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& result,
+                             const std::vector<std::uint8_t>& usable) {
+  ++counters_.frames;
+  PoseEstimate pose;
+  pose.t_ns = frame.t_ns;
+  pose.seq = frame.seq;
+  pose.counters.features_extracted = frame.size();
+
+  if (result.needs_initialisation) {
+    if (initialise(frame, usable)) {
+      state_ = TrackingState::kOk;
+      pose.state = TrackingState::kOk;
+      pose.T_world_cam = SE3();
+      pose.covariance = Matrix6d::Zero();  // the origin is exact by definition
+      last_matches_.clear();
+      map_.read([&](const map::MapData& map) {
+        const map::KeyFrame* kf = map.keyframe(reference_keyframe_);
+        for (int k = 0; k < static_cast<int>(kf->point_of_keypoint.size()); ++k) {
+          if (kf->point_of_keypoint[k] != map::kNoPoint) {
+            last_matches_.emplace_back(kf->point_of_keypoint[k], kf->keypoints[k].octave);
+          }
+        }
+      });
+      pose.counters.features_used = static_cast<int>(last_matches_.size());
+    } else {
+      state_ = TrackingState::kLost;
+      pose.state = TrackingState::kLost;
+      pose.state_reason = "too few stereo points to initialise the map";
+      ++counters_.frames_lost;
+    }
+    return pose;
+  }
+
+  if (!result.valid) {
+    ++counters_.frames_lost;
+    state_ = TrackingState::kLost;
+    has_velocity_ = false;
+    pose.state = TrackingState::kLost;
+    pose.state_reason = result.failure;
+    // Keep the last pose for relocalisation; the outputs carry LOST.
+    if (has_last_) pose.T_world_cam = last_T_cam_world_.inverse();
+    return pose;
+  }
+
+  if (result.relocalised) ++counters_.relocalisations;
+  state_ = result.n_inliers >= config_.tracking.min_inliers_ok ? TrackingState::kOk
+                                                               : TrackingState::kRecovering;
+  if (has_last_) {
+    velocity_ = result.T_cam_world * last_T_cam_world_.inverse();
+    has_velocity_ = true;
+  }
+  last_T_cam_world_ = result.T_cam_world;
+  has_last_ = true;
+  last_matches_.clear();
+  for (int k = 0; k < frame.size(); ++k) {
+    if (result.point_of_keypoint[k] != map::kNoPoint) {
+      last_matches_.emplace_back(result.point_of_keypoint[k], frame.octave[k]);
+    }
+  }
+  map_.write([&](map::MapData& map) {
+    for (map::PointId pid : result.visible_points) {
+      if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
+    }
+    for (map::PointId pid : result.point_of_keypoint) {
+      if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_found;
+    }
+  });
+  if (need_keyframe(frame, result)) create_keyframe(frame, result, usable);
+
+  pose.state = state_;
+  if (state_ == TrackingState::kRecovering) {
+    pose.state_reason = "only " + std::to_string(result.n_inliers) + " inliers";
+  }
+  pose.T_world_cam = result.T_cam_world.inverse();
+  pose.covariance = result.covariance_world_cam.value_or(Matrix6d::Identity() * 1e6);
+  pose.counters.features_used = result.n_inliers;
+  pose.counters.features_used_pass1 = result.n_inliers;
+  return pose;
+}
+
+Expected<PoseEstimate> Tracker::track(const StereoFrame& frame) {
+  SITEPOSE_TRY(PreparedFrame prepared, prepare(frame));
+  const std::vector<std::uint8_t> usable(prepared.size(), 1);
+  const PassResult result = estimate(prepared, usable);
+  return commit(prepared, result, usable);
+}
+
+}  // namespace sitepose::tracking

@@ -1,0 +1,142 @@
+#include "sitepose/eval/evaluate.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include <fmt/format.h>
+#include <opencv2/core.hpp>
+
+#include "sitepose/eval/plot.hpp"
+#include "test_trajectories.hpp"
+
+namespace sitepose::eval {
+namespace {
+
+using testing::curvy_trajectory;
+using testing::some_rigid_transform;
+using testing::transformed;
+
+// Estimate with every other pose missing in the first half: coverage known.
+io::Trajectory sparse_estimate(const io::Trajectory& gt) {
+  io::Trajectory est;
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    if (i < gt.size() / 2 && i % 2 == 1) continue;
+    io::StampedPose p = gt[i];
+    // 0.1 m error along the camera x axis on odd-tenth frames.
+    const double bump = (i / 10) % 2 == 1 ? 0.1 : 0.0;
+    p.T_world_cam = p.T_world_cam * SE3(Eigen::Quaterniond::Identity(), {bump, 0.0, 0.0});
+    est.push_back(p);
+  }
+  return transformed(est, some_rigid_transform());
+}
+
+TEST(Evaluate, CoverageCountsAndStats) {
+  const io::Trajectory gt = curvy_trajectory(200, 10.0);
+  const io::Trajectory est = sparse_estimate(gt);
+  const auto r = evaluate(gt, est, EvalOptions{});
+  ASSERT_TRUE(r.has_value()) << r.error().message;
+  EXPECT_EQ(r->gt_frames, 200u);
+  EXPECT_EQ(r->est_poses, 150u);
+  EXPECT_EQ(r->associated, 150u);
+  EXPECT_DOUBLE_EQ(r->coverage, 0.75);
+  EXPECT_FALSE(r->time_offset_searched);
+  // Errors are 0 or 0.1 m along the camera x axis before alignment, in
+  // about equal numbers; the alignment takes out their mean, leaving about
+  // +-0.05 m (the camera yaws, so the bumps do not all point one way and a
+  // little more remains).
+  EXPECT_NEAR(r->ate_m.rmse, 0.05, 0.005);
+  EXPECT_GT(r->ate_m.max, 0.05);
+  EXPECT_LT(r->ate_m.max, 0.1);
+  EXPECT_EQ(r->poses.size(), 150u);
+  EXPECT_EQ(r->ate_m.count, 150u);
+  // RPE 1 s: pairs exist only in the fully sampled second half and across.
+  EXPECT_GT(r->rpe_time.translation_m.count, 50u);
+  EXPECT_GT(r->rpe_frames.translation_m.count, 50u);
+  EXPECT_NEAR(r->rpe_time.translation_m.max, 0.1, 1e-6);  // bump on one end only
+}
+
+TEST(Evaluate, ErrorsNameTheProblem) {
+  const io::Trajectory gt = curvy_trajectory(50, 10.0);
+  const auto empty_est = evaluate(gt, {}, EvalOptions{});
+  ASSERT_FALSE(empty_est.has_value());
+  EXPECT_NE(empty_est.error().message.find("estimated trajectory is empty"), std::string::npos);
+  EXPECT_EQ(empty_est.error().exit_status(), 2);
+  EXPECT_FALSE(evaluate({}, gt, EvalOptions{}).has_value());
+
+  io::Trajectory far = gt;
+  for (auto& p : far) p.t_s += 1000.0;
+  const auto none = evaluate(gt, far, EvalOptions{});
+  ASSERT_FALSE(none.has_value());
+  EXPECT_EQ(none.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(none.error().message.find("only 0 estimated poses associate"), std::string::npos)
+      << none.error().message;
+
+  EvalOptions bad;
+  bad.max_dt_s = 0.0;
+  const auto bad_dt = evaluate(gt, gt, bad);
+  ASSERT_FALSE(bad_dt.has_value());
+  EXPECT_NE(bad_dt.error().message.find("max_dt_s"), std::string::npos);
+}
+
+TEST(Evaluate, JsonCarriesTheFigures) {
+  const io::Trajectory gt = curvy_trajectory(200, 10.0);
+  const auto r = evaluate(gt, sparse_estimate(gt), EvalOptions{});
+  ASSERT_TRUE(r.has_value());
+  const std::string json = to_json(*r);
+  EXPECT_NE(json.find("\"gt_frames\": 200,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"associated\": 150,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"coverage\": 0.75,"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"time_offset_searched\": false"), std::string::npos) << json;
+  EXPECT_NE(json.find(fmt::format("\"rmse\": {:.9g}", r->ate_m.rmse)), std::string::npos) << json;
+  EXPECT_EQ(json.find("\"poses\""), std::string::npos);
+  const std::string with_poses = to_json(*r, true);
+  EXPECT_NE(with_poses.find("\"poses\": ["), std::string::npos);
+  EXPECT_NE(with_poses.find("\"est_index\": 149"), std::string::npos);
+  // Balanced braces and brackets: a cheap well-formedness check.
+  for (const std::string* s : {&json, &with_poses}) {
+    EXPECT_EQ(std::count(s->begin(), s->end(), '{'), std::count(s->begin(), s->end(), '}'));
+    EXPECT_EQ(std::count(s->begin(), s->end(), '['), std::count(s->begin(), s->end(), ']'));
+    EXPECT_EQ(s->find("nan"), std::string::npos);
+  }
+}
+
+TEST(Evaluate, JsonWritesNullForMissingRpe) {
+  // 5 poses over 0.4 s: no 1 s or 10-frame pairs.
+  const io::Trajectory gt = curvy_trajectory(5, 10.0);
+  const auto r = evaluate(gt, gt, EvalOptions{});
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->rpe_time.translation_m.count, 0u);
+  const std::string json = to_json(*r);
+  EXPECT_NE(json.find("\"pairs\": 0, \"translation_m\": {\"count\": 0, \"rmse\": null"),
+            std::string::npos)
+      << json;
+  EXPECT_NE(to_text(*r).find("ATE [m]"), std::string::npos);
+}
+
+TEST(EvalPlot, RendersBothPanels) {
+  const io::Trajectory gt = curvy_trajectory(200, 10.0);
+  const auto r = evaluate(gt, sparse_estimate(gt), EvalOptions{});
+  ASSERT_TRUE(r.has_value());
+  const auto img = render_eval_plot(gt, *r);
+  ASSERT_TRUE(img.has_value()) << img.error().message;
+  EXPECT_EQ(img->cols, 1600);
+  EXPECT_EQ(img->rows, 800);
+  EXPECT_EQ(img->type(), CV_8UC3);
+  // Non-trivial: a good share of non-white pixels in each half.
+  const auto non_white = [](const cv::Mat& m) {
+    int n = 0;
+    for (int y = 0; y < m.rows; ++y)
+      for (int x = 0; x < m.cols; ++x)
+        if (m.at<cv::Vec3b>(y, x) != cv::Vec3b(255, 255, 255)) ++n;
+    return n;
+  };
+  EXPECT_GT(non_white((*img)(cv::Rect(0, 0, 800, 800))), 20000);
+  EXPECT_GT(non_white((*img)(cv::Rect(900, 0, 700, 800))), 20000);
+  EvalResult empty;
+  EXPECT_FALSE(render_eval_plot(gt, empty).has_value());
+  EXPECT_FALSE(render_eval_plot(gt, *r, PlotOptions{400, 300}).has_value());
+}
+
+}  // namespace
+}  // namespace sitepose::eval

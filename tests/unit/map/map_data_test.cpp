@@ -1,0 +1,132 @@
+#include "sitepose/map/map_data.hpp"
+
+#include <gtest/gtest.h>
+
+namespace sitepose::map {
+namespace {
+
+KeyFrame make_keyframe(int n_keypoints, double x_m) {
+  KeyFrame kf;
+  kf.T_world_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x_m, 0, 0));
+  for (int i = 0; i < n_keypoints; ++i) {
+    KeyPointData kp;
+    kp.uv_px = Eigen::Vector2d(10.0 * i, 20.0);
+    kp.descriptor.fill(static_cast<std::uint8_t>(i));
+    kf.keypoints.push_back(kp);
+  }
+  return kf;
+}
+
+// Three keyframes sharing `shared` points pairwise in a chain 0-1-2.
+struct ChainMap {
+  MapData map;
+  KeyFrameId kf[3];
+  std::vector<PointId> points;
+  explicit ChainMap(int shared) {
+    kf[0] = map.add_keyframe(make_keyframe(2 * shared, 0.0));
+    for (int i = 0; i < 2 * shared; ++i) points.push_back(map.add_point({0.1 * i, 0, 5}, kf[0], i));
+    KeyFrame k1 = make_keyframe(2 * shared, 1.0);
+    for (int i = 0; i < shared; ++i) k1.point_of_keypoint.push_back(points[i]);
+    kf[1] = map.add_keyframe(std::move(k1));
+    for (int i = shared; i < 2 * shared; ++i) map.add_point({0.1 * i, 1, 5}, kf[1], i);
+    KeyFrame k2 = make_keyframe(2 * shared, 2.0);
+    for (int i = 0; i < shared; ++i) k2.point_of_keypoint.push_back(points[i]);
+    kf[2] = map.add_keyframe(std::move(k2));
+  }
+};
+
+TEST(MapData, ObservationsAreConsistentBothWays) {
+  ChainMap m(20);
+  for (const auto& [pid, p] : m.map.points()) {
+    for (const auto& [kf_id, index] : p.observations) {
+      EXPECT_EQ(m.map.keyframe(kf_id)->point_of_keypoint[index], pid);
+    }
+  }
+  EXPECT_EQ(m.map.point(m.points[0])->observations.size(), 3u);
+}
+
+TEST(MapData, CovisibilityAndSpanningTree) {
+  ChainMap m(20);
+  EXPECT_EQ(m.map.keyframe(m.kf[1])->covisibility.at(m.kf[0]), 20);
+  EXPECT_EQ(m.map.keyframe(m.kf[2])->covisibility.at(m.kf[0]), 20);
+  EXPECT_EQ(m.map.keyframe(m.kf[1])->parent, m.kf[0]);
+  const auto best = m.map.best_covisible(m.kf[0], 5);
+  EXPECT_EQ(best.size(), 2u);
+}
+
+TEST(MapData, RemovingAKeyframeKeepsTheMapConsistent) {
+  ChainMap m(20);
+  m.map.set_keyframe_bad(m.kf[1]);
+  EXPECT_EQ(m.map.keyframe(m.kf[1]), nullptr);
+  EXPECT_EQ(m.map.keyframe(m.kf[0])->covisibility.count(m.kf[1]), 0u);
+  // Points seen by keyframes 0 and 2 survive with two observations.
+  EXPECT_EQ(m.map.good_point(m.points[0])->observations.size(), 2u);
+  for (const auto& [pid, p] : m.map.points()) {
+    if (p.bad) {
+      EXPECT_TRUE(p.observations.empty());
+      continue;
+    }
+    for (const auto& [kf_id, index] : p.observations) EXPECT_NE(kf_id, m.kf[1]);
+  }
+  // The first keyframe anchors the gauge and is never removed.
+  m.map.set_keyframe_bad(m.kf[0]);
+  EXPECT_NE(m.map.keyframe(m.kf[0]), nullptr);
+}
+
+TEST(MapData, ReplacePointMovesObservations) {
+  ChainMap m(20);
+  const PointId a = m.points[0];
+  const PointId b = m.points[25];  // seen by keyframe 0 only
+  m.map.replace_point(b, a);
+  EXPECT_TRUE(m.map.point(b)->bad);
+  EXPECT_EQ(m.map.keyframe(m.kf[0])->point_of_keypoint[25], kNoPoint);  // kf 0 already saw a
+  EXPECT_EQ(m.map.purge_bad_points(), 1u);
+  EXPECT_EQ(m.map.point(b), nullptr);
+}
+
+TEST(MapData, ScaleRangeFromReferenceView) {
+  MapData map(ScalePyramid{1.2, 8});
+  KeyFrame kf = make_keyframe(1, 0.0);
+  kf.keypoints[0].octave = 2;
+  const KeyFrameId id = map.add_keyframe(std::move(kf));
+  const PointId pid = map.add_point({0, 0, 10}, id, 0);
+  const MapPoint* p = map.point(pid);
+  EXPECT_NEAR(p->max_distance_m, 10.0 * 1.44, 1e-9);
+  EXPECT_NEAR(p->min_distance_m, p->max_distance_m / std::pow(1.2, 7), 1e-9);
+  EXPECT_EQ(map.pyramid().predict_level(10.0, p->max_distance_m), 2);
+  EXPECT_LT((p->normal - Eigen::Vector3d::UnitZ()).norm(), 1e-12);
+}
+
+TEST(MapData, AddKeyframeKeepsOneKeypointPerPoint) {
+  MapData map;
+  const KeyFrameId k0 = map.add_keyframe(make_keyframe(3, 0.0));
+  const PointId pid = map.add_point({0, 0, 5}, k0, 0);
+  map.add_point({1, 0, 5}, k0, 1);
+  KeyFrame k1 = make_keyframe(3, 1.0);
+  k1.point_of_keypoint = {pid, pid, 12345};  // a duplicate and a missing point
+  const KeyFrameId id1 = map.add_keyframe(std::move(k1));
+  const KeyFrame* kf = map.keyframe(id1);
+  EXPECT_EQ(kf->point_of_keypoint[0], pid);
+  EXPECT_EQ(kf->point_of_keypoint[1], kNoPoint);
+  EXPECT_EQ(kf->point_of_keypoint[2], kNoPoint);
+  EXPECT_EQ(map.point(pid)->observations.at(id1), 0);
+}
+
+TEST(MapData, ObservationWeightCountsStereoTwice) {
+  MapData map;
+  KeyFrame k0 = make_keyframe(2, 0.0);
+  k0.keypoints[0].u_right_px = 100.0;  // stereo
+  const KeyFrameId id0 = map.add_keyframe(std::move(k0));
+  const PointId pid = map.add_point({0, 0, 5}, id0, 0);
+  EXPECT_EQ(map.observation_weight(pid), 2);
+  KeyFrame k1 = make_keyframe(2, 1.0);  // monocular keypoints
+  k1.point_of_keypoint = {kNoPoint, pid};
+  map.add_keyframe(std::move(k1));
+  EXPECT_EQ(map.observation_weight(pid), 3);
+  map.set_point_bad(pid);
+  EXPECT_EQ(map.observation_weight(pid), 0);
+  EXPECT_EQ(map.observation_weight(98765), 0);
+}
+
+}  // namespace
+}  // namespace sitepose::map

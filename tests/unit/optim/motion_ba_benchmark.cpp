@@ -1,0 +1,61 @@
+// Timing of motion-only BA on a synthetic stereo frame (not a test; run by
+// hand: build target optim_motion_ba_benchmark). The tracker needs one full
+// 4-round solve of ~500 observations in a few ms (>= 30 frames/s overall).
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+
+#include "sitepose/optim/local_ba.hpp"
+#include "sitepose/optim/motion_only_ba.hpp"
+#include "synthetic_scene.hpp"
+
+namespace sitepose::optim {
+namespace {
+
+using namespace testing;  // NOLINT: test helpers
+
+std::vector<PoseObservation> frame_observations(int n, double outlier_fraction, SE3* T_world_cam) {
+  std::mt19937 rng(99);
+  const StereoCamera camera = test_camera();
+  *T_world_cam = test_pose_world_cam();
+  const SE3 T_cam_world = T_world_cam->inverse();
+  std::uniform_int_distribution<int> level(0, 7);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<PoseObservation> obs;
+  for (int i = 0; i < n; ++i) {
+    PoseObservation o = exact_observation(camera, T_cam_world,
+                                          *T_world_cam * random_point_cam(camera, 3.0, 40.0, rng),
+                                          level(rng), false);
+    if (unit(rng) < outlier_fraction) {
+      make_gross_outlier(camera, o, rng);
+    } else {
+      add_noise(o, rng);
+    }
+    obs.push_back(o);
+  }
+  return obs;
+}
+
+void BM_MotionOnlyBa(benchmark::State& state) {
+  SE3 T_world_cam;
+  const auto obs = frame_observations(static_cast<int>(state.range(0)), 0.2, &T_world_cam);
+  std::mt19937 rng(5);
+  // A constant-velocity prediction is typically a few cm / tenths of a degree off.
+  const SE3 init = perturb(T_world_cam, 0.05, 0.5 * M_PI / 180.0, rng).inverse();
+  const MotionOnlyBa ba(test_camera(), config::TrackingConfig{});
+  int iterations = 0;
+  for (auto _ : state) {
+    auto result = ba.solve(init, obs);
+    iterations = result->iterations;
+    benchmark::DoNotOptimize(result);
+  }
+  state.counters["lm_iterations"] = iterations;
+}
+BENCHMARK(BM_MotionOnlyBa)->Arg(100)->Arg(300)->Arg(500)->Arg(1000)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace sitepose::optim
+
+BENCHMARK_MAIN();
