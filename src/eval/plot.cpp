@@ -17,7 +17,10 @@ namespace {
 const cv::Scalar kWhite(255, 255, 255);
 const cv::Scalar kBlack(0, 0, 0);
 const cv::Scalar kGridGray(225, 225, 225);
-const cv::Scalar kGtGray(110, 110, 110);
+// Ground truth is drawn wide and light under the estimate, so it shows as a
+// halo where they agree and as a separate path where they do not.
+const cv::Scalar kGtGray(175, 175, 175);
+constexpr int kGtThickness = 6;
 const cv::Scalar kRmseRed(40, 40, 210);
 const cv::Scalar kSeriesBlue(160, 90, 20);
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
@@ -207,7 +210,7 @@ void draw_top_view(cv::Mat& img, const cv::Rect& panel, const io::Trajectory& gt
     const Eigen::Vector3d& t = p.T_world_cam.translation();
     gt_px.push_back(ax.to_px(t[ax_h], t[ax_v]));
   }
-  cv::polylines(img, gt_px, false, kGtGray, 2, cv::LINE_AA);
+  cv::polylines(img, gt_px, false, kGtGray, kGtThickness, cv::LINE_AA);
   for (std::size_t k = 0; k < result.poses.size(); ++k) {
     const PoseError& p = result.poses[k];
     const cv::Point px = ax.to_px(p.p_est_aligned_m[ax_h], p.p_est_aligned_m[ax_v]);
@@ -225,8 +228,9 @@ void draw_top_view(cv::Mat& img, const cv::Rect& panel, const io::Trajectory& gt
   const cv::Point legend(area.x + 12, area.y + 20);
   cv::rectangle(img, {legend.x - 6, legend.y - 14}, {legend.x + 290, legend.y + 32}, kWhite,
                 cv::FILLED);
-  cv::rectangle(img, {legend.x - 6, legend.y - 14}, {legend.x + 290, legend.y + 32}, kGtGray, 1);
-  cv::line(img, legend + cv::Point(0, -4), legend + cv::Point(30, -4), kGtGray, 2, cv::LINE_AA);
+  cv::rectangle(img, {legend.x - 6, legend.y - 14}, {legend.x + 290, legend.y + 32}, kBlack, 1);
+  cv::line(img, legend + cv::Point(0, -4), legend + cv::Point(30, -4), kGtGray, kGtThickness,
+           cv::LINE_AA);
   put_text(img, "ground truth", legend + cv::Point(40, 0), kTickScale);
   cv::line(img, legend + cv::Point(0, 18), legend + cv::Point(30, 18),
            colours(0.5 * colours.vmax_m()), 2, cv::LINE_AA);
@@ -266,8 +270,14 @@ void draw_error_over_time(cv::Mat& img, const cv::Rect& panel, const EvalResult&
   for (int x = area.x; x < area.x + area.width; x += 14) {
     cv::line(img, {x, y}, {std::min(x + 8, area.x + area.width), y}, kRmseRed, 2);
   }
-  put_text(img, fmt::format("rmse {:.4f} m", result.ate_m.rmse), {area.x + area.width - 150, y - 8},
-           kLabelScale, kRmseRed);
+  // RMSE legend in a boxed corner, so it never sits on the data.
+  const cv::Point legend(area.x + area.width - 200, area.y + 12);
+  cv::rectangle(img, legend, legend + cv::Point(188, 28), kWhite, cv::FILLED);
+  cv::rectangle(img, legend, legend + cv::Point(188, 28), kBlack, 1);
+  cv::line(img, legend + cv::Point(8, 14), legend + cv::Point(18, 14), kRmseRed, 2);
+  cv::line(img, legend + cv::Point(24, 14), legend + cv::Point(34, 14), kRmseRed, 2);
+  put_text(img, fmt::format("rmse {:.4f} m", result.ate_m.rmse), legend + cv::Point(42, 19),
+           kLabelScale);
   put_text_centred(img, "ATE over time", {area.x + area.width / 2, panel.y + 55}, kLabelScale);
 }
 

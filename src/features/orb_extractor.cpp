@@ -13,9 +13,6 @@
 namespace sitepose::features {
 namespace {
 
-// FAST needs a 3-pixel ring around a candidate.
-constexpr int kFastRadiusPx = 3;
-
 template <typename T>
 Status invalid(const char* key, T value, const std::string& rule) {
   return make_error(ErrorCode::kInvalidArgument, fmt::format("orb.{} = {}: {}", key, value, rule));
@@ -153,30 +150,19 @@ Expected<OrbFeatures> OrbExtractor::extract(const cv::Mat& image, const cv::Mat&
                         img.rows - 2 * kEdgeMarginPx);
     if (area.width <= 0 || area.height <= 0 || budget <= 0) continue;
 
-    // FAST cannot fire within 3 px of the ROI edge, so widening the ROI by
-    // that much yields candidates exactly inside `area`.
-    const cv::Rect roi(area.x - kFastRadiusPx, area.y - kFastRadiusPx, area.width + 2 * kFastRadiusPx,
-                       area.height + 2 * kFastRadiusPx);
-    std::vector<cv::KeyPoint> raw;
-    cv::FAST(img(roi), raw, config_.min_fast_threshold, true, cv::FastFeatureDetector::TYPE_9_16);
-
-    // Shift to level pixels and drop masked candidates before selection.
-    std::vector<cv::KeyPoint> candidates;
-    candidates.reserve(raw.size());
-    for (cv::KeyPoint& kp : raw) {
-      kp.pt.x += float(roi.x);
-      kp.pt.y += float(roi.y);
-      if (!mask.empty()) {
-        const cv::Point2d p0 = pyramid.to_level0(level, cv::Point2d(kp.pt.x, kp.pt.y));
-        // Test exactly the pixel the returned float keypoint rounds to.
-        const int u = std::clamp(static_cast<int>(std::lround(float(p0.x))), 0, mask.cols - 1);
-        const int v = std::clamp(static_cast<int>(std::lround(float(p0.y))), 0, mask.rows - 1);
-        if (mask.at<std::uint8_t>(v, u) != 0) continue;
-      }
-      candidates.push_back(kp);
-    }
-    candidates = detail::apply_cell_thresholds(candidates, area, config_.grid_cell_px,
-                                               config_.ini_fast_threshold);
+    // Masked candidates go before cells are judged and before the
+    // distribution, so the budget moves to unmasked areas.
+    auto is_masked = [&](float x, float y) {
+      if (mask.empty()) return false;
+      const cv::Point2d p0 = pyramid.to_level0(level, cv::Point2d(x, y));
+      // Test exactly the pixel the returned float keypoint rounds to.
+      const int u = std::clamp(static_cast<int>(std::lround(float(p0.x))), 0, mask.cols - 1);
+      const int v = std::clamp(static_cast<int>(std::lround(float(p0.y))), 0, mask.rows - 1);
+      return mask.at<std::uint8_t>(v, u) != 0;
+    };
+    const std::vector<cv::KeyPoint> candidates =
+        detail::detect_fast_per_cell(img, area, config_.grid_cell_px, config_.ini_fast_threshold,
+                                     config_.min_fast_threshold, is_masked);
     const std::vector<int> picked = detail::distribute_quadtree(
         candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)),
         budget);

@@ -14,8 +14,7 @@ Expected<StereoExtractor> StereoExtractor::create(const config::OrbConfig& orb,
                                                   const config::StereoMatchConfig& stereo,
                                                   const StereoCamera& camera) {
   SITEPOSE_TRY_STATUS(validate(orb));
-  SITEPOSE_TRY(StereoMatcher matcher, StereoMatcher::create(stereo, camera.bf()));
-  (void)matcher;
+  SITEPOSE_TRY_STATUS(StereoMatcher::create(stereo, camera.bf()));  // checks config and bf
   return StereoExtractor(orb, stereo, camera);
 }
 

@@ -170,9 +170,14 @@ Status LocalMapper::process_keyframe(map::KeyFrameId keyframe) {
   cull_recent_points(keyframe);
   create_new_points(keyframe);
   fuse_neighbours(keyframe);
+  // ORB-SLAM2: BA and keyframe culling only when no other keyframe waits.
+  // Behind the tracker, the redundancy test would count views of keyframes
+  // not yet processed, and the tracker holds back at 3 queued anyway.
   Status ba_status;
-  if (queue_empty()) ba_status = local_bundle_adjustment(keyframe);
-  cull_keyframes(keyframe);
+  if (queue_empty()) {
+    ba_status = local_bundle_adjustment(keyframe);
+    cull_keyframes(keyframe);
+  }
   const std::size_t purged = map_.write([](map::MapData& m) { return m.purge_bad_points(); });
   const double ms = elapsed_ms(start);
   {
@@ -386,6 +391,9 @@ Status LocalMapper::local_bundle_adjustment(map::KeyFrameId keyframe) {
   ++stats_.ba_runs;
   if (result->aborted) ++stats_.ba_aborted;
   stats_.ba_outliers_erased += applied.outliers_erased;
+  stats_.last_ba_keyframes = static_cast<int>(problem.keyframe_ids.size());
+  stats_.last_ba_points = static_cast<int>(problem.point_ids.size());
+  stats_.last_ba_observations = static_cast<int>(problem.input.observations.size());
   stats_.last_ba_ms = ms;
   stats_.total_ba_ms += ms;
   return ok_status();

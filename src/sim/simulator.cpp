@@ -289,11 +289,11 @@ SimFrame Simulator::render(int k) const {
   f.depth_m = labels.depth_m;
   f.instance_mask = labels.instance;
   if (distorted()) {
-    cv::Mat tmp;
-    cv::remap(rad_left, tmp, distort_map_x_, distort_map_y_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    rad_left = tmp;
-    cv::remap(rad_right, tmp, distort_map_x_, distort_map_y_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    rad_right = tmp;
+    cv::Mat left_d, right_d;  // separate buffers: remap must not write into its source
+    cv::remap(rad_left, left_d, distort_map_x_, distort_map_y_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    cv::remap(rad_right, right_d, distort_map_x_, distort_map_y_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    rad_left = left_d;
+    rad_right = right_d;
     cv::remap(labels.instance, f.instance_mask, distort_map_x_, distort_map_y_, cv::INTER_NEAREST,
               cv::BORDER_CONSTANT, 0);
   }

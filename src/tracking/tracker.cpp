@@ -45,8 +45,10 @@ Tracker::Tracker(const StereoCamera& camera, const config::SiteposeConfig& confi
       config_(config),
       map_(map),
       mapper_(std::move(mapper)),
-      extractor_(config.orb, config.stereo, camera),
+      left_extractor_(config.orb),
+      right_extractor_(config.orb),
       object_extractor_(object_orb_config(config.orb)),
+      matcher_(config.stereo, camera.bf()),
       motion_ba_(camera, config.tracking),
       pyramid_{config.orb.scale_factor, config.orb.n_levels} {}
 
@@ -80,44 +82,48 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
   out.seq = frame.seq;
   out.t_ns = frame.t_ns();
 
+  // Left on this thread, right concurrently; with an extraction mask the
+  // background gets the full budget and the masked area a share of its own.
+  // One stereo matching over the union.
+  auto right_future = std::async(std::launch::async, [&] {
+    const auto t = Clock::now();
+    auto right = right_extractor_.extract(frame.right);
+    return std::make_pair(std::move(right), ms_since(t));
+  });
+  const auto t_left = Clock::now();
   const bool split_budget = !extraction_mask.empty() && cv::countNonZero(extraction_mask) > 0;
-  if (!split_budget) {
-    SITEPOSE_TRY(out.features, extractor_.extract(frame.left, frame.right));
-  } else {
-    // Background with the full budget, masked areas with their own share;
-    // right image concurrently. One stereo matching over the union.
-    auto right_future = std::async(std::launch::async, [&] {
-      features::OrbExtractor right(config_.orb);
-      return right.extract(frame.right);
-    });
-    features::OrbExtractor left_background(config_.orb);
-    auto background = left_background.extract(frame.left, extraction_mask);
+  auto left = left_extractor_.extract(frame.left, split_budget ? extraction_mask : cv::Mat());
+  Expected<features::OrbFeatures> objects = features::OrbFeatures{};
+  if (split_budget) {
     cv::Mat inverse_mask;
     cv::bitwise_not(extraction_mask, inverse_mask);
-    auto objects = object_extractor_.extract(frame.left, inverse_mask);
-    auto right = right_future.get();
-    if (!background) return Unexpected{background.error()};
-    if (!objects) return Unexpected{objects.error()};
-    if (!right) return Unexpected{right.error()};
-    features::OrbFeatures left = std::move(*background);
-    left.keypoints.insert(left.keypoints.end(), objects->keypoints.begin(), objects->keypoints.end());
-    if (!objects->descriptors.empty()) {
-      if (left.descriptors.empty()) {
-        left.descriptors = objects->descriptors;
-      } else {
-        cv::vconcat(left.descriptors, objects->descriptors, left.descriptors);
-      }
-    }
-    SITEPOSE_TRY(auto stereo, extractor_.matcher().match(left, *right));
-    out.features.keypoints = std::move(left.keypoints);
-    out.features.descriptors = left.descriptors;
-    out.features.u_right = std::move(stereo.u_right);
-    out.features.depth_m = std::move(stereo.depth_m);
-    out.features.right_keypoints = std::move(right->keypoints);
-    out.features.right_descriptors = right->descriptors;
-    out.features.left_pyramid = std::move(left.pyramid);
-    out.features.stats = stereo.stats;
+    objects = object_extractor_.extract(frame.left, inverse_mask);
   }
+  out.timings.extract_left_ms = ms_since(t_left);
+  auto [right, right_ms] = right_future.get();
+  out.timings.extract_right_ms = right_ms;
+  if (!left) return Unexpected{left.error()};
+  if (!objects) return Unexpected{objects.error()};
+  if (!right) return Unexpected{right.error()};
+  if (!objects->keypoints.empty()) {
+    left->keypoints.insert(left->keypoints.end(), objects->keypoints.begin(), objects->keypoints.end());
+    if (left->descriptors.empty()) {
+      left->descriptors = objects->descriptors;
+    } else {
+      cv::vconcat(left->descriptors, objects->descriptors, left->descriptors);
+    }
+  }
+  const auto t_match = Clock::now();
+  SITEPOSE_TRY(auto stereo, matcher_.match(*left, *right));
+  out.timings.stereo_match_ms = ms_since(t_match);
+  out.features.keypoints = std::move(left->keypoints);
+  out.features.descriptors = left->descriptors;
+  out.features.u_right = std::move(stereo.u_right);
+  out.features.depth_m = std::move(stereo.depth_m);
+  out.features.right_keypoints = std::move(right->keypoints);
+  out.features.right_descriptors = right->descriptors;
+  out.features.left_pyramid = std::move(left->pyramid);
+  out.features.stats = stereo.stats;
   const int n = out.features.size();
   out.uv_px.reserve(n);
   out.octave.reserve(n);

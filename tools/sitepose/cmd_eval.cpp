@@ -68,24 +68,30 @@ const CommandRegistrar kEval{
        auto args = std::make_shared<EvalArgs>();
        sub.add_option("--gt", args->gt_path,
                       "Ground-truth poses, KITTI format (12 numbers a line, T_world_cam)")
+           ->type_name("POSES")
            ->required();
        sub.add_option("--times", args->times_path,
                       "Timestamps of the ground-truth poses (s), one a line (times.txt)")
+           ->type_name("TIMES")
            ->required();
        sub.add_option("--est", args->est_path,
                       "Estimated trajectory, TUM format (t x y z qx qy qz qw)")
+           ->type_name("TRAJ")
            ->required();
        sub.add_flag("--json", args->json, "Print the figures as JSON on stdout instead of text");
        sub.add_option("--plot", args->plot_path,
                       "Write a PNG: top view of ground truth vs aligned estimate coloured by "
-                      "ATE, and ATE over time");
+                      "ATE, and ATE over time")
+           ->type_name("PNG");
        sub.add_option("--max-dt", args->max_dt_s,
                       "Largest timestamp difference of an associated pair (s)")
+           ->type_name("S")
            ->check(CLI::PositiveNumber)
            ->capture_default_str();
        sub.add_option("--time-offset-search", args->offset_range_s,
                       "Search a constant clock offset in [-RANGE, +RANGE] s minimising ATE "
                       "(t_gt = t_est + offset); 0 = no search")
+           ->type_name("RANGE_S")
            ->check(CLI::NonNegativeNumber)
            ->capture_default_str();
        return [args] { return run_eval(*args); };

@@ -2,10 +2,10 @@
 // Masked ORB extraction on an image pyramid (METHOD.md "Core tracker";
 // masking per METHOD.md "What the authors' public code does").
 //
-// Pipeline per pyramid level: FAST candidates at the minimum threshold ->
-// candidates whose level-0 pixel is masked are dropped -> per grid cell keep
-// the candidates that pass the initial threshold, or all of them when none
-// does (the ini -> min fallback) -> quadtree selection of the level's budget,
+// Pipeline per pyramid level: FAST at the initial threshold, and at the
+// minimum threshold in grid cells left without candidates (the ini -> min
+// fallback); candidates whose level-0 pixel is masked are dropped before
+// that judgement -> quadtree selection of the level's budget,
 // strongest candidate per node -> orientation by intensity centroid ->
 // steered BRIEF (OpenCV's ORB descriptor on the Gaussian-blurred level).
 //

@@ -16,8 +16,9 @@
 //   5. local BA when no other keyframe is waiting (local_ba_problem.hpp):
 //      copied out under read(), solved unlocked, aborted when a keyframe is
 //      enqueued, written back under write();
-//   6. cull redundant covisible keyframes (keyframe_culling.hpp), then
-//      purge bad points so memory stays bounded.
+//   6. cull redundant covisible keyframes (keyframe_culling.hpp), also only
+//      when no other keyframe is waiting; then, always, purge bad points so
+//      memory stays bounded.
 //
 // Contract with the tracker: it inserts the keyframe and its new stereo
 // points with MapData::add_keyframe / add_point under SharedMap::write(),
@@ -74,6 +75,9 @@ struct MappingStats {
   std::int64_t ba_outliers_erased = 0;
   std::int64_t keyframes_culled = 0;  // step 6
   std::int64_t points_purged = 0;     // bad points reclaimed
+  int last_ba_keyframes = 0;     // size of the last solved window: free + fixed keyframes,
+  int last_ba_points = 0;        // points
+  int last_ba_observations = 0;  // and observations
   double last_ba_ms = 0.0;   // wall time of the last solve (unlocked part)
   double total_ba_ms = 0.0;
   double last_keyframe_ms = 0.0;  // wall time of all steps for the last keyframe

@@ -3,37 +3,39 @@
 // pipeline stages (ARCHITECTURE.md: "a stage never blocks the one before it;
 // when a ring is full the oldest frame is dropped and counted").
 //
-// Threads: exactly one producer thread calls try_push / push_drop_oldest /
-// close; exactly one consumer thread calls try_pop / pop_wait. size(),
-// drops(), capacity() and close() may be called from any thread.
+// Threads: exactly one producer thread calls try_push / push_drop_oldest;
+// exactly one consumer thread calls try_pop / pop_wait. size(), drops(),
+// capacity(), close() and closed() may be called from any thread.
 // Ownership: elements are moved in and moved out; T only needs to be
 // move-constructible (move-only types such as std::unique_ptr work). Elements
 // still in the ring are destroyed with it.
 //
-// Why it is correct with a producer-side drop. A plain SPSC ring lets only the
-// consumer advance the read index; if the producer advanced it to drop the
-// oldest element while the consumer was moving that same element out, both
-// would own it. Here every slot carries a sequence number (Vyukov's bounded
-// queue): slot i holds position p when seq == p + 1 and is free for position
-// p when seq == p. The read index `tail_` is the only index both threads write
-// and it is advanced only by compare-and-swap, so a position is claimed by
-// exactly one side:
-//  * the consumer claims position t (CAS tail_ t -> t+1), then moves the
-//    element out and releases the slot for t + capacity;
-//  * the producer, finding the slot for its position p still holding p - C,
-//    tries the same CAS on p - C. If it wins, it owns the oldest element,
-//    takes it out (returned to the caller, counted in drops()) and reuses the
-//    slot at once. If it loses, the consumer is moving that element out right
-//    now; the producer waits for that one move to finish (std::atomic::wait,
-//    no polling) - the only time a producer ever waits, bounded by a single
-//    move of T.
-// Positions are 64-bit and never wrap in practice (584 years at 1 GHz).
+// Slots carry sequence numbers (Vyukov's bounded queue): the slot of position
+// p is free for p when seq == p and holds p when seq == p + 1; the consumer
+// frees it for p + capacity. Positions are 64-bit: they never wrap.
+//
+// FullPolicy::kDropOldest - why a producer-side drop keeps SPSC correct. In a
+// plain SPSC ring only the consumer advances the read index; if the producer
+// advanced it to drop the oldest element while the consumer was moving that
+// same element out, both would own it. Here the read index `tail_` is claimed
+// by compare-and-swap from both sides, so each position has exactly one owner:
+//  * the consumer claims position t (CAS t -> t+1), moves the element out and
+//    frees the slot;
+//  * a producer finding its slot still holding p - C (ring full) tries the
+//    same CAS on p - C. Winning, it owns the oldest element: takes it out
+//    (returned to the caller, counted in drops()) and reuses the slot at
+//    once. Losing means the consumer is moving that element out right now:
+//    the producer waits for that single move (brief spin, then
+//    std::atomic::wait) - the only time a producer ever waits.
+// FullPolicy::kReject rings have no push_drop_oldest, so the consumer owns
+// `tail_` alone and pops without a CAS or fence (the faster hand-over for
+// lossless streams, e.g. keyframes to the local mapper).
 //
 // Blocking: pop_wait() spins briefly, then sleeps on a futex-backed
-// std::atomic::wait only while the ring is empty. Each push checks a "consumer sleeping" flag after a
-// seq_cst fence (Dekker style: either the consumer sees the element or the
-// producer sees the flag), so no wake-up is lost and no syscall is made while
-// the consumer is busy.
+// std::atomic::wait while the ring is empty. A push checks the consumer's
+// "sleeping" flag after a seq_cst fence (Dekker: either the consumer sees
+// the element or the producer sees the flag), so no wake-up is lost, and only
+// the first push after the consumer fell asleep pays for a futex wake.
 
 #include <atomic>
 #include <bit>
@@ -49,8 +51,8 @@
 
 namespace sitepose::pipeline {
 
-// Cache line of the x86-64 and aarch64 targets; head, tail and the wake
-// words live on separate lines so the two threads do not false-share.
+// Cache line of the x86-64 and aarch64 targets; the producer's and the
+// consumer's hot words live on separate lines so they do not false-share.
 inline constexpr std::size_t kCacheLineBytes = 64;
 inline constexpr std::size_t kMaxRingCapacity = std::size_t{1} << 30;
 
@@ -59,7 +61,12 @@ inline constexpr std::size_t kMaxRingCapacity = std::size_t{1} << 30;
 // power of two in [2, 1073741824]").
 Status check_ring_capacity(std::string_view key, std::size_t capacity);
 
-template <typename T>
+enum class FullPolicy {
+  kReject,      // try_push fails when full (lossless streams)
+  kDropOldest,  // push_drop_oldest evicts the oldest (frames, poses)
+};
+
+template <typename T, FullPolicy kPolicy = FullPolicy::kDropOldest>
 class SpscRing {
  public:
   // `capacity` must pass check_ring_capacity (a programmer error otherwise:
@@ -92,12 +99,13 @@ class SpscRing {
   // is removed first, counted in drops() and returned (so the caller can
   // recycle its buffers or log it). Returns nullopt when nothing was dropped,
   // including the rare case where the consumer took the oldest concurrently.
-  std::optional<T> push_drop_oldest(T&& value) {
+  std::optional<T> push_drop_oldest(T&& value)
+    requires(kPolicy == FullPolicy::kDropOldest)
+  {
     const std::uint64_t p = head_.load(std::memory_order_relaxed);
     Slot& s = slot(p);
     std::optional<T> dropped;
-    std::uint64_t seq = s.seq.load(std::memory_order_acquire);
-    if (seq != p) {  // full: the slot still holds position p - capacity
+    if (s.seq.load(std::memory_order_acquire) != p) {  // full: slot holds p - C
       std::uint64_t oldest = p - capacity_;
       if (tail_.compare_exchange_strong(oldest, oldest + 1, std::memory_order_acq_rel,
                                         std::memory_order_acquire)) {
@@ -126,22 +134,26 @@ class SpscRing {
     for (;;) {
       Slot& s = slot(t);
       if (s.seq.load(std::memory_order_acquire) != t + 1) {
+        if constexpr (kPolicy == FullPolicy::kReject) return std::nullopt;
         // Either empty, or the producer dropped position t meanwhile.
         const std::uint64_t now = tail_.load(std::memory_order_acquire);
         if (now == t) return std::nullopt;
         t = now;
         continue;
       }
-      if (tail_.compare_exchange_weak(t, t + 1, std::memory_order_acq_rel,
-                                      std::memory_order_acquire)) {
-        std::optional<T> out(std::move(*s.ptr()));
-        std::destroy_at(s.ptr());
-        s.seq.store(t + capacity_, std::memory_order_release);
-        std::atomic_thread_fence(std::memory_order_seq_cst);  // pairs with the producer's flag
-        if (producer_waiting_.load(std::memory_order_relaxed)) wake(producer_wake_);
-        return out;
+      if constexpr (kPolicy == FullPolicy::kReject) {
+        tail_.store(t + 1, std::memory_order_relaxed);  // consumer-owned
+        return take(s, t);
+      } else {
+        if (tail_.compare_exchange_weak(t, t + 1, std::memory_order_acq_rel,
+                                        std::memory_order_acquire)) {
+          std::optional<T> out = take(s, t);
+          std::atomic_thread_fence(std::memory_order_seq_cst);  // pairs with the producer's flag
+          wake_if_waiting(producer_waiting_, producer_wake_);
+          return out;
+        }
+        // CAS failed: the producer dropped t; `t` now holds the new tail.
       }
-      // CAS failed: the producer dropped t; `t` now holds the new tail.
     }
   }
 
@@ -165,7 +177,9 @@ class SpscRing {
         consumer_waiting_.store(false, std::memory_order_relaxed);
         return v;
       }
-      if (!closed_.load(std::memory_order_acquire)) consumer_wake_.wait(ticket, std::memory_order_acquire);
+      if (!closed_.load(std::memory_order_acquire)) {
+        consumer_wake_.wait(ticket, std::memory_order_acquire);
+      }
       consumer_waiting_.store(false, std::memory_order_relaxed);
     }
   }
@@ -187,6 +201,8 @@ class SpscRing {
     T* ptr() { return std::launder(reinterpret_cast<T*>(storage)); }
   };
 
+  static constexpr int kSpinsBeforeSleep = 256;  // a few microseconds
+
   Slot& slot(std::uint64_t position) { return slots_[position & mask_]; }
 
   void publish(Slot& s, std::uint64_t p, T&& value) {
@@ -194,7 +210,15 @@ class SpscRing {
     s.seq.store(p + 1, std::memory_order_release);
     head_.store(p + 1, std::memory_order_release);
     std::atomic_thread_fence(std::memory_order_seq_cst);  // pairs with pop_wait's flag
-    if (consumer_waiting_.load(std::memory_order_relaxed)) wake(consumer_wake_);
+    wake_if_waiting(consumer_waiting_, consumer_wake_);
+  }
+
+  // Moves the element of claimed position t out and frees its slot.
+  std::optional<T> take(Slot& s, std::uint64_t t) {
+    std::optional<T> out(std::move(*s.ptr()));
+    std::destroy_at(s.ptr());
+    s.seq.store(t + capacity_, std::memory_order_release);
+    return out;
   }
 
   void wait_for_slot_release(Slot& s, std::uint64_t p) {
@@ -212,14 +236,21 @@ class SpscRing {
     producer_waiting_.store(false, std::memory_order_relaxed);
   }
 
-  static constexpr int kSpinsBeforeSleep = 256;  // ~ a few microseconds
-
   static void cpu_relax() {
 #if defined(__x86_64__) || defined(__i386__)
     __builtin_ia32_pause();
 #elif defined(__aarch64__)
     asm volatile("yield");
 #endif
+  }
+
+  // The waker clears the flag, so only the first push after the sleeper went
+  // to sleep pays for a futex wake, not every push until it runs again.
+  static void wake_if_waiting(std::atomic<bool>& waiting, std::atomic<std::uint32_t>& word) {
+    if (waiting.load(std::memory_order_relaxed) &&
+        waiting.exchange(false, std::memory_order_relaxed)) {
+      wake(word);
+    }
   }
 
   static void wake(std::atomic<std::uint32_t>& word) {
@@ -234,13 +265,13 @@ class SpscRing {
   // Producer-written.
   alignas(kCacheLineBytes) std::atomic<std::uint64_t> head_{0};
   std::atomic<std::uint64_t> drops_{0};
-  // Claimed by CAS from both sides (consumer pops, producer drops).
+  // Consumer-written; also claimed by the producer's CAS under kDropOldest.
   alignas(kCacheLineBytes) std::atomic<std::uint64_t> tail_{0};
   // Consumer's sleep flag and futex word.
   alignas(kCacheLineBytes) std::atomic<bool> consumer_waiting_{false};
   std::atomic<std::uint32_t> consumer_wake_{0};
-  // Producer's sleep flag (rare: see push_drop_oldest) and futex word; read
-  // by the consumer on every pop, so kept off the busy head_ line.
+  // Producer's sleep flag (kDropOldest only, rare) and futex word; read by
+  // the consumer on every pop, so kept off the busy head_ line.
   alignas(kCacheLineBytes) std::atomic<bool> producer_waiting_{false};
   std::atomic<std::uint32_t> producer_wake_{0};
   std::atomic<bool> closed_{false};

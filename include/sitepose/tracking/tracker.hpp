@@ -122,8 +122,10 @@ class Tracker {
   config::SiteposeConfig config_;
   map::SharedMap& map_;
   MapperLink mapper_;
-  features::StereoExtractor extractor_;
+  features::OrbExtractor left_extractor_;
+  features::OrbExtractor right_extractor_;   // runs concurrently with the left
   features::OrbExtractor object_extractor_;  // smaller budget for masked areas
+  features::StereoMatcher matcher_;
   optim::MotionOnlyBa motion_ba_;
   map::ScalePyramid pyramid_;
 

@@ -3,32 +3,71 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <opencv2/features2d.hpp>
 #include <queue>
+
+#include "sitepose/core/expected.hpp"
 
 namespace sitepose::features::detail {
 
-std::vector<cv::KeyPoint> apply_cell_thresholds(const std::vector<cv::KeyPoint>& candidates,
-                                                 const cv::Rect& area, int cell_px,
-                                                 int ini_threshold) {
+namespace {
+// FAST fires only >= 3 px inside its input; non-maximum suppression needs
+// the scores one pixel further out.
+constexpr int kFastApronPx = 4;
+}  // namespace
+
+std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area,
+                                               int cell_px, int ini_threshold, int min_threshold,
+                                               const std::function<bool(float, float)>& is_masked) {
+  const cv::Rect roi(area.x - kFastApronPx, area.y - kFastApronPx, area.width + 2 * kFastApronPx,
+                     area.height + 2 * kFastApronPx);
+  SITEPOSE_CHECK((roi & cv::Rect(0, 0, level_image.cols, level_image.rows)) == roi);
   const int n_cols = std::max(1, static_cast<int>(std::lround(double(area.width) / cell_px)));
   const int n_rows = std::max(1, static_cast<int>(std::lround(double(area.height) / cell_px)));
-  const double cell_w = double(area.width) / n_cols;
-  const double cell_h = double(area.height) / n_rows;
+  // Integer cell edges, so "inside the cell" is exact for integer pixels.
+  auto col_edge = [&](int c) { return area.x + static_cast<int>(std::lround(double(area.width) * c / n_cols)); };
+  auto row_edge = [&](int r) { return area.y + static_cast<int>(std::lround(double(area.height) * r / n_rows)); };
 
-  std::vector<int> cell_of(candidates.size());
-  std::vector<char> cell_has_strong(static_cast<size_t>(n_cols) * n_rows, 0);
-  for (size_t i = 0; i < candidates.size(); ++i) {
-    const cv::Point2f& p = candidates[i].pt;
-    const int col = std::clamp(static_cast<int>((p.x - area.x) / cell_w), 0, n_cols - 1);
-    const int row = std::clamp(static_cast<int>((p.y - area.y) / cell_h), 0, n_rows - 1);
-    cell_of[i] = row * n_cols + col;
-    if (candidates[i].response >= float(ini_threshold)) cell_has_strong[cell_of[i]] = 1;
-  }
+  std::vector<cv::KeyPoint> found;
+  cv::FAST(level_image(roi), found, ini_threshold, true, cv::FastFeatureDetector::TYPE_9_16);
   std::vector<cv::KeyPoint> kept;
-  kept.reserve(candidates.size());
-  for (size_t i = 0; i < candidates.size(); ++i) {
-    if (candidates[i].response >= float(ini_threshold) || !cell_has_strong[cell_of[i]]) {
-      kept.push_back(candidates[i]);
+  kept.reserve(found.size());
+  std::vector<char> served(static_cast<size_t>(n_cols) * n_rows, 0);
+  std::vector<int> col_of_x(area.width);
+  for (int c = 0; c < n_cols; ++c) {
+    for (int x = col_edge(c); x < col_edge(c + 1); ++x) col_of_x[x - area.x] = c;
+  }
+  std::vector<int> row_of_y(area.height);
+  for (int r = 0; r < n_rows; ++r) {
+    for (int y = row_edge(r); y < row_edge(r + 1); ++y) row_of_y[y - area.y] = r;
+  }
+  for (cv::KeyPoint& kp : found) {
+    kp.pt.x += float(roi.x);
+    kp.pt.y += float(roi.y);
+    const int x = static_cast<int>(kp.pt.x);
+    const int y = static_cast<int>(kp.pt.y);
+    if (x < area.x || y < area.y || x >= area.br().x || y >= area.br().y) continue;
+    if (is_masked(kp.pt.x, kp.pt.y)) continue;
+    served[row_of_y[y - area.y] * n_cols + col_of_x[x - area.x]] = 1;
+    kept.push_back(kp);
+  }
+
+  std::vector<cv::KeyPoint> weak;
+  for (int r = 0; r < n_rows; ++r) {
+    for (int c = 0; c < n_cols; ++c) {
+      if (served[r * n_cols + c]) continue;
+      const cv::Rect cell(col_edge(c), row_edge(r), col_edge(c + 1) - col_edge(c), row_edge(r + 1) - row_edge(r));
+      if (cell.width <= 0 || cell.height <= 0) continue;
+      const cv::Rect cell_roi(cell.x - kFastApronPx, cell.y - kFastApronPx, cell.width + 2 * kFastApronPx,
+                              cell.height + 2 * kFastApronPx);
+      cv::FAST(level_image(cell_roi), weak, min_threshold, true, cv::FastFeatureDetector::TYPE_9_16);
+      for (cv::KeyPoint& kp : weak) {
+        kp.pt.x += float(cell_roi.x);
+        kp.pt.y += float(cell_roi.y);
+        if (!cell.contains(cv::Point(static_cast<int>(kp.pt.x), static_cast<int>(kp.pt.y)))) continue;
+        if (is_masked(kp.pt.x, kp.pt.y)) continue;
+        kept.push_back(kp);
+      }
     }
   }
   return kept;

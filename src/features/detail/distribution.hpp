@@ -1,23 +1,23 @@
 #pragma once
 // Candidate selection helpers of the ORB extractor (private to features).
 
+#include <functional>
 #include <opencv2/core.hpp>
 #include <vector>
 
 namespace sitepose::features::detail {
 
-// Per-cell FAST threshold with fallback. `candidates` come from one FAST pass
-// at the minimum threshold with non-maximum suppression; a cell keeps those
-// whose score reaches `ini_threshold` and, when none does, all of them. This
-// equals running FAST per cell at ini_threshold and again at the minimum
-// when the first run finds nothing: OpenCV's FAST score (the largest
-// threshold at which the pixel is still a corner) does not depend on the
-// threshold used, and suppression only compares scores, so weaker
-// neighbours cannot suppress a corner that passes the higher threshold.
-// Cells tile `area` (level pixels) with sides close to cell_px.
-std::vector<cv::KeyPoint> apply_cell_thresholds(const std::vector<cv::KeyPoint>& candidates,
-                                                 const cv::Rect& area, int cell_px,
-                                                 int ini_threshold);
+// FAST candidates of one level with a per-cell threshold fallback: FAST at
+// ini_threshold over `area` (level pixels, >= 4 px inside the image), then,
+// for each grid cell (sides close to cell_px) left without an unmasked
+// candidate, FAST at min_threshold on that cell alone. Non-maximum
+// suppression is on; the cell is searched with a 4-px apron so suppression
+// sees the same neighbours as a whole-image run. Candidates for which
+// is_masked(x, y) is true (level pixels) are dropped before a cell counts
+// as served, so masked strong corners make a cell fall back.
+std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area,
+                                               int cell_px, int ini_threshold, int min_threshold,
+                                               const std::function<bool(float, float)>& is_masked);
 
 // Spreads a selection of at most `target` candidates over `area`: the area
 // is cut into near-square root nodes, then the largest node holding more

@@ -240,7 +240,7 @@ void Canvas::window(double x, double y, double w, double h) {
     uchar* p = image_.ptr<uchar>(row);
     for (int col = std::max(0, r.x); col < std::min(image_.cols, r.x + r.width); ++col) {
       const int diag = (col - r.x) + (row - r.y);
-      const bool reflect = (diag / std::max(1, r.height / 3)) % 3 == 1;
+      const bool reflect = diag > r.height * 0.5 && diag < r.height * 0.9;  // one sky streak
       p[col] = static_cast<uchar>(reflect ? 150 + rng_.integer(0, 20) : 55 + rng_.integer(0, 12));
     }
   }

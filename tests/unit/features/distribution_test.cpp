@@ -14,34 +14,68 @@ namespace {
 
 cv::KeyPoint candidate(float x, float y, float response) { return cv::KeyPoint(x, y, 7.0f, -1.0f, response); }
 
-TEST(CellThresholds, OnePassEqualsFastAtTheInitialThreshold) {
-  // The extractor runs FAST once at the minimum threshold and filters by
-  // score; that must give exactly FAST's result at the higher threshold.
-  const cv::Mat image = sitepose::features::test::make_texture(cv::Size(400, 300), 11);
-  std::vector<cv::KeyPoint> low;
-  std::vector<cv::KeyPoint> high;
-  cv::FAST(image, low, 7, true);
-  cv::FAST(image, high, 20, true);
-  std::set<std::pair<int, int>> from_low;
-  std::set<std::pair<int, int>> from_high;
-  for (const auto& kp : low) {
-    if (kp.response >= 20.0f) from_low.insert({int(kp.pt.x), int(kp.pt.y)});
+using PointSet = std::set<std::pair<int, int>>;
+
+PointSet positions(const std::vector<cv::KeyPoint>& kps, const cv::Rect& inside) {
+  PointSet out;
+  for (const auto& kp : kps) {
+    const cv::Point p(int(kp.pt.x), int(kp.pt.y));
+    if (inside.contains(p)) out.insert({p.x, p.y});
   }
-  for (const auto& kp : high) from_high.insert({int(kp.pt.x), int(kp.pt.y)});
-  ASSERT_GT(from_high.size(), 100u);
-  EXPECT_EQ(from_low, from_high);
+  return out;
 }
 
-TEST(CellThresholds, KeepsStrongOrFallsBackPerCell) {
-  const cv::Rect area(0, 0, 100, 50);  // two 50 px cells
-  const std::vector<cv::KeyPoint> candidates = {
-      candidate(10, 10, 25), candidate(20, 20, 8),   // left cell: one strong, one weak
-      candidate(60, 10, 9), candidate(80, 30, 12)};  // right cell: weak only
-  const auto kept = apply_cell_thresholds(candidates, area, 50, 20);
-  ASSERT_EQ(kept.size(), 3u);
-  EXPECT_EQ(kept[0].response, 25.0f);
-  EXPECT_EQ(kept[1].response, 9.0f);
-  EXPECT_EQ(kept[2].response, 12.0f);
+const auto kNothingMasked = [](float, float) { return false; };
+
+TEST(CellThresholds, StrongCellsMatchWholeImageFast) {
+  // Contrast everywhere: every cell is served at the initial threshold, so
+  // the result is exactly FAST(20) over the area.
+  const cv::Mat image = sitepose::features::test::make_texture(cv::Size(400, 300), 11);
+  const cv::Rect area(16, 16, 368, 268);
+  const auto kept = detect_fast_per_cell(image, area, 35, 20, 7, kNothingMasked);
+  std::vector<cv::KeyPoint> whole;
+  cv::FAST(image, whole, 20, true);
+  ASSERT_GT(kept.size(), 500u);
+  EXPECT_EQ(positions(kept, area), positions(whole, area));
+}
+
+TEST(CellThresholds, WeakCellsFallBackToTheMinimumThreshold) {
+  // Left half strong, right half so faint that nothing passes 20: the right
+  // half must hold exactly what FAST(7) finds there over the whole image
+  // (the per-cell search has an apron, so suppression matches).
+  const cv::Mat texture = sitepose::features::test::make_texture(cv::Size(400, 300), 12);
+  const cv::Mat image = sitepose::features::test::with_contrast(texture, cv::Rect(0, 0, 200, 300), 0.1);
+  const cv::Rect area(16, 16, 368, 268);
+  const auto kept = detect_fast_per_cell(image, area, 46, 20, 7, kNothingMasked);
+  std::vector<cv::KeyPoint> strong;
+  std::vector<cv::KeyPoint> weak;
+  cv::FAST(image, strong, 20, true);
+  cv::FAST(image, weak, 7, true);
+  const cv::Rect left_cells(16, 16, 184, 268);    // 4 cells of 46 px
+  const cv::Rect right_cells(200, 16, 184, 268);  // 4 cells of 46 px
+  ASSERT_TRUE(positions(strong, right_cells).empty());
+  ASSERT_GT(positions(weak, right_cells).size(), 200u);
+  EXPECT_EQ(positions(kept, right_cells), positions(weak, right_cells));
+  EXPECT_EQ(positions(kept, left_cells), positions(strong, left_cells));
+}
+
+TEST(CellThresholds, MaskedStrongCornersMakeTheCellFallBack) {
+  const cv::Mat image = sitepose::features::test::make_texture(cv::Size(200, 200), 13);
+  const cv::Rect area(16, 16, 168, 168);
+  // Mask every strong candidate: all cells fall back, and no masked pixel
+  // survives.
+  std::vector<cv::KeyPoint> strong;
+  cv::FAST(image, strong, 20, true);
+  const PointSet strong_set = positions(strong, area);
+  const auto masked = [&](float x, float y) { return strong_set.count({int(x), int(y)}) > 0; };
+  const auto kept = detect_fast_per_cell(image, area, 42, 20, 7, masked);
+  ASSERT_FALSE(kept.empty());
+  int weak_only = 0;
+  for (const auto& kp : kept) {
+    EXPECT_FALSE(masked(kp.pt.x, kp.pt.y));
+    weak_only += kp.response < 20.0f;
+  }
+  EXPECT_GT(weak_only, 0);
 }
 
 TEST(Quadtree, IsolatedCandidatesWinOverADenseCluster) {

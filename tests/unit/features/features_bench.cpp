@@ -73,6 +73,15 @@ void BM_StereoMatch(benchmark::State& state) {
 }
 BENCHMARK(BM_StereoMatch)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// Reference point on the same machine: OpenCV's own ORB, 1500 features.
+void BM_OpenCvOrbReference(benchmark::State& state) {
+  auto orb = cv::ORB::create(1500);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+  for (auto _ : state) orb->detectAndCompute(scene().left, cv::noArray(), keypoints, descriptors);
+}
+BENCHMARK(BM_OpenCvOrbReference)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 void BM_StereoExtractorTotal(benchmark::State& state) {
   StereoExtractor extractor(config::OrbConfig{}, config::StereoMatchConfig{}, scene().camera);
   for (auto _ : state) benchmark::DoNotOptimize(extractor.extract(scene().left, scene().right));

@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <random>
-#include <iostream>
 
 #include "synthetic_scene.hpp"
 
@@ -167,64 +166,95 @@ TEST(MotionOnlyBa, InvalidObservationIsAnError) {
   EXPECT_NE(nan_result.error().message.find("observation 3"), std::string::npos);
 }
 
-// Monte Carlo: re-solve with fresh pixel noise of the assumed sigmas; the
-// empirical covariance of the left perturbation of T_world_cam must match
-// the predicted one (diagonal within 20 %, whitened off-diagonals small).
-TEST(MotionOnlyBa, CovarianceMatchesMonteCarlo) {
-  const StereoCamera camera = test_camera();
-  const Scene exact = make_scene(120, 0.0, false, 61);
-  std::vector<PoseObservation> clean = exact.observations;
-  {
-    // Remove the noise make_scene added: re-project exactly.
-    const SE3 T_cam_world = exact.T_world_cam_true.inverse();
-    for (PoseObservation& o : clean) {
-      const bool stereo = o.is_stereo();
-      const Eigen::Vector3d p_cam = T_cam_world * o.p_world;
-      o.uv_left_px = camera.project(p_cam);
-      o.u_right_px = stereo ? camera.project_right_u(p_cam) : -1.0;
-    }
-  }
-  config::TrackingConfig tc = default_tracking();
-  if (std::getenv("OPTIM_NOGATE")) { tc.chi2_mono = 1e9; tc.chi2_stereo = 1e9; }
-  if (std::getenv("OPTIM_ITERS")) tc.motion_ba_iterations = std::atoi(std::getenv("OPTIM_ITERS"));
-  const MotionOnlyBa ba(camera, tc);
-  constexpr int kTrials = 500;
-  std::mt19937 rng(62);
+// Monte Carlo: re-solve with fresh pixel noise of the assumed sigmas and
+// return the empirical second moment of the left perturbation of T_world_cam
+// (eps = log(T_est * T_true^-1)) and the mean predicted covariance.
+struct MonteCarloCovariance {
   Matrix6d empirical = Matrix6d::Zero();
-  Matrix6d predicted_mean = Matrix6d::Zero();
-  for (int trial = 0; trial < kTrials; ++trial) {
-    std::vector<PoseObservation> noisy = clean;
-    for (PoseObservation& o : noisy) add_noise(o, rng);
-    auto result = ba.solve(exact.T_world_cam_true.inverse(), noisy);
-    ASSERT_TRUE(result.has_value());
-    ASSERT_TRUE(result->covariance_world_cam.has_value());
-    const Vector6d eps = (result->T_world_cam() * exact.T_world_cam_true.inverse()).log();
-    empirical += eps * eps.transpose();
-    predicted_mean += *result->covariance_world_cam;
+  Matrix6d predicted = Matrix6d::Zero();
+};
+
+MonteCarloCovariance monte_carlo_covariance(const config::TrackingConfig& tracking, int trials) {
+  const StereoCamera camera = test_camera();
+  const Scene scene = make_scene(80, 0.0, false, 61);
+  const SE3 T_cam_world = scene.T_world_cam_true.inverse();
+  std::vector<PoseObservation> exact = scene.observations;
+  for (PoseObservation& o : exact) {  // drop make_scene's noise: re-project exactly
+    const bool stereo = o.is_stereo();
+    const Eigen::Vector3d p_cam = T_cam_world * o.p_world;
+    o.uv_left_px = camera.project(p_cam);
+    o.u_right_px = stereo ? camera.project_right_u(p_cam) : -1.0;
   }
-  empirical /= kTrials;
-  predicted_mean /= kTrials;
+  const MotionOnlyBa ba(camera, tracking);
+  std::mt19937 rng(62);
+  MonteCarloCovariance mc;
+  for (int trial = 0; trial < trials; ++trial) {
+    std::vector<PoseObservation> noisy = exact;
+    for (PoseObservation& o : noisy) add_noise(o, rng);
+    auto result = ba.solve(T_cam_world, noisy);
+    EXPECT_TRUE(result.has_value() && result->covariance_world_cam.has_value());
+    if (!result.has_value() || !result->covariance_world_cam.has_value()) return mc;
+    const Vector6d eps = (result->T_world_cam() * scene.T_world_cam_true.inverse()).log();
+    mc.empirical += eps * eps.transpose();
+    mc.predicted += *result->covariance_world_cam;
+  }
+  mc.empirical /= trials;
+  mc.predicted /= trials;
+  return mc;
+}
+
+// Empirical covariance whitened by the prediction: ~identity when they agree.
+// Its off-diagonals check the cross terms (a covariance expressed in the
+// wrong frame, e.g. of T_cam_world, fails here).
+Matrix6d whitened(const MonteCarloCovariance& mc) {
+  const Eigen::LLT<Matrix6d> llt(mc.predicted);
+  EXPECT_EQ(llt.info(), Eigen::Success);
+  const Matrix6d L_inv = llt.matrixL().solve(Matrix6d::Identity());
+  return L_inv * mc.empirical * L_inv.transpose();
+}
+
+// The Hessian covariance itself: with gates that keep every observation the
+// estimator is plain least squares, so it must match within sampling error
+// (1000 trials: ~4.5 % on a variance).
+TEST(MotionOnlyBa, CovarianceMatchesMonteCarlo) {
+  config::TrackingConfig keep_all = default_tracking();
+  keep_all.chi2_mono = 1e6;
+  keep_all.chi2_stereo = 1e6;
+  const MonteCarloCovariance mc = monte_carlo_covariance(keep_all, 1000);
   for (int i = 0; i < 6; ++i) {
-    const double ratio = empirical(i, i) / predicted_mean(i, i);
+    const double ratio = mc.empirical(i, i) / mc.predicted(i, i);
     EXPECT_GT(ratio, 0.8) << "component " << i;
     EXPECT_LT(ratio, 1.2) << "component " << i;
   }
-  // Whitened by the prediction the empirical covariance is ~ identity; this
-  // also checks the cross terms (a covariance in the wrong frame fails here).
-  const Eigen::LLT<Matrix6d> llt(predicted_mean);
-  ASSERT_EQ(llt.info(), Eigen::Success);
-  const Eigen::Matrix<double, 6, 6> L_inv = llt.matrixL().solve(Matrix6d::Identity());
-  const Matrix6d whitened = L_inv * empirical * L_inv.transpose();
-  if (std::getenv("OPTIM_DEBUG")) std::cerr << whitened << "\n" << empirical.diagonal().cwiseQuotient(predicted_mean.diagonal()).transpose() << "\n";
+  const Matrix6d w = whitened(mc);
   for (int i = 0; i < 6; ++i) {
     for (int j = 0; j < 6; ++j) {
-      if (i == j) {
-        EXPECT_NEAR(whitened(i, j), 1.0, 0.2) << i;
-      } else {
-        EXPECT_NEAR(whitened(i, j), 0.0, 0.2) << i << "," << j;
+      EXPECT_NEAR(w(i, j), i == j ? 1.0 : 0.0, i == j ? 0.2 : 0.15) << i << "," << j;
+    }
+  }
+}
+
+// With the default 95 % chi2 gates about 5 % of good observations are
+// dropped by their residual at the estimate, which makes the Hessian
+// covariance somewhat optimistic (measured 5-16 % on the variances with 80
+// observations, 1-6 % without gating). Bound that, so a regression in gating or covariance shows.
+TEST(MotionOnlyBa, CovarianceWithDefaultGatesIsSlightlyOptimistic) {
+  const MonteCarloCovariance mc = monte_carlo_covariance(default_tracking(), 600);
+  const Matrix6d w = whitened(mc);
+  double mean_ratio = 0.0;
+  for (int i = 0; i < 6; ++i) {
+    const double ratio = mc.empirical(i, i) / mc.predicted(i, i);
+    EXPECT_GT(ratio, 0.85) << "component " << i;
+    EXPECT_LT(ratio, 1.35) << "component " << i;
+    mean_ratio += ratio / 6.0;
+    for (int j = 0; j < 6; ++j) {
+      if (i != j) {
+        EXPECT_NEAR(w(i, j), 0.0, 0.15) << i << "," << j;
       }
     }
   }
+  EXPECT_GT(mean_ratio, 0.95);
+  EXPECT_LT(mean_ratio, 1.25);
 }
 
 }  // namespace

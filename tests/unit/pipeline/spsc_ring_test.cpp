@@ -38,6 +38,11 @@ struct Counted {
   int value;
 };
 
+template <typename R>
+concept CanDropOldest = requires(R& r, int v) { r.push_drop_oldest(std::move(v)); };
+static_assert(CanDropOldest<SpscRing<int>>);
+static_assert(!CanDropOldest<SpscRing<int, FullPolicy::kReject>>);
+
 TEST(SpscRing, CheckCapacityNamesKeyAndRule) {
   EXPECT_TRUE(check_ring_capacity("k", 2).has_value());
   EXPECT_TRUE(check_ring_capacity("k", 1024).has_value());
@@ -53,8 +58,9 @@ TEST(SpscRing, CheckCapacityNamesKeyAndRule) {
   }
 }
 
-TEST(SpscRing, FifoAndFullAndEmptySingleThread) {
-  SpscRing<int> ring(4);
+template <typename Ring>
+void check_fifo_full_empty() {
+  Ring ring(4);
   EXPECT_EQ(ring.capacity(), 4u);
   EXPECT_FALSE(ring.try_pop().has_value());
   for (int lap = 0; lap < 3; ++lap) {  // several laps exercise the sequence numbers
@@ -76,8 +82,13 @@ TEST(SpscRing, FifoAndFullAndEmptySingleThread) {
   EXPECT_EQ(ring.drops(), 0u);
 }
 
+TEST(SpscRing, FifoAndFullAndEmptySingleThread) {
+  check_fifo_full_empty<SpscRing<int, FullPolicy::kReject>>();
+  check_fifo_full_empty<SpscRing<int, FullPolicy::kDropOldest>>();
+}
+
 TEST(SpscRing, FailedTryPushLeavesValueWithCaller) {
-  SpscRing<std::unique_ptr<int>> ring(2);
+  SpscRing<std::unique_ptr<int>, FullPolicy::kReject> ring(2);
   EXPECT_TRUE(ring.try_push(std::make_unique<int>(1)));
   EXPECT_TRUE(ring.try_push(std::make_unique<int>(2)));
   auto keep = std::make_unique<int>(3);
@@ -123,7 +134,7 @@ TEST(SpscRing, DestroysExactlyTheElementsItHolds) {
 }
 
 TEST(SpscRing, PopWaitWakesOnPushAndEndsOnClose) {
-  SpscRing<int> ring(2);
+  SpscRing<int, FullPolicy::kReject> ring(2);
   std::vector<int> got;
   std::thread consumer([&] {
     while (auto v = ring.pop_wait()) got.push_back(*v);
@@ -152,8 +163,9 @@ TEST(SpscRing, PopWaitReturnsElementsPushedBeforeClose) {
 constexpr std::uint64_t kStressItems = 10'000'000;
 
 // Lossless: every item arrives exactly once and in order.
-TEST(SpscRingStress, TwoThreadsTenMillionInOrderNoLoss) {
-  SpscRing<MoveOnlyId> ring(1024);
+template <FullPolicy kPolicy>
+void run_lossless_stress() {
+  SpscRing<MoveOnlyId, kPolicy> ring(1024);
   std::uint64_t received = 0;
   std::uint64_t out_of_order = 0;
   std::thread consumer([&] {
@@ -171,6 +183,14 @@ TEST(SpscRingStress, TwoThreadsTenMillionInOrderNoLoss) {
   EXPECT_EQ(received, kStressItems);
   EXPECT_EQ(out_of_order, 0u);
   EXPECT_EQ(ring.drops(), 0u);
+}
+
+TEST(SpscRingStress, TwoThreadsTenMillionInOrderNoLossRejectPolicy) {
+  run_lossless_stress<FullPolicy::kReject>();
+}
+
+TEST(SpscRingStress, TwoThreadsTenMillionInOrderNoLossDropOldestRingUsedLosslessly) {
+  run_lossless_stress<FullPolicy::kDropOldest>();
 }
 
 // Dropping: every id is either delivered or handed back as dropped, never

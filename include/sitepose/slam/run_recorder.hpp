@@ -1,0 +1,54 @@
+#pragma once
+// Collects the per-frame reports of a run and writes what FORMATS.md "Per-
+// frame outputs of a run" asks for: the trajectory (TUM) and stats.json
+// (frames, frames OK, per-stage p50/p99, mar per frame, pixel-mask calls,
+// features per frame for pass 1 / pass 2, peak RSS).
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "sitepose/core/expected.hpp"
+#include "sitepose/slam/slam_system.hpp"
+
+namespace sitepose::slam {
+
+struct StageSummary {
+  double p50_ms = 0.0;
+  double p99_ms = 0.0;
+  double mean_ms = 0.0;
+  double max_ms = 0.0;
+};
+
+// p50/p99/mean/max of samples (nearest-rank percentiles); zeros when empty.
+StageSummary summarize(std::vector<double> samples_ms);
+
+// Peak resident set size of this process (VmHWM), bytes; 0 if unknown.
+std::int64_t peak_rss_bytes();
+// Current resident set size (VmRSS), bytes; 0 if unknown.
+std::int64_t current_rss_bytes();
+
+class RunRecorder {
+ public:
+  void add(const FrameReport& report);
+  // Extra per-frame figures from the dynamic layer.
+  void add_dynamic(double masked_area_ratio, bool pixel_mask_used);
+
+  int frames() const { return static_cast<int>(poses_.size()); }
+  int frames_ok() const;
+  const std::vector<PoseEstimate>& poses() const { return poses_; }
+  std::map<std::string, StageSummary> stage_summaries() const;
+  double frames_per_second() const;  // 1000 / mean whole-frame time
+
+  // Poses that are not LOST, as TUM (t in seconds).
+  Status write_tum(const std::string& path) const;
+  Status write_stats_json(const std::string& path, const std::string& extra_json_fields = "") const;
+
+ private:
+  std::vector<PoseEstimate> poses_;
+  std::map<std::string, std::vector<double>> stage_ms_;
+  std::vector<double> masked_area_ratio_;
+  int pixel_mask_calls_ = 0;
+};
+
+}  // namespace sitepose::slam

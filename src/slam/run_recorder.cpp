@@ -1,0 +1,132 @@
+#include "sitepose/slam/run_recorder.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+
+#include "sitepose/io/trajectory.hpp"
+
+namespace sitepose::slam {
+
+StageSummary summarize(std::vector<double> samples_ms) {
+  StageSummary s;
+  if (samples_ms.empty()) return s;
+  std::sort(samples_ms.begin(), samples_ms.end());
+  const auto rank = [&](double q) {
+    const std::size_t index = static_cast<std::size_t>(std::ceil(q * samples_ms.size())) - 1;
+    return samples_ms[std::min(index, samples_ms.size() - 1)];
+  };
+  s.p50_ms = rank(0.50);
+  s.p99_ms = rank(0.99);
+  s.mean_ms = std::accumulate(samples_ms.begin(), samples_ms.end(), 0.0) / samples_ms.size();
+  s.max_ms = samples_ms.back();
+  return s;
+}
+
+namespace {
+std::int64_t read_status_kb(const char* key) {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  const std::string prefix = std::string(key) + ":";
+  while (std::getline(status, line)) {
+    if (line.rfind(prefix, 0) == 0) {
+      std::istringstream in(line.substr(prefix.size()));
+      std::int64_t kb = 0;
+      in >> kb;
+      return kb;
+    }
+  }
+  return 0;
+}
+}  // namespace
+
+std::int64_t peak_rss_bytes() { return read_status_kb("VmHWM") * 1024; }
+std::int64_t current_rss_bytes() { return read_status_kb("VmRSS") * 1024; }
+
+void RunRecorder::add(const FrameReport& report) {
+  poses_.push_back(report.pose);
+  const FrameTimings& t = report.timings;
+  stage_ms_["extract_left"].push_back(t.extract_left_ms);
+  stage_ms_["extract_right"].push_back(t.extract_right_ms);
+  stage_ms_["stereo_match"].push_back(t.stereo_match_ms);
+  stage_ms_["track_motion_model"].push_back(t.motion_model_ms);
+  stage_ms_["track_local_map"].push_back(t.local_map_ms);
+  stage_ms_["motion_only_ba"].push_back(t.motion_ba_ms);
+  stage_ms_["mapping_inline"].push_back(t.mapping_inline_ms);
+  stage_ms_["whole_frame"].push_back(t.total_ms);
+}
+
+void RunRecorder::add_dynamic(double masked_area_ratio, bool pixel_mask_used) {
+  masked_area_ratio_.push_back(masked_area_ratio);
+  pixel_mask_calls_ += pixel_mask_used ? 1 : 0;
+}
+
+int RunRecorder::frames_ok() const {
+  return static_cast<int>(std::count_if(poses_.begin(), poses_.end(), [](const PoseEstimate& p) {
+    return p.state == TrackingState::kOk;
+  }));
+}
+
+std::map<std::string, StageSummary> RunRecorder::stage_summaries() const {
+  std::map<std::string, StageSummary> out;
+  for (const auto& [name, samples] : stage_ms_) out[name] = summarize(samples);
+  return out;
+}
+
+double RunRecorder::frames_per_second() const {
+  const auto it = stage_ms_.find("whole_frame");
+  if (it == stage_ms_.end() || it->second.empty()) return 0.0;
+  const double mean = summarize(it->second).mean_ms;
+  return mean > 0.0 ? 1000.0 / mean : 0.0;
+}
+
+Status RunRecorder::write_tum(const std::string& path) const {
+  io::Trajectory trajectory;
+  for (const PoseEstimate& p : poses_) {
+    if (p.state == TrackingState::kLost) continue;
+    trajectory.push_back({static_cast<double>(p.t_ns) * 1e-9, p.T_world_cam});
+  }
+  return io::write_tum_trajectory(path, trajectory);
+}
+
+Status RunRecorder::write_stats_json(const std::string& path, const std::string& extra_json_fields) const {
+  std::ostringstream json;
+  json.setf(std::ios::fixed);
+  json.precision(4);
+  json << "{\n  \"frames\": " << frames() << ",\n  \"frames_ok\": " << frames_ok()
+       << ",\n  \"frames_per_second\": " << frames_per_second() << ",\n  \"stages_ms\": {";
+  bool first = true;
+  for (const auto& [name, s] : stage_summaries()) {
+    json << (first ? "\n" : ",\n") << "    \"" << name << "\": {\"p50\": " << s.p50_ms
+         << ", \"p99\": " << s.p99_ms << ", \"mean\": " << s.mean_ms << ", \"max\": " << s.max_ms << "}";
+    first = false;
+  }
+  json << "\n  },\n  \"features_pass1\": [";
+  for (std::size_t i = 0; i < poses_.size(); ++i) {
+    json << (i ? "," : "") << poses_[i].counters.features_used_pass1;
+  }
+  json << "],\n  \"features_pass2\": [";
+  for (std::size_t i = 0; i < poses_.size(); ++i) json << (i ? "," : "") << poses_[i].counters.features_used;
+  json << "],\n  \"states\": [";
+  for (std::size_t i = 0; i < poses_.size(); ++i) {
+    json << (i ? "," : "") << "\"" << to_string(poses_[i].state) << "\"";
+  }
+  json << "],\n  \"mar\": [";
+  for (std::size_t i = 0; i < masked_area_ratio_.size(); ++i) {
+    json << (i ? "," : "") << masked_area_ratio_[i];
+  }
+  json << "],\n  \"pixel_mask_calls\": " << pixel_mask_calls_
+       << ",\n  \"peak_rss_bytes\": " << peak_rss_bytes();
+  if (!extra_json_fields.empty()) json << ",\n" << extra_json_fields;
+  json << "\n}\n";
+  std::ofstream out(path);
+  if (!out) return make_error(ErrorCode::kIoError, "cannot write " + path);
+  out << json.str();
+  if (!out) return make_error(ErrorCode::kIoError, "write failed: " + path);
+  return ok_status();
+}
+
+}  // namespace sitepose::slam

@@ -1,0 +1,138 @@
+// A simulated sequence written to disk reads back through the foundation
+// reader (io::open_sequence) with the same images, camera, poses and labels;
+// and the `sitepose sim` command keeps its contract.
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "sitepose/io/sequence.hpp"
+#include "sitepose/sim/sequence_writer.hpp"
+#include "sitepose/sim/simulator.hpp"
+
+namespace sitepose::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("sitepose_sim_it_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+Simulator small_crowded(int frames) {
+  auto scenario = load_scenario("crowded", std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
+  SITEPOSE_CHECK(scenario.has_value());
+  SimOptions o;
+  o.width = 320;
+  o.height = 180;
+  o.frames = frames;
+  auto sim = Simulator::create(*scenario, o);
+  SITEPOSE_CHECK(sim.has_value());
+  return std::move(*sim);
+}
+
+TEST(SimSequence, WrittenSequenceReadsBackThroughTheFoundationReader) {
+  const Simulator sim = small_crowded(6);
+  const fs::path dir = fresh_dir("roundtrip");
+  auto summary = write_sequence(sim, dir.string());
+  ASSERT_TRUE(summary) << summary.error().message;
+  EXPECT_EQ(summary->frames, 6);
+
+  auto seq = io::open_sequence(dir.string());
+  ASSERT_TRUE(seq) << seq.error().message;
+  const io::Sequence& s = **seq;
+  ASSERT_EQ(s.size(), 6u);
+  EXPECT_NEAR(s.camera().fx, sim.camera().fx, 1e-9);
+  EXPECT_NEAR(s.camera().cx, sim.camera().cx, 1e-9);
+  EXPECT_NEAR(s.camera().baseline_m, 1.0, 1e-9);
+  EXPECT_EQ(s.camera().width, 320);
+  ASSERT_TRUE(s.has_gt());
+  ASSERT_TRUE(s.has_labels());
+  ASSERT_TRUE(s.has_masks());
+  for (size_t k = 0; k < s.size(); ++k) {
+    const SimFrame f = sim.render(static_cast<int>(k));
+    EXPECT_EQ(s.time_ns(k), f.t_ns);
+    auto frame = s.read_frame(k);
+    ASSERT_TRUE(frame) << frame.error().message;
+    EXPECT_EQ(cv::norm(frame->left, f.left, cv::NORM_INF), 0.0) << "frame " << k;
+    EXPECT_EQ(cv::norm(frame->right, f.right, cv::NORM_INF), 0.0) << "frame " << k;
+    ASSERT_TRUE(s.gt_poses()[k].has_value());
+    EXPECT_TRUE(s.gt_poses()[k]->matrix().isApprox(f.T_world_cam.matrix(), 1e-9)) << "frame " << k;
+    auto mask = s.read_instance_mask(k);
+    ASSERT_TRUE(mask) << mask.error().message;
+    EXPECT_EQ(cv::norm(*mask, f.instance_mask, cv::NORM_INF), 0.0);
+    // boxes.csv: exactly the visible objects, tight bounds of the mask read back.
+    const auto boxes = s.boxes_for_frame(k);
+    size_t visible = 0;
+    for (const ObjectTruth& o : f.objects) visible += o.visible ? 1 : 0;
+    EXPECT_EQ(boxes.size(), visible);
+    for (const io::LabelBox& b : boxes) {
+      cv::Mat pixels = *mask == b.instance;
+      EXPECT_EQ(b.box, cv::boundingRect(pixels)) << "frame " << k << " instance " << b.instance;
+      ASSERT_TRUE(b.moving.has_value());
+      for (const ObjectTruth& o : f.objects) {
+        if (o.instance == b.instance) {
+          EXPECT_EQ(*b.moving, o.moving);
+          EXPECT_EQ(b.class_name, o.class_name);
+        }
+      }
+    }
+  }
+  std::ifstream meta(dir / "meta.json");
+  std::stringstream text;
+  text << meta.rdbuf();
+  EXPECT_NE(text.str().find("\"scenario\": \"crowded\""), std::string::npos);
+  EXPECT_NE(text.str().find("\"occlusion_ratio\": ["), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(SimSequence, FullSizeFrameCarriesManyOrbCornersOverTheWholeView) {
+  auto scenario = load_scenario("static", std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
+  ASSERT_TRUE(scenario);
+  auto sim = Simulator::create(*scenario);
+  ASSERT_TRUE(sim);
+  const SimFrame f = sim->render(40);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::ORB::create(3000)->detect(f.left, keypoints);
+  EXPECT_GE(keypoints.size(), 1500u);
+  // Spread: every cell of a 4x3 grid holds corners.
+  int counts[3][4] = {};
+  for (const auto& kp : keypoints) counts[static_cast<int>(kp.pt.y * 3 / 540)][static_cast<int>(kp.pt.x * 4 / 960)]++;
+  for (auto& row : counts)
+    for (int c : row) EXPECT_GT(c, 20);
+}
+
+int run(const std::string& args) {
+  const std::string cmd = std::string(SITEPOSE_SITEPOSE_EXE) + " " + args + " > /dev/null 2>&1";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(SimCommand, FollowsTheCommandContract) {
+  if (!fs::exists(SITEPOSE_SITEPOSE_EXE)) GTEST_SKIP() << "build the `sitepose` target first";
+  const fs::path dir = fresh_dir("cli");
+  EXPECT_EQ(run("sim --list"), 0);
+  EXPECT_EQ(run("sim --scenario no_such_scenario --out " + dir.string()), 2);
+  EXPECT_EQ(run("sim --scenario static --out " + dir.string() + " --frames 2 --width 160 --height 90"), 0);
+  EXPECT_TRUE(fs::exists(dir / "image_1" / "000001.png"));
+  EXPECT_FALSE(fs::exists(dir / "image_1" / "000002.png"));
+  // Non-empty output refused without --force; --force replaces the sequence.
+  EXPECT_EQ(run("sim --scenario static --out " + dir.string() + " --frames 1 --width 160 --height 90"), 2);
+  EXPECT_EQ(run("sim --scenario static --out " + dir.string() + " --frames 1 --width 160 --height 90 --force"), 0);
+  EXPECT_FALSE(fs::exists(dir / "image_1" / "000001.png"));
+  const fs::path bad = dir / "bad.yaml";
+  std::ofstream(bad) << "name: bad\ndescription: d\nduration_s: 1\nego: {speed: 3}\n";
+  EXPECT_EQ(run("sim --scenario " + bad.string() + " --out " + (dir / "x").string()), 2);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace sitepose::sim
