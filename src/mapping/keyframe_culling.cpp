@@ -1,5 +1,7 @@
 #include "sitepose/mapping/keyframe_culling.hpp"
 
+#include <algorithm>
+
 namespace sitepose::mapping {
 
 RedundancyCount count_redundant_points(const map::MapData& map, map::KeyFrameId keyframe,
@@ -36,14 +38,13 @@ bool is_keyframe_redundant(const map::MapData& map, map::KeyFrameId keyframe, do
 }
 
 std::vector<map::KeyFrameId> redundant_keyframes(const map::MapData& map, map::KeyFrameId current,
-                                                 double redundancy, double close_depth_m) {
+                                                 int n_local, double redundancy, double close_depth_m) {
   std::vector<map::KeyFrameId> result;
-  const map::KeyFrame* kf = map.keyframe(current);
-  if (kf == nullptr) return result;
-  for (const auto& [other, weight] : kf->covisibility) {
+  for (map::KeyFrameId other : map.best_covisible(current, n_local)) {
     if (other == map.first_keyframe() || other >= current) continue;
     if (is_keyframe_redundant(map, other, redundancy, close_depth_m)) result.push_back(other);
   }
+  std::sort(result.begin(), result.end());
   return result;
 }
 

@@ -401,7 +401,8 @@ Status LocalMapper::local_bundle_adjustment(map::KeyFrameId keyframe) {
 
 void LocalMapper::cull_keyframes(map::KeyFrameId keyframe) {
   const std::vector<map::KeyFrameId> candidates = map_.read([&](const map::MapData& m) {
-    return redundant_keyframes(m, keyframe, mapping_.keyframe_redundancy, close_depth_m_);
+    return redundant_keyframes(m, keyframe, mapping_.local_ba_keyframes, mapping_.keyframe_redundancy,
+                               close_depth_m_);
   });
   if (candidates.empty()) return;
   // Removing one keyframe lowers the redundancy of the others: test again

@@ -28,11 +28,16 @@ RedundancyCount count_redundant_points(const map::MapData& map, map::KeyFrameId 
 bool is_keyframe_redundant(const map::MapData& map, map::KeyFrameId keyframe, double redundancy,
                            double close_depth_m);
 
-// Keyframes covisible with `current` that may be removed: never the map's
-// first keyframe, never `current` or a keyframe inserted after it (those are
-// still waiting in the mapper's queue), and only the redundant ones.
-// Ascending ids.
+// The local keyframes of `current` (its n_local best covisible, the local
+// BA window) that may be removed: never the map's first keyframe, never
+// `current` or a keyframe inserted after it (those are still waiting in the
+// mapper's queue), and only the redundant ones. Ascending ids.
+// Why the window and not every covisible keyframe (ORB-SLAM2): on a site
+// driven back and forth all keyframes are covisible through the far
+// points, and culling them all lets the redundancy test erode the map to a
+// few keyframes around the camera, dropping the points of the rest of the
+// site (measured in local_mapper_test, back and forth over 10 m).
 std::vector<map::KeyFrameId> redundant_keyframes(const map::MapData& map, map::KeyFrameId current,
-                                                 double redundancy, double close_depth_m);
+                                                 int n_local, double redundancy, double close_depth_m);
 
 }  // namespace sitepose::mapping

@@ -16,7 +16,7 @@
 //   5. local BA when no other keyframe is waiting (local_ba_problem.hpp):
 //      copied out under read(), solved unlocked, aborted when a keyframe is
 //      enqueued, written back under write();
-//   6. cull redundant covisible keyframes (keyframe_culling.hpp), also only
+//   6. cull redundant keyframes of the BA window (keyframe_culling.hpp), also only
 //      when no other keyframe is waiting; then, always, purge bad points so
 //      memory stays bounded.
 //

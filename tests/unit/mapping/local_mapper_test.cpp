@@ -7,6 +7,7 @@
 #include <random>
 #include <set>
 
+#include "sitepose/mapping/keyframe_culling.hpp"
 #include "synthetic_world.hpp"
 
 namespace sitepose::mapping {
@@ -322,6 +323,14 @@ TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
     map.read([&](const map::MapData& m) {
       max_keyframes = std::max(max_keyframes, m.keyframe_count());
       max_points = std::max(max_points, m.point_count());
+      if (k < 30) {
+        std::printf("DEBUG k=%d:", k);
+        for (const auto& [id, kf] : m.keyframes()) {
+          const auto c = count_redundant_points(m, id, 40.0);
+          std::printf(" %lld@%.1f(%d/%d,cov%zu)", (long long)id, kf.camera_center().x(), c.redundant_points, c.close_points, kf.covisibility.size());
+        }
+        std::printf(" points %zu\n", m.point_count());
+      }
     });
   }
   const MappingStats stats = mapper.stats();
@@ -335,6 +344,15 @@ TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
   EXPECT_GT(stats.keyframes_culled, 160);
   const PointErrors errors = point_errors(map, tracker);
   EXPECT_LT(errors.median(), 0.1);
+  for (double z : {0.0, 10.0, 18.0, 25.0}) {
+    const PointErrors e = point_errors(map, tracker, z);
+    std::printf("DEBUG depth>=%.0f: %zu points, median %.3f, 90%% %.3f\n", z, e.error_m.size(), e.median(), e.quantile(0.9));
+  }
+  map.read([&](const map::MapData& m) {
+    for (const auto& [id, kf] : m.keyframes()) {
+      std::printf("DEBUG kf %lld x %.3f y %.3f z %.3f rot %.4f covis %zu\n", (long long)id, kf.camera_center().x(), kf.camera_center().y(), kf.camera_center().z(), rotation_angle_rad(kf.T_world_cam.rotation()), kf.covisibility.size());
+    }
+  });
   map.read([](const map::MapData& m) {
     for (const auto& [pid, p] : m.points()) EXPECT_FALSE(p.bad);
     EXPECT_NE(m.keyframe(m.first_keyframe()), nullptr);

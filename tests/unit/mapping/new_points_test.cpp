@@ -186,7 +186,7 @@ TEST(KeyframeCulling, RedundantWhenThreeOthersSeeTheCloseStereoPoints) {
   EXPECT_EQ(count_redundant_points(m, ids[1], 5.0).close_points, 0);
   EXPECT_FALSE(is_keyframe_redundant(m, ids[1], 0.9, 5.0));
   // Candidates: older than the current keyframe, never the first.
-  const auto candidates = redundant_keyframes(m, ids[4], 0.9, 40.0);
+  const auto candidates = redundant_keyframes(m, ids[4], 10, 0.9, 40.0);
   EXPECT_EQ(std::count(candidates.begin(), candidates.end(), k0), 0);
   EXPECT_EQ(std::count(candidates.begin(), candidates.end(), ids[4]), 0);
   EXPECT_EQ(std::count(candidates.begin(), candidates.end(), ids[1]), 1);

@@ -1,6 +1,7 @@
-// Timing of motion-only BA on a synthetic stereo frame (not a test; run by
-// hand: build target optim_motion_ba_benchmark). The tracker needs one full
-// 4-round solve of ~500 observations in a few ms (>= 30 frames/s overall).
+// Timing of motion-only BA on a synthetic stereo frame and of local BA on a
+// synthetic map (not a test; run by hand: build target
+// optim_motion_ba_benchmark). The tracker needs one full 4-round solve of
+// ~500 observations in a few ms (>= 30 frames/s overall).
 
 #include <benchmark/benchmark.h>
 
@@ -54,6 +55,22 @@ void BM_MotionOnlyBa(benchmark::State& state) {
   state.counters["lm_iterations"] = iterations;
 }
 BENCHMARK(BM_MotionOnlyBa)->Arg(100)->Arg(300)->Arg(500)->Arg(1000)->Unit(benchmark::kMicrosecond);
+
+// Local BA of 8 keyframes (2 fixed), 300 points, ~2000 observations, 5 %
+// gross outliers; both stages with the default 5 + 10 iterations.
+void BM_LocalBa(benchmark::State& state) {
+  const MapScene scene = make_map_scene(0.05, 3);
+  const LocalBa ba(test_camera(), config::MappingConfig{}, config::TrackingConfig{});
+  int iterations = 0;
+  for (auto _ : state) {
+    auto result = ba.solve(scene.input, nullptr);
+    iterations = result->iterations;
+    benchmark::DoNotOptimize(result);
+  }
+  state.counters["observations"] = static_cast<double>(scene.input.observations.size());
+  state.counters["lm_iterations"] = iterations;
+}
+BENCHMARK(BM_LocalBa)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace sitepose::optim

@@ -10,6 +10,7 @@
 
 #include "sitepose/core/se3.hpp"
 #include "sitepose/core/stereo_camera.hpp"
+#include "sitepose/optim/local_ba.hpp"
 #include "sitepose/optim/motion_only_ba.hpp"
 #include "sitepose/optim/reprojection_costs.hpp"
 
@@ -92,6 +93,64 @@ inline double translation_error_m(const SE3& a, const SE3& b) {
 }
 inline double rotation_error_rad(const SE3& a, const SE3& b) {
   return rotation_angle_rad(a.rotation() * b.rotation().conjugate());
+}
+
+struct MapScene {
+  std::vector<SE3> T_cam_world_true;
+  std::vector<Eigen::Vector3d> p_world_true;
+  LocalBaInput input;  // perturbed poses / points, noisy observations
+  std::vector<std::uint8_t> gross_outlier;  // per observation
+};
+
+// Eight keyframes 1 m apart along a slightly turning path, points 4-30 m in
+// front (stereo below 20 m, mono beyond); keyframes 0 and 1 are the fixed
+// outer ring. Free poses are perturbed by 5 cm / 0.5 deg, points by 0.3 m per
+// axis (about the depth noise of a single stereo match at 10-15 m).
+inline MapScene make_map_scene(double outlier_fraction, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  const StereoCamera camera = test_camera();
+  MapScene s;
+  constexpr int kKeyframes = 8;
+  const SE3 T_world_start = test_pose_world_cam();
+  for (int k = 0; k < kKeyframes; ++k) {
+    Vector6d xi;
+    xi << 0.1 * k, 0.02 * k, 1.0 * k, 0.0, 0.02 * k, 0.0;
+    s.T_cam_world_true.push_back((T_world_start * SE3::exp(xi)).inverse());
+  }
+  const SE3 T_world_mid = s.T_cam_world_true[kKeyframes / 2].inverse();
+  for (int i = 0; i < 300; ++i) {
+    s.p_world_true.push_back(T_world_mid * random_point_cam(camera, 4.0, 30.0, rng));
+  }
+  std::uniform_int_distribution<int> level(0, 2);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int k = 0; k < kKeyframes; ++k) {
+    for (int p = 0; p < static_cast<int>(s.p_world_true.size()); ++p) {
+      const Eigen::Vector3d p_cam = s.T_cam_world_true[k] * s.p_world_true[p];
+      if (p_cam.z() < 1.0 || !camera.in_image(camera.project(p_cam), 5.0)) continue;
+      PoseObservation o = exact_observation(camera, s.T_cam_world_true[k], s.p_world_true[p], level(rng),
+                                            /*mono_only=*/false);
+      const bool outlier = unit(rng) < outlier_fraction;
+      if (outlier) {
+        make_gross_outlier(camera, o, rng);
+      } else {
+        add_noise(o, rng);
+      }
+      s.input.observations.push_back({k, p, o.uv_left_px, o.u_right_px, o.sigma2_px2});
+      s.gross_outlier.push_back(outlier ? 1 : 0);
+    }
+  }
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int k = 0; k < kKeyframes; ++k) {
+    const bool fixed = k < 2;
+    s.input.keyframe_fixed.push_back(fixed ? 1 : 0);
+    const SE3 T_world_cam = s.T_cam_world_true[k].inverse();
+    s.input.T_cam_world.push_back(fixed ? s.T_cam_world_true[k]
+                                        : perturb(T_world_cam, 0.05, 0.5 * M_PI / 180.0, rng).inverse());
+  }
+  for (const Eigen::Vector3d& p : s.p_world_true) {
+    s.input.p_world.push_back(p + 0.3 * Eigen::Vector3d(n(rng), n(rng), n(rng)));
+  }
+  return s;
 }
 
 }  // namespace sitepose::optim::testing
