@@ -129,9 +129,18 @@ void read_detector(const YamlMap& section, DetectorConfig& detector) {
   section.read("model_config", detector.model_config);
   section.read("model_weights", detector.model_weights);
   section.read("score_threshold", detector.score_threshold, in_range(0.0, 1.0));
+  section.read("labels_latency_ms", detector.labels_latency_ms, in_range(0.0, 10000.0));
+  section.read("labels_miss_probability", detector.labels_miss_probability, in_range(0.0, 1.0));
+  section.read("labels_jitter_px", detector.labels_jitter_px, in_range(0.0, 1000.0));
+  section.read("labels_seed", detector.labels_seed);
+  section.read("geometric_max_range_m", detector.geometric_max_range_m, in_range(3.0, 1000.0));
+  section.read("geometric_min_height_m", detector.geometric_min_height_m, in_range(0.2, 10.0));
+  section.read("dnn_classes_file", detector.dnn_classes_file);
+  section.read("dnn_input_width_px", detector.dnn_input_width_px, in_range(1, 8192));
+  section.read("dnn_input_height_px", detector.dnn_input_height_px, in_range(1, 8192));
   if (detector.name == "opencv-dnn") {
     // The dnn detector cannot start without weights: say so at load time.
-    // (model_config may stay empty: ONNX models are a single file.)
+    // (model_config may stay empty: a TensorFlow .pb is a single file.)
     if (detector.model_weights.empty()) {
       section.report("model_weights", "required when detector.name is opencv-dnn");
     }

@@ -137,6 +137,15 @@ std::string to_yaml(const SiteposeConfig& config) {
   w.key("model_config", quoted(detector.model_config));
   w.key("model_weights", quoted(detector.model_weights));
   w.key("score_threshold", detector.score_threshold);
+  w.key("labels_latency_ms", detector.labels_latency_ms);
+  w.key("labels_miss_probability", detector.labels_miss_probability);
+  w.key("labels_jitter_px", detector.labels_jitter_px);
+  w.key("labels_seed", detector.labels_seed);
+  w.key("geometric_max_range_m", detector.geometric_max_range_m);
+  w.key("geometric_min_height_m", detector.geometric_min_height_m);
+  w.key("dnn_classes_file", quoted(detector.dnn_classes_file));
+  w.key("dnn_input_width_px", detector.dnn_input_width_px);
+  w.key("dnn_input_height_px", detector.dnn_input_height_px);
 
   w.section("logging");
   w.key("level", quoted(config.logging.level));

@@ -4,12 +4,12 @@
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <string>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
 #include "sitepose/optim/pose_parameterization.hpp"

@@ -1,6 +1,7 @@
 #include "sitepose/optim/pose_parameterization.hpp"
 
 #include <Eigen/Core>
+#include <algorithm>
 
 namespace sitepose::optim {
 

@@ -26,9 +26,9 @@ Expected<std::uint32_t> make_j1939_id(const J1939Id& parts) {
   std::uint32_t pgn_field = parts.pgn;
   if (pdu_format < 240) {  // PDU1: the PS byte is the destination address
     if ((parts.pgn & 0xFF) != 0) {
-      return make_error(ErrorCode::kInvalidArgument,
-                        "PGN = " + hex(parts.pgn) +
-                            ": a PDU1 PGN (PF < 240) must have a zero low byte");
+      return make_error(
+          ErrorCode::kInvalidArgument,
+          "PGN = " + hex(parts.pgn) + ": a PDU1 PGN (PF < 240) must have a zero low byte");
     }
     pgn_field |= parts.destination_address;
   }

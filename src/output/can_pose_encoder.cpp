@@ -21,7 +21,8 @@ Status check_can_output_options(const CanOutputOptions& o) {
   if (!(o.j1939_vehicle_position || o.j1939_vehicle_direction_speed ||
         o.n2k_position_rapid_update || o.n2k_cog_sog_rapid_update || o.n2k_gnss_position_data ||
         o.n2k_vessel_heading || o.sitepose_pose_quality)) {
-    return make_error(ErrorCode::kInvalidArgument, "can: every frame is disabled; enable at least one");
+    return make_error(ErrorCode::kInvalidArgument,
+                      "can: every frame is disabled; enable at least one");
   }
   return ok_status();
 }
@@ -54,8 +55,8 @@ std::vector<CanFrame> CanPoseEncoder::encode(const CanPoseInputs& in) {
         sa));
   }
   if (options_.n2k_vessel_heading) {
-    frames.push_back(
-        encode_n2k_vessel_heading(VesselHeading{sid, heading, kNan, kNan, HeadingReference::kTrue}, sa));
+    frames.push_back(encode_n2k_vessel_heading(
+        VesselHeading{sid, heading, kNan, kNan, HeadingReference::kTrue}, sa));
   }
   if (options_.n2k_gnss_position_data) {
     GnssPositionData g;
@@ -66,8 +67,8 @@ std::vector<CanFrame> CanPoseEncoder::encode(const CanPoseInputs& in) {
     g.altitude_m = alt;
     g.type = GnssType::kIntegrated;
     g.method = lost ? GnssMethod::kNoFix : GnssMethod::kEstimated;
-    g.integrity = state == TrackingState::kRecovering ? GnssIntegrity::kCaution
-                                                      : GnssIntegrity::kNoChecking;
+    g.integrity =
+        state == TrackingState::kRecovering ? GnssIntegrity::kCaution : GnssIntegrity::kNoChecking;
     const auto fp = encode_n2k_gnss_position_data(g, fast_packet_sequence_, sa);
     fast_packet_sequence_ = static_cast<std::uint8_t>((fast_packet_sequence_ + 1) & 0x7);
     frames.insert(frames.end(), fp.begin(), fp.end());

@@ -12,12 +12,17 @@
 namespace sitepose::output {
 
 namespace {
-std::string errno_text(int err) { return std::string(std::strerror(err)) + " (errno " + std::to_string(err) + ")"; }
+std::string errno_text(int err) {
+  return std::string(std::strerror(err)) + " (errno " + std::to_string(err) + ")";
+}
 }  // namespace
 
 CandumpSink::CandumpSink(std::FILE* stream, bool owns_stream, std::string name,
                          std::string interface)
-    : stream_(stream), owns_stream_(owns_stream), name_(std::move(name)), interface_(std::move(interface)) {}
+    : stream_(stream),
+      owns_stream_(owns_stream),
+      name_(std::move(name)),
+      interface_(std::move(interface)) {}
 
 CandumpSink::~CandumpSink() {
   if (owns_stream_) {
@@ -31,7 +36,8 @@ Expected<std::unique_ptr<CandumpSink>> CandumpSink::open_file(const std::string&
                                                               const std::string& interface) {
   std::FILE* f = std::fopen(path.c_str(), "w");
   if (f == nullptr) {
-    return make_error(ErrorCode::kIoError, "candump log '" + path + "': cannot create: " + errno_text(errno));
+    return make_error(ErrorCode::kIoError,
+                      "candump log '" + path + "': cannot create: " + errno_text(errno));
   }
   return std::unique_ptr<CandumpSink>(new CandumpSink(f, true, path, interface));
 }
@@ -44,14 +50,16 @@ Status CandumpSink::do_send(std::int64_t t_ns, const CanFrame& frame) {
   SITEPOSE_TRY(std::string line, format_candump_line(CandumpRecord{t_ns, interface_, frame}));
   line += '\n';
   if (std::fwrite(line.data(), 1, line.size(), stream_) != line.size()) {
-    return make_error(ErrorCode::kIoError, "candump log '" + name_ + "': write failed: " + errno_text(errno));
+    return make_error(ErrorCode::kIoError,
+                      "candump log '" + name_ + "': write failed: " + errno_text(errno));
   }
   return ok_status();
 }
 
 Status CandumpSink::flush() {
   if (std::fflush(stream_) != 0) {
-    return make_error(ErrorCode::kIoError, "candump log '" + name_ + "': flush failed: " + errno_text(errno));
+    return make_error(ErrorCode::kIoError,
+                      "candump log '" + name_ + "': flush failed: " + errno_text(errno));
   }
   return ok_status();
 }
@@ -59,11 +67,13 @@ Status CandumpSink::flush() {
 Status CanFrameFdSink::do_send(std::int64_t /*t_ns: the kernel stamps frames itself*/,
                                const CanFrame& frame) {
   if (frame.dlc > CAN_MAX_DLEN) {
-    return make_error(ErrorCode::kInvalidArgument, "CAN frame dlc = " + std::to_string(frame.dlc) + ": must be 0..8");
+    return make_error(ErrorCode::kInvalidArgument,
+                      "CAN frame dlc = " + std::to_string(frame.dlc) + ": must be 0..8");
   }
   struct can_frame cf;
   std::memset(&cf, 0, sizeof(cf));
-  cf.can_id = frame.extended ? ((frame.id & CAN_EFF_MASK) | CAN_EFF_FLAG) : (frame.id & CAN_SFF_MASK);
+  cf.can_id =
+      frame.extended ? ((frame.id & CAN_EFF_MASK) | CAN_EFF_FLAG) : (frame.id & CAN_SFF_MASK);
   cf.can_dlc = frame.dlc;
   std::memcpy(cf.data, frame.data.data(), frame.dlc);
   for (;;) {
@@ -73,10 +83,12 @@ Status CanFrameFdSink::do_send(std::int64_t /*t_ns: the kernel stamps frames its
     if (n == static_cast<ssize_t>(sizeof(cf))) return ok_status();
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) {
-      return make_error(ErrorCode::kIoError, "CAN fd " + std::to_string(fd_) + ": write failed: " + errno_text(errno));
+      return make_error(ErrorCode::kIoError,
+                        "CAN fd " + std::to_string(fd_) + ": write failed: " + errno_text(errno));
     }
     return make_error(ErrorCode::kIoError, "CAN fd " + std::to_string(fd_) + ": short write of " +
-                                               std::to_string(n) + " of " + std::to_string(sizeof(cf)) + " bytes");
+                                               std::to_string(n) + " of " +
+                                               std::to_string(sizeof(cf)) + " bytes");
   }
 }
 
@@ -86,14 +98,19 @@ Expected<CanFrame> read_can_frame_fd(int fd) {
   do {
     n = ::read(fd, &cf, sizeof(cf));
   } while (n < 0 && errno == EINTR);
-  if (n < 0) return make_error(ErrorCode::kIoError, "CAN fd " + std::to_string(fd) + ": read failed: " + errno_text(errno));
-  if (n == 0) return make_error(ErrorCode::kIoError, "CAN fd " + std::to_string(fd) + ": end of stream");
+  if (n < 0)
+    return make_error(ErrorCode::kIoError,
+                      "CAN fd " + std::to_string(fd) + ": read failed: " + errno_text(errno));
+  if (n == 0)
+    return make_error(ErrorCode::kIoError, "CAN fd " + std::to_string(fd) + ": end of stream");
   if (n != static_cast<ssize_t>(sizeof(cf))) {
-    return make_error(ErrorCode::kParseError, "CAN fd " + std::to_string(fd) + ": datagram of " + std::to_string(n) +
-                                                  " bytes, expected " + std::to_string(sizeof(cf)));
+    return make_error(ErrorCode::kParseError, "CAN fd " + std::to_string(fd) + ": datagram of " +
+                                                  std::to_string(n) + " bytes, expected " +
+                                                  std::to_string(sizeof(cf)));
   }
   if ((cf.can_id & (CAN_ERR_FLAG | CAN_RTR_FLAG)) != 0 || cf.can_dlc > CAN_MAX_DLEN) {
-    return make_error(ErrorCode::kParseError, "CAN fd " + std::to_string(fd) + ": error/remote frame or dlc > 8");
+    return make_error(ErrorCode::kParseError,
+                      "CAN fd " + std::to_string(fd) + ": error/remote frame or dlc > 8");
   }
   CanFrame f;
   f.extended = (cf.can_id & CAN_EFF_FLAG) != 0;

@@ -18,8 +18,7 @@ int hex_value(char c) {
 }
 
 Unexpected parse_error(std::string_view line, const std::string& what) {
-  return make_error(ErrorCode::kParseError,
-                    "candump line '" + std::string(line) + "': " + what);
+  return make_error(ErrorCode::kParseError, "candump line '" + std::string(line) + "': " + what);
 }
 
 }  // namespace
@@ -30,8 +29,9 @@ Expected<std::string> format_candump_line(const CandumpRecord& r) {
                       "candump timestamp t_ns = " + std::to_string(r.t_ns) + ": must be >= 0");
   }
   if (r.interface.empty() || r.interface.find_first_of(" \t\r\n#()") != std::string::npos) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "candump interface '" + r.interface + "': must be a non-empty name without blanks");
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        "candump interface '" + r.interface + "': must be a non-empty name without blanks");
   }
   const CanFrame& f = r.frame;
   if (f.dlc > kCanMaxDataBytes) {
@@ -73,7 +73,8 @@ Expected<CandumpRecord> parse_candump_line(std::string_view line) {
   }
   std::int64_t sec = 0;
   for (char c : stamp.substr(0, dot)) {
-    if (c < '0' || c > '9' || sec > 9'000'000'000LL) return parse_error(line, "bad timestamp seconds");
+    if (c < '0' || c > '9' || sec > 9'000'000'000LL)
+      return parse_error(line, "bad timestamp seconds");
     sec = sec * 10 + (c - '0');
   }
   std::int64_t usec = 0;
@@ -84,10 +85,12 @@ Expected<CandumpRecord> parse_candump_line(std::string_view line) {
   r.t_ns = sec * 1'000'000'000 + usec * 1000;
   // " iface "
   s.remove_prefix(close + 1);
-  if (s.empty() || s.front() != ' ') return parse_error(line, "expected a blank after the timestamp");
+  if (s.empty() || s.front() != ' ')
+    return parse_error(line, "expected a blank after the timestamp");
   s.remove_prefix(1);
   const std::size_t space = s.find(' ');
-  if (space == std::string_view::npos || space == 0) return parse_error(line, "expected an interface name");
+  if (space == std::string_view::npos || space == 0)
+    return parse_error(line, "expected an interface name");
   r.interface = std::string(s.substr(0, space));
   s.remove_prefix(space + 1);
   // "ID#DATA"
@@ -107,7 +110,8 @@ Expected<CandumpRecord> parse_candump_line(std::string_view line) {
   }
   r.frame.id = id_value;
   const std::string_view data = s.substr(hash + 1);
-  if (!data.empty() && data.front() == '#') return parse_error(line, "CAN FD frames are not supported");
+  if (!data.empty() && data.front() == '#')
+    return parse_error(line, "CAN FD frames are not supported");
   if (!data.empty() && (data.front() == 'R' || data.front() == 'r')) {
     return parse_error(line, "remote frames are not supported");
   }

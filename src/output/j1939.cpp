@@ -22,16 +22,14 @@ CanFrame encode_j1939_vehicle_position(double latitude_deg, double longitude_deg
 }
 
 CanFrame encode_j1939_vehicle_direction_speed(const VehicleDirectionSpeed& v,
-                                              std::uint8_t source_address,
-                                              std::uint8_t priority) {
+                                              std::uint8_t source_address, std::uint8_t priority) {
   CanFrame f =
       detail::full_frame(detail::pdu2_id(kPgnVehicleDirectionSpeed, priority, source_address));
   const double bearing_deg = detail::wrap_two_pi(v.heading_rad) * detail::kRadToDeg;
   put_le(f.data, 0, to_raw(bearing_deg, detail::j1939_u16(128.0, 0.0)), 2);
   const double speed_kmh = v.speed_mps * 3.6;
   put_le(f.data, 2, to_raw(speed_kmh, detail::j1939_u16(256.0, 0.0)), 2);
-  put_le(f.data, 4, to_raw(v.pitch_rad * detail::kRadToDeg, detail::j1939_u16(128.0, -200.0)),
-         2);
+  put_le(f.data, 4, to_raw(v.pitch_rad * detail::kRadToDeg, detail::j1939_u16(128.0, -200.0)), 2);
   put_le(f.data, 6, to_raw(v.altitude_m, detail::j1939_u16(8.0, -2500.0)), 2);
   return f;
 }
@@ -80,8 +78,8 @@ CanFrame encode_sitepose_pose_quality(const PoseQuality& quality, std::uint8_t a
   put_le(f.data, 2, to_raw(static_cast<double>(quality.features_used), detail::j1939_u16(1.0, 0.0)),
          2);
   put_le(f.data, 4, to_raw(quality.position_std_m, detail::j1939_u16(1000.0, 0.0)), 2);
-  put_le(f.data, 6, to_raw(quality.rotation_std_rad * detail::kRadToDeg, detail::j1939_u8(10.0, 0.0)),
-         1);
+  put_le(f.data, 6,
+         to_raw(quality.rotation_std_rad * detail::kRadToDeg, detail::j1939_u8(10.0, 0.0)), 1);
   put_le(f.data, 7, to_raw(quality.masked_area_ratio, detail::j1939_u8(250.0, 0.0)), 1);
   f.data[0] = pose_quality_crc(f, data_id);
   return f;

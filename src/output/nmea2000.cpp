@@ -62,7 +62,8 @@ std::vector<std::uint8_t> encode_n2k_gnss_position_payload(const GnssPositionDat
   p[31] = static_cast<std::uint8_t>((static_cast<std::uint8_t>(v.type) & 0x0F) |
                                     ((static_cast<std::uint8_t>(v.method) & 0x0F) << 4));
   p[32] = static_cast<std::uint8_t>(0xFC | (static_cast<std::uint8_t>(v.integrity) & 0x3));
-  p[33] = v.satellites < 0 ? 0xFF : static_cast<std::uint8_t>(v.satellites > 0xFC ? 0xFC : v.satellites);
+  p[33] = v.satellites < 0 ? 0xFF
+                           : static_cast<std::uint8_t>(v.satellites > 0xFC ? 0xFC : v.satellites);
   put_le(p, 34, to_raw(v.hdop, detail::n2k_i16(100.0)), 2);
   put_le(p, 36, to_raw(v.pdop, detail::n2k_i16(100.0)), 2);
   put_le(p, 38, to_raw(v.geoidal_separation_m, detail::n2k_i32(100.0)), 4);
@@ -90,9 +91,9 @@ Expected<std::vector<CanFrame>> fast_packet_frames(std::uint32_t can_id,
                           " bytes: must be 1.." + std::to_string(kFastPacketMaxBytes));
   }
   if (sequence_counter > 7) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "fast packet sequence counter = " + std::to_string(sequence_counter) +
-                          ": must be 0..7");
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        "fast packet sequence counter = " + std::to_string(sequence_counter) + ": must be 0..7");
   }
   std::vector<CanFrame> frames;
   std::size_t pos = 0;

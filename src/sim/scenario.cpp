@@ -56,7 +56,8 @@ void read_realism(YamlMap m, RealismSpec& r) {
   m.read("noise_sigma", r.noise_sigma, in_range(0.0, 30.0));
   m.read("contrast", r.contrast, in_range(0.1, 2.0));
   m.read("brightness", r.brightness, in_range(0.2, 3.0));
-  m.read("motion_blur_samples", r.motion_blur_samples, in_range(1, 16));
+  m.read("motion_blur_samples", r.motion_blur_samples, in_range(1, 15),
+         config::make_rule([](int n) { return n % 2 == 1; }, "must be odd (labels come from the middle render)"));
   m.read("exposure_time_s", r.exposure_time_s, in_range(0.0, 0.2));
   m.read("right_gain", r.right_gain, in_range(0.5, 1.5));
   m.read("distorted", r.distorted);

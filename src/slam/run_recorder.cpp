@@ -57,6 +57,36 @@ void RunRecorder::add(const FrameReport& report) {
   stage_ms_["motion_only_ba"].push_back(t.motion_ba_ms);
   stage_ms_["mapping_inline"].push_back(t.mapping_inline_ms);
   stage_ms_["whole_frame"].push_back(t.total_ms);
+  if (!report.dynamic_layer) return;
+  stage_ms_["detect"].push_back(t.detect_ms);
+  stage_ms_["mask"].push_back(t.mask_ms);
+  stage_ms_["classify"].push_back(t.classify_ms);
+  stage_ms_["pass2"].push_back(t.pass2_ms);
+  add_dynamic(report.mar, report.pixel_mask_used);
+  for (const auto& o : report.objects) {
+    state_rows_.push_back({report.pose.seq, o.verdict.instance, o.verdict.class_name, o.verdict.state,
+                           o.verdict.score, o.verdict.points});
+  }
+}
+
+double RunRecorder::stage_total_ms(const std::string& stage) const {
+  const auto it = stage_ms_.find(stage);
+  if (it == stage_ms_.end()) return 0.0;
+  return std::accumulate(it->second.begin(), it->second.end(), 0.0);
+}
+
+Status RunRecorder::write_states_csv(const std::string& path) const {
+  std::ofstream out(path);
+  if (!out) return make_error(ErrorCode::kIoError, "cannot write " + path);
+  out << "frame,instance,class,state,score,points\n";
+  char score[32];
+  for (const StateRow& r : state_rows_) {
+    std::snprintf(score, sizeof(score), "%.4f", r.score);
+    out << r.frame << ',' << r.instance << ',' << r.class_name << ',' << dynamic::to_string(r.state) << ','
+        << score << ',' << r.points << '\n';
+  }
+  if (!out) return make_error(ErrorCode::kIoError, "write failed: " + path);
+  return ok_status();
 }
 
 void RunRecorder::add_dynamic(double masked_area_ratio, bool pixel_mask_used) {

@@ -1,6 +1,10 @@
 #include "sitepose/slam/slam_system.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <set>
+
+#include <opencv2/core.hpp>
 
 #include "sitepose/features/orb_extractor.hpp"
 #include "sitepose/features/stereo_matcher.hpp"
@@ -19,6 +23,10 @@ Expected<std::unique_ptr<SlamSystem>> SlamSystem::create(const StereoCamera& cam
   SITEPOSE_TRY_STATUS(camera.validate());
   SITEPOSE_TRY_STATUS(features::validate(config.orb));
   SITEPOSE_TRY_STATUS(features::validate(config.stereo));
+  if (!(options.fps > 0.0)) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "slam options: fps = " + std::to_string(options.fps) + ": must be > 0");
+  }
   return std::unique_ptr<SlamSystem>(new SlamSystem(camera, config, options));
 }
 
@@ -35,6 +43,8 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
     link.is_idle = [this] { return mapper_->is_idle(); };
   }
   tracker_ = std::make_unique<tracking::Tracker>(camera, config, map_, std::move(link));
+  classifier_ = std::make_unique<dynamic::MotionClassifier>(camera, config.dynamic, options.fps,
+                                                            config.orb.scale_factor, config.orb.n_levels);
   if (options_.mapper_thread && config.mapping.enabled) mapper_->start();
 }
 
@@ -62,11 +72,131 @@ Expected<FrameReport> SlamSystem::process(const StereoFrame& frame) {
   report.timings.local_map_ms = result.timings.local_map_ms;
   report.timings.motion_ba_ms = result.timings.motion_ba_ms;
   report.timings.total_ms = ms_since(start);
+  SITEPOSE_TRY_STATUS(run_inline_mapping(report));
+  return report;
+}
+
+Status SlamSystem::run_inline_mapping(FrameReport& report) {
   if (!options_.mapper_thread && config_.mapping.enabled) {
     const auto mapping_start = Clock::now();
     if (auto st = mapper_->process_pending(); !st) return Unexpected{st.error()};
     report.timings.mapping_inline_ms = ms_since(mapping_start);
   }
+  return ok_status();
+}
+
+Expected<FrameReport> SlamSystem::process(const StereoFrame& frame, const dynamic::FrameObjects& objects) {
+  if (config_.dynamic.mode == config::MaskingMode::kNone) {
+    SITEPOSE_TRY(FrameReport report, process(frame));
+    report.dynamic_layer = true;
+    report.mar = dynamic::box_union_ratio(
+        [&] {
+          std::vector<dynamic::ObjectBox> boxes;
+          for (const auto& b : objects.boxes) {
+            if (dynamic::is_dynamic_class(b.class_name, config_.dynamic.dynamic_classes)) boxes.push_back(b);
+          }
+          return boxes;
+        }(),
+        frame.left.size());
+    report.pose.counters.masked_area_ratio = report.mar;
+    return report;
+  }
+  return process_masked(frame, objects);
+}
+
+Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
+                                                 const dynamic::FrameObjects& objects) {
+  const auto start = Clock::now();
+  FrameReport report;
+  report.dynamic_layer = true;
+  const config::MaskingMode mode = config_.dynamic.mode;
+
+  // Algorithm 1.
+  const auto t_mask = Clock::now();
+  SITEPOSE_TRY(dynamic::MaskResult mask,
+               dynamic::build_mask(mode, objects, frame.left.size(), config_.dynamic));
+  cv::Mat extraction_mask;
+  if (!mask.instance_labels.empty()) extraction_mask = mask.instance_labels != 0;
+  report.timings.mask_ms = ms_since(t_mask);
+  report.mar = mask.mar;
+  report.masked_ratio = mask.masked_ratio;
+  report.pixel_mask_used = mask.pixel_mask_used;
+
+  SITEPOSE_TRY(tracking::PreparedFrame prepared,
+               tracker_->prepare(frame, mask.instance_labels, extraction_mask));
+  // Pass 1: background keypoints only.
+  std::vector<std::uint8_t> usable(prepared.size(), 0);
+  for (int k = 0; k < prepared.size(); ++k) usable[k] = prepared.instance[k] == 0 ? 1 : 0;
+  const tracking::PassResult pass1 = tracker_->estimate(prepared, usable);
+  const tracking::PassResult* final_result = &pass1;
+  tracking::PassResult pass2;
+  std::vector<std::uint8_t> usable2;
+  int static_objects = 0;
+  std::optional<dynamic::ObjectFeatures> current;
+
+  if (mode == config::MaskingMode::kFull) {
+    if (pass1.valid) {
+      // Algorithm 2 with pass 1's pose, then pass 2 with static objects.
+      const auto t_classify = Clock::now();
+      current = dynamic::make_object_features(prepared, mask.dynamic_boxes, pass1.T_cam_world.inverse(),
+                                              pass1.covariance_world_cam, classifier_->max_depth_m());
+      report.objects = classifier_->classify(*current);
+      report.timings.classify_ms = ms_since(t_classify);
+      std::vector<std::uint8_t> is_static(65536, 0);
+      for (const auto& o : report.objects) {
+        if (o.verdict.state == dynamic::MotionState::kStatic) {
+          is_static[o.verdict.instance] = 1;
+          ++static_objects;
+        }
+      }
+      if (static_objects > 0) {
+        const auto t_pass2 = Clock::now();
+        usable2 = usable;
+        for (int k = 0; k < prepared.size(); ++k) usable2[k] |= is_static[prepared.instance[k]];
+        pass2 = tracker_->estimate(prepared, usable2, pass1.T_cam_world);
+        report.timings.pass2_ms = ms_since(t_pass2);
+        if (pass2.valid) final_result = &pass2;
+      }
+    } else {
+      for (const auto& b : mask.dynamic_boxes) {
+        dynamic::ClassifiedObject o;
+        o.verdict.instance = b.instance;
+        o.verdict.class_name = b.class_name;
+        report.objects.push_back(std::move(o));
+      }
+    }
+  }
+  const bool used_pass2 = final_result == &pass2;
+  report.pose = tracker_->commit(prepared, *final_result, used_pass2 ? usable2 : usable);
+  report.pose.counters.features_used_pass1 = pass1.n_inliers;
+  report.pose.counters.features_used = final_result->n_inliers;
+  report.pose.counters.static_objects_unmasked = used_pass2 ? static_objects : 0;
+  report.pose.counters.masked_area_ratio = mask.mar;
+
+  if (mode == config::MaskingMode::kFull) {
+    if (report.pose.state == TrackingState::kLost) {
+      // The ring's poses would no longer match the map after relocalisation.
+      classifier_->reset();
+    } else {
+      if (!current) {
+        current = dynamic::make_object_features(prepared, mask.dynamic_boxes, report.pose.T_world_cam,
+                                                report.pose.covariance, classifier_->max_depth_m());
+      }
+      current->T_world_cam = report.pose.T_world_cam;
+      current->covariance = report.pose.covariance;
+      classifier_->remember(std::move(*current));
+    }
+  }
+
+  report.timings.extract_left_ms = prepared.timings.extract_left_ms;
+  report.timings.extract_right_ms = prepared.timings.extract_right_ms;
+  report.timings.stereo_match_ms = prepared.timings.stereo_match_ms;
+  report.timings.prepare_ms = prepared.timings.total_ms;
+  report.timings.motion_model_ms = pass1.timings.motion_model_ms;
+  report.timings.local_map_ms = pass1.timings.local_map_ms;
+  report.timings.motion_ba_ms = pass1.timings.motion_ba_ms;
+  report.timings.total_ms = ms_since(start);
+  SITEPOSE_TRY_STATUS(run_inline_mapping(report));
   return report;
 }
 

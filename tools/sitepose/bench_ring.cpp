@@ -61,7 +61,7 @@ class MutexQueue {
   bool closed_ = false;
 };
 
-constexpr char kRingName[] = "spsc_ring";            // FullPolicy::kReject
+constexpr char kRingName[] = "spsc_ring";                  // FullPolicy::kReject
 constexpr char kRingDropName[] = "spsc_ring_drop_policy";  // kDropOldest ring, used losslessly
 constexpr char kMutexName[] = "mutex_deque";
 
@@ -116,7 +116,8 @@ class RateReporter : public benchmark::ConsoleReporter {
   std::map<std::string, bool> has_mean_;
 };
 
-int run_bench_ring(std::size_t capacity, std::uint64_t items, const std::vector<std::string>& extras) {
+int run_bench_ring(std::size_t capacity, std::uint64_t items,
+                   const std::vector<std::string>& extras) {
   if (auto st = pipeline::check_ring_capacity("--capacity", capacity); !st) {
     return fail("bench ring", st.error().message, 2);
   }
@@ -124,7 +125,8 @@ int run_bench_ring(std::size_t capacity, std::uint64_t items, const std::vector<
   std::vector<std::string> args{"sitepose bench ring"};
   for (const auto& e : extras) {
     if (e.rfind("--benchmark_", 0) != 0) {
-      return fail("bench ring", "unknown argument '" + e + "' (only --benchmark_*=VALUE flags pass through)", 2);
+      return fail("bench ring",
+                  "unknown argument '" + e + "' (only --benchmark_*=VALUE flags pass through)", 2);
     }
     args.push_back(e);
   }
@@ -134,18 +136,31 @@ int run_bench_ring(std::size_t capacity, std::uint64_t items, const std::vector<
   benchmark::Initialize(&argc, argv.data());
   if (benchmark::ReportUnrecognizedArguments(argc, argv.data())) return 2;
 
-  benchmark::RegisterBenchmark(kRingName, [=](benchmark::State& s) {
-    transfer<pipeline::SpscRing<std::uint64_t, pipeline::FullPolicy::kReject>>(s, capacity, items);
-  })->UseRealTime()->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark(kRingDropName, [=](benchmark::State& s) {
-    transfer<pipeline::SpscRing<std::uint64_t, pipeline::FullPolicy::kDropOldest>>(s, capacity, items);
-  })->UseRealTime()->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark(kMutexName, [=](benchmark::State& s) {
-    transfer<MutexQueue<std::uint64_t>>(s, capacity, items);
-  })->UseRealTime()->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark(
+      kRingName,
+      [=](benchmark::State& s) {
+        transfer<pipeline::SpscRing<std::uint64_t, pipeline::FullPolicy::kReject>>(s, capacity,
+                                                                                   items);
+      })
+      ->UseRealTime()
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark(
+      kRingDropName,
+      [=](benchmark::State& s) {
+        transfer<pipeline::SpscRing<std::uint64_t, pipeline::FullPolicy::kDropOldest>>(s, capacity,
+                                                                                       items);
+      })
+      ->UseRealTime()
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark(
+      kMutexName,
+      [=](benchmark::State& s) { transfer<MutexQueue<std::uint64_t>>(s, capacity, items); })
+      ->UseRealTime()
+      ->Unit(benchmark::kMillisecond);
 
-  std::printf("producer -> consumer on two threads, %llu uint64 items per iteration, capacity %zu\n",
-              static_cast<unsigned long long>(items), capacity);
+  std::printf(
+      "producer -> consumer on two threads, %llu uint64 items per iteration, capacity %zu\n",
+      static_cast<unsigned long long>(items), capacity);
   std::fflush(stdout);
   RateReporter reporter;
   const std::size_t ran = benchmark::RunSpecifiedBenchmarks(&reporter);
@@ -168,16 +183,22 @@ int run_bench_ring(std::size_t capacity, std::uint64_t items, const std::vector<
 
 const CommandRegistrar kBenchRing{
     {"bench", "ring",
-     "Throughput (items/s) of the SPSC ring vs a mutex+deque queue between two threads, and their ratio",
+     "Throughput (items/s) of the SPSC ring (both full policies) vs a mutex+deque queue between "
+     "two "
+     "threads, and the ratios",
      [](CLI::App& sub) -> CommandAction {
        auto capacity = std::make_shared<std::size_t>(1024);
        auto items = std::make_shared<std::uint64_t>(1u << 20);
-       sub.add_option("--capacity", *capacity, "queue capacity (a power of two)")->capture_default_str();
-       sub.add_option("--items", *items, "items transferred per benchmark iteration")->capture_default_str();
+       sub.add_option("--capacity", *capacity, "queue capacity (a power of two)")
+           ->capture_default_str();
+       sub.add_option("--items", *items, "items transferred per benchmark iteration")
+           ->capture_default_str();
        sub.allow_extras();
-       sub.footer("Google Benchmark flags pass through as --benchmark_NAME=VALUE, e.g. "
-                  "--benchmark_repetitions=3 --benchmark_min_time=2.");
-       return [&sub, capacity, items] { return run_bench_ring(*capacity, *items, sub.remaining()); };
+       sub.footer(
+           "Google Benchmark flags pass through as --benchmark_NAME=VALUE, e.g. "
+           "--benchmark_repetitions=3 --benchmark_min_time=2.");
+       return
+           [&sub, capacity, items] { return run_bench_ring(*capacity, *items, sub.remaining()); };
      }}};
 
 }  // namespace

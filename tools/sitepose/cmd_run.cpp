@@ -1,6 +1,7 @@
 // `sitepose run`: track a recorded sequence and write the trajectory
 // (FORMATS.md command contract).
 
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <unistd.h>
@@ -8,7 +9,10 @@
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/config/orbslam2_settings.hpp"
+#include "sitepose/detect/create_detector.hpp"
+#include "sitepose/dynamic/masking.hpp"
 #include "sitepose/io/sequence.hpp"
+#include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"
 
@@ -49,16 +53,15 @@ int run(const RunArgs& args) {
     if (!mode) return fail(kCommand, "--mode: " + mode.error().message, 2);
     config.dynamic.mode = *mode;
   }
-  if (config.dynamic.mode != config::MaskingMode::kNone) {
-    return fail(kCommand,
-                std::string("--mode ") + config::to_string(config.dynamic.mode) +
-                    ": the dynamic layer (masking, motion states, two passes) is not in this "
-                    "build yet; only --mode none is available",
-                2);
+  const bool masking = config.dynamic.mode != config::MaskingMode::kNone;
+  if (!masking && !args.detector.empty()) {
+    return fail(kCommand, "--detector needs a masking mode (--mode bbox|pixel|hierarchical|full); --mode none uses no detector", 2);
   }
-  if (!args.detector.empty() || !args.states_out.empty()) {
-    return fail(kCommand, "--detector and --states-out need a masking mode; with --mode none there is no detector", 2);
+  if (!args.states_out.empty() && config.dynamic.mode != config::MaskingMode::kFull) {
+    return fail(kCommand, std::string("--states-out needs --mode full (motion states are classified only there); mode is ") +
+                              config::to_string(config.dynamic.mode), 2);
   }
+  if (!args.detector.empty()) config.detector.name = args.detector;
   io::SequenceOptions options;
   options.gt_path = args.gt;
   auto sequence = io::open_sequence(args.sequence, options);
@@ -66,7 +69,44 @@ int run(const RunArgs& args) {
   StereoCamera camera = (*sequence)->camera();
   if (config.camera.stereo) camera = *config.camera.stereo;
 
-  auto system = slam::SlamSystem::create(camera, config, {args.mapper_thread});
+  std::unique_ptr<detect::Detector> detector;
+  if (masking) {
+    if (config.detector.name == "labels" && !(*sequence)->has_labels()) {
+      return fail(kCommand, "--mode " + std::string(config::to_string(config.dynamic.mode)) +
+                                " with detector labels: " + args.sequence +
+                                " has no labels/boxes.csv; choose --detector stereo-geometric or a plugin", 2);
+    }
+    detect::DetectorContext context;
+    context.sequence_dir = args.sequence;
+    context.camera = camera;
+    auto created = detect::create_detector(config.detector, context);
+    if (!created) return fail(kCommand, "--detector " + config.detector.name + ": " + created.error().message, 2);
+    detector = std::move(*created);
+    const bool needs_pixels = config.dynamic.mode != config::MaskingMode::kBbox;
+    if (needs_pixels && !detector->capabilities().has_segmentation) {
+      return fail(kCommand, "--mode " + std::string(config::to_string(config.dynamic.mode)) +
+                                " needs pixel masks, but detector " + config.detector.name +
+                                " cannot segment (for labels: the sequence has no labels/masks/); use --mode bbox",
+                  2);
+    }
+    if (config.detector.name == "stereo-geometric" &&
+        !dynamic::is_dynamic_class("object", config.dynamic.dynamic_classes)) {
+      // Its only class is "object": without it nothing would be masked.
+      config.dynamic.dynamic_classes.push_back("object");
+      std::fprintf(stderr, "sitepose run: detector stereo-geometric: class 'object' added to dynamic.dynamic_classes\n");
+    }
+  }
+  double fps = 6.0;
+  if ((*sequence)->size() >= 2) {
+    const double span_s =
+        static_cast<double>((*sequence)->time_ns((*sequence)->size() - 1) - (*sequence)->time_ns(0)) * 1e-9;
+    if (span_s > 0.0) fps = static_cast<double>((*sequence)->size() - 1) / span_s;
+  }
+
+  slam::SlamOptions slam_options;
+  slam_options.mapper_thread = args.mapper_thread;
+  slam_options.fps = fps;
+  auto system = slam::SlamSystem::create(camera, config, slam_options);
   if (!system) return fail(kCommand, system.error().message, 2);
 
   const std::size_t n_frames = args.max_frames > 0
@@ -74,11 +114,34 @@ int run(const RunArgs& args) {
                                    : (*sequence)->size();
   const bool tty = isatty(STDERR_FILENO) != 0;
   slam::RunRecorder recorder;
+  int detector_failures = 0;
   for (std::size_t i = 0; i < n_frames; ++i) {
     auto frame = (*sequence)->read_frame(i);
     if (!frame) return fail(kCommand, frame.error().message, 2);
-    auto report = (*system)->process(*frame);
-    if (!report) return fail(kCommand, report.error().message, 1);
+    Expected<slam::FrameReport> report = make_error(ErrorCode::kRuntime, "not run");
+    if (detector) {
+      const auto t_detect = std::chrono::steady_clock::now();
+      auto objects = slam::detect_objects(*detector, *frame);
+      const double detect_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_detect).count();
+      if (!objects) {
+        // The frame goes on without detections (counted), never a crash.
+        ++detector_failures;
+        std::fprintf(stderr, "sitepose run: frame %zu: %s\n", i, objects.error().message.c_str());
+        objects = dynamic::FrameObjects{};
+      }
+      report = (*system)->process(*frame, *objects);
+      if (report) {
+        report->timings.detect_ms = detect_ms;
+        report->timings.total_ms += detect_ms;
+      }
+    } else {
+      report = (*system)->process(*frame);
+    }
+    if (!report) {
+      const int status = report.error().code == ErrorCode::kUnsupported ? 2 : 1;
+      return fail(kCommand, "frame " + std::to_string(i) + ": " + report.error().message, status);
+    }
     recorder.add(*report);
     if (!args.quiet && (tty ? (i % 5 == 0 || i + 1 == n_frames) : ((i + 1) % 100 == 0 || i + 1 == n_frames))) {
       std::fprintf(stderr, "%sframe %zu/%zu  %s  %.1f frames/s%s", tty ? "\r" : "", i + 1, n_frames,
@@ -92,12 +155,18 @@ int run(const RunArgs& args) {
     const auto& counters = (*system)->tracker_counters();
     const auto mapping = (*system)->mapping_stats();
     const std::string extra =
-        "  \"mode\": \"none\",\n  \"keyframes_created\": " + std::to_string(counters.keyframes_created) +
+ "  \"mode\": \"" + std::string(config::to_string(config.dynamic.mode)) + "\",\n  \"detector\": \"" +
+        (detector ? config.detector.name : std::string()) + "\",\n  \"classifier\": \"" +
+        config::to_string(config.dynamic.classifier) + "\",\n  \"detector_failures\": " +
+        std::to_string(detector_failures) + ",\n  \"keyframes_created\": " + std::to_string(counters.keyframes_created) +
         ",\n  \"relocalisations\": " + std::to_string(counters.relocalisations) +
         ",\n  \"keyframes_in_map\": " + std::to_string((*system)->keyframe_count()) +
         ",\n  \"points_in_map\": " + std::to_string((*system)->point_count()) +
         ",\n  \"keyframes_culled\": " + std::to_string(mapping.keyframes_culled);
     if (auto st = recorder.write_stats_json(args.stats_out, extra); !st) return fail(kCommand, st.error().message, 1);
+  }
+  if (!args.states_out.empty()) {
+    if (auto st = recorder.write_states_csv(args.states_out); !st) return fail(kCommand, st.error().message, 1);
   }
   std::printf("frames %d, tracked OK %d (%.1f %%), %.1f frames/s, keyframes %zu, points %zu\n",
               recorder.frames(), recorder.frames_ok(),
@@ -116,10 +185,14 @@ const CommandRegistrar kRun{{"", "run", "Track a recorded stereo sequence and wr
                  "ORB-SLAM2 stereo settings file: camera and ORB parameters override the config");
   sub.add_option("--mode", args->mode,
                  std::string("Masking mode: ") + config::masking_mode_names() +
-                     " (this build: none only)");
-  sub.add_option("--detector", args->detector, "Detector for the masking modes (not in this build)");
+                     " (default: the config's dynamic.mode, full; full = hierarchical masks + motion "
+                     "states + two passes)");
+  sub.add_option("--detector", args->detector,
+                 "Detector for the masking modes: labels (the sequence's labels/), stereo-geometric, "
+                 "opencv-dnn, or a plugin .so path (default: the config's detector.name, labels)");
   sub.add_option("--out", args->out, "Trajectory output, TUM format (T_world_cam, left camera)")->required();
-  sub.add_option("--states-out", args->states_out, "Motion states CSV (masking modes only)");
+  sub.add_option("--states-out", args->states_out,
+                 "Motion states CSV, frame,instance,class,state,score,points (--mode full only)");
   sub.add_option("--stats-out", args->stats_out, "Per-run statistics JSON");
   sub.add_option("--gt", args->gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
   sub.add_option("--frames", args->max_frames, "Process at most N frames (0 = all)");

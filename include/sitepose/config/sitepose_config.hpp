@@ -99,6 +99,19 @@ struct DetectorConfig {
   std::string model_config;         // opencv-dnn: model description file
   std::string model_weights;        // opencv-dnn: weights file
   double score_threshold = 0.3;
+  // labels: simulated detector latency and noise for robustness tests
+  // (deterministic per seed, frame and instance).
+  double labels_latency_ms = 0.0;        // sleep per detect call
+  double labels_miss_probability = 0.0;  // probability that a box is missed
+  double labels_jitter_px = 0.0;         // std dev of each box edge's shift
+  int labels_seed = 1;
+  // stereo-geometric (weight-free): what counts as an object.
+  double geometric_max_range_m = 16.0;   // farther pixels are background
+  double geometric_min_height_m = 0.4;   // height above the fitted ground plane
+  // opencv-dnn (YOLO-style output): class names and network input size.
+  std::string dnn_classes_file;          // one name per line; empty = class0, class1, ...
+  int dnn_input_width_px = 416;
+  int dnn_input_height_px = 416;
 
   bool operator==(const DetectorConfig&) const = default;
 };

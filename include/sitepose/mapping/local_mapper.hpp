@@ -78,7 +78,8 @@ struct MappingStats {
   int last_ba_keyframes = 0;     // size of the last solved window: free + fixed keyframes,
   int last_ba_points = 0;        // points
   int last_ba_observations = 0;  // and observations
-  double last_ba_ms = 0.0;   // wall time of the last solve (unlocked part)
+  double last_ba_ms = 0.0;      // wall time of the last solve (unlocked part)
+  double last_ba_cpu_ms = 0.0;  // CPU time of the mapping thread in that solve
   double total_ba_ms = 0.0;
   double last_keyframe_ms = 0.0;  // wall time of all steps for the last keyframe
   double total_keyframe_ms = 0.0;

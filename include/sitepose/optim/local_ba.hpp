@@ -12,8 +12,9 @@
 // observation is tested again at the final estimate and the failing ones are
 // returned as outliers (the mapper erases them from the map).
 //
-// Solver: Levenberg-Marquardt with SPARSE_SCHUR, points eliminated first;
-// Ceres single-threaded. Poses use Se3LeftManifold (7-double T_cam_world).
+// Solver: Levenberg-Marquardt with the Schur complement, points eliminated
+// first (DENSE_SCHUR up to 40 free keyframes, SPARSE_SCHUR beyond); Ceres
+// single-threaded. Poses use Se3LeftManifold (7-double T_cam_world).
 // Fixed keyframes are constant parameter blocks: their poses come back bit
 // for bit as given. Without any fixed keyframe the 6-dof gauge is free
 // (Levenberg-Marquardt damping keeps it bounded); the mapper should fix at

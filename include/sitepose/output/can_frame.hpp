@@ -18,9 +18,9 @@ inline constexpr std::uint8_t kCanMaxDataBytes = 8;
 inline constexpr std::uint8_t kJ1939GlobalAddress = 0xFF;  // "to everyone"
 
 struct CanFrame {
-  std::uint32_t id = 0;   // 29-bit when `extended`, 11-bit otherwise
-  bool extended = true;   // J1939 and NMEA 2000 use extended ids only
-  std::uint8_t dlc = 0;   // number of data bytes, 0..8
+  std::uint32_t id = 0;                               // 29-bit when `extended`, 11-bit otherwise
+  bool extended = true;                               // J1939 and NMEA 2000 use extended ids only
+  std::uint8_t dlc = 0;                               // number of data bytes, 0..8
   std::array<std::uint8_t, kCanMaxDataBytes> data{};  // bytes past dlc are 0
 
   friend bool operator==(const CanFrame&, const CanFrame&) = default;
@@ -28,8 +28,8 @@ struct CanFrame {
 
 // Parts of a 29-bit J1939 / NMEA 2000 identifier.
 struct J1939Id {
-  std::uint8_t priority = 6;      // 0 (highest) .. 7
-  std::uint32_t pgn = 0;          // 18 bits: EDP, DP, PF, PS
+  std::uint8_t priority = 6;  // 0 (highest) .. 7
+  std::uint32_t pgn = 0;      // 18 bits: EDP, DP, PF, PS
   std::uint8_t source_address = 0;
   std::uint8_t destination_address = kJ1939GlobalAddress;  // PDU1 PGNs only
 };

@@ -41,14 +41,14 @@ Status check_can_output_options(const CanOutputOptions& options);
 
 // One pose in global terms, as the geo anchoring delivers it.
 struct CanPoseInputs {
-  std::int64_t utc_t_ns = 0;          // capture time, ns since the Unix epoch (UTC)
-  double latitude_deg = 0.0;          // WGS84
+  std::int64_t utc_t_ns = 0;  // capture time, ns since the Unix epoch (UTC)
+  double latitude_deg = 0.0;  // WGS84
   double longitude_deg = 0.0;
-  double altitude_m = 0.0;            // above the WGS84 ellipsoid
-  double heading_rad = 0.0;           // of the machine, clockwise from true north
+  double altitude_m = 0.0;   // above the WGS84 ellipsoid
+  double heading_rad = 0.0;  // of the machine, clockwise from true north
   double course_over_ground_rad = 0.0;
   double speed_over_ground_mps = 0.0;
-  double pitch_rad = 0.0;             // nose up positive
+  double pitch_rad = 0.0;  // nose up positive
   PoseQuality quality;
 };
 

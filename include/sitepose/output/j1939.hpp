@@ -17,8 +17,8 @@ namespace sitepose::output {
 inline constexpr std::uint32_t kPgnVehiclePosition = 65267;        // 0xFEF3, VP
 inline constexpr std::uint32_t kPgnVehicleDirectionSpeed = 65256;  // 0xFEE8, VDS
 // Proprietary B (PDU2, PF 0xFF): group extension chosen for sitepose.
-inline constexpr std::uint32_t kPgnSiteposePoseQuality = 0xFF10;   // 65296
-inline constexpr std::uint8_t kDefaultPriorityJ1939 = 6;           // J1939-71 default for VP/VDS
+inline constexpr std::uint32_t kPgnSiteposePoseQuality = 0xFF10;  // 65296
+inline constexpr std::uint8_t kDefaultPriorityJ1939 = 6;          // J1939-71 default for VP/VDS
 
 // PGN 65267 Vehicle Position: SPN 584 latitude, SPN 585 longitude, each u32
 // 1e-7 deg/bit with offset -210 deg (valid -210 .. 211.1008 deg).

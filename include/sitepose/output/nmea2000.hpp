@@ -63,9 +63,15 @@ CanFrame encode_n2k_cog_sog_rapid_update(const CogSog& v, std::uint8_t source_ad
 //   HDOP, PDOP int16 0.01; geoidal separation int32 0.01 m; nRef u8 (0).
 enum class GnssType : std::uint8_t { kGps = 0, kIntegrated = 6, kSurveyed = 7 };
 enum class GnssMethod : std::uint8_t {
-  kNoFix = 0, kGnssFix = 1, kDgnss = 2, kPreciseGnss = 3, kRtkFixed = 4, kRtkFloat = 5,
+  kNoFix = 0,
+  kGnssFix = 1,
+  kDgnss = 2,
+  kPreciseGnss = 3,
+  kRtkFixed = 4,
+  kRtkFloat = 5,
   kEstimated = 6,  // dead reckoning: what a visual positioning system is
-  kManual = 7, kSimulated = 8,
+  kManual = 7,
+  kSimulated = 8,
 };
 enum class GnssIntegrity : std::uint8_t { kNoChecking = 0, kSafe = 1, kCaution = 2 };
 struct GnssPositionData {
@@ -77,7 +83,7 @@ struct GnssPositionData {
   GnssType type = GnssType::kIntegrated;
   GnssMethod method = GnssMethod::kEstimated;
   GnssIntegrity integrity = GnssIntegrity::kNoChecking;
-  int satellites = -1;                 // < 0 = n/a
+  int satellites = -1;  // < 0 = n/a
   double hdop = kNan;
   double pdop = kNan;
   double geoidal_separation_m = kNan;  // n/a unless a geoid model is wired

@@ -32,10 +32,13 @@
 // lossless streams, e.g. keyframes to the local mapper).
 //
 // Blocking: pop_wait() spins briefly, then sleeps on a futex-backed
-// std::atomic::wait while the ring is empty. A push checks the consumer's
-// "sleeping" flag after a seq_cst fence (Dekker: either the consumer sees
-// the element or the producer sees the flag), so no wake-up is lost, and only
-// the first push after the consumer fell asleep pays for a futex wake.
+// std::atomic::wait while the ring is empty. A push publishes with a seq_cst
+// store and then reads the consumer's "sleeping" flag with a seq_cst load;
+// the consumer raises the flag the same way before its last re-check
+// (Dekker: either the consumer sees the element or the producer sees the
+// flag), so no wake-up is lost; only the first push after the consumer fell
+// asleep pays for a futex wake. No standalone fences: ThreadSanitizer models
+// these orderings.
 
 #include <atomic>
 #include <bit>
@@ -99,9 +102,7 @@ class SpscRing {
   // is removed first, counted in drops() and returned (so the caller can
   // recycle its buffers or log it). Returns nullopt when nothing was dropped,
   // including the rare case where the consumer took the oldest concurrently.
-  std::optional<T> push_drop_oldest(T&& value)
-    requires(kPolicy == FullPolicy::kDropOldest)
-  {
+  std::optional<T> push_drop_oldest(T&& value) requires(kPolicy == FullPolicy::kDropOldest) {
     const std::uint64_t p = head_.load(std::memory_order_relaxed);
     Slot& s = slot(p);
     std::optional<T> dropped;
@@ -147,9 +148,8 @@ class SpscRing {
       } else {
         if (tail_.compare_exchange_weak(t, t + 1, std::memory_order_acq_rel,
                                         std::memory_order_acquire)) {
-          std::optional<T> out = take(s, t);
-          std::atomic_thread_fence(std::memory_order_seq_cst);  // pairs with the producer's flag
-          wake_if_waiting(producer_waiting_, producer_wake_);
+          std::optional<T> out = take(s, t);                   // seq_cst release of the slot ...
+          wake_if_waiting(producer_waiting_, producer_wake_);  // ... then the flag
           return out;
         }
         // CAS failed: the producer dropped t; `t` now holds the new tail.
@@ -171,11 +171,10 @@ class SpscRing {
         return try_pop();  // an element pushed just before close()
       }
       const std::uint32_t ticket = consumer_wake_.load(std::memory_order_acquire);
-      consumer_waiting_.store(true, std::memory_order_relaxed);
-      std::atomic_thread_fence(std::memory_order_seq_cst);  // flag before re-check
-      if (auto v = try_pop()) {
+      consumer_waiting_.store(true, std::memory_order_seq_cst);  // flag, then re-check
+      if (nonempty_seq_cst()) {
         consumer_waiting_.store(false, std::memory_order_relaxed);
-        return v;
+        continue;
       }
       if (!closed_.load(std::memory_order_acquire)) {
         consumer_wake_.wait(ticket, std::memory_order_acquire);
@@ -207,18 +206,27 @@ class SpscRing {
 
   void publish(Slot& s, std::uint64_t p, T&& value) {
     std::construct_at(reinterpret_cast<T*>(s.storage), std::move(value));
-    s.seq.store(p + 1, std::memory_order_release);
+    // seq_cst store, then the seq_cst flag load in wake_if_waiting: pairs
+    // with pop_wait's flag store + nonempty_seq_cst() (Dekker).
+    s.seq.store(p + 1, std::memory_order_seq_cst);
     head_.store(p + 1, std::memory_order_release);
-    std::atomic_thread_fence(std::memory_order_seq_cst);  // pairs with pop_wait's flag
     wake_if_waiting(consumer_waiting_, consumer_wake_);
   }
 
-  // Moves the element of claimed position t out and frees its slot.
+  // Moves the element of claimed position t out and frees its slot (seq_cst
+  // under kDropOldest: pairs with the waiting producer's flag, Dekker).
   std::optional<T> take(Slot& s, std::uint64_t t) {
     std::optional<T> out(std::move(*s.ptr()));
     std::destroy_at(s.ptr());
-    s.seq.store(t + capacity_, std::memory_order_release);
+    s.seq.store(t + capacity_, kPolicy == FullPolicy::kDropOldest ? std::memory_order_seq_cst
+                                                                  : std::memory_order_release);
     return out;
+  }
+
+  // The consumer's re-check after raising its flag.
+  bool nonempty_seq_cst() {
+    const std::uint64_t t = tail_.load(std::memory_order_seq_cst);
+    return slot(t).seq.load(std::memory_order_seq_cst) == t + 1;
   }
 
   void wait_for_slot_release(Slot& s, std::uint64_t p) {
@@ -228,9 +236,8 @@ class SpscRing {
     }
     for (;;) {
       const std::uint32_t ticket = producer_wake_.load(std::memory_order_acquire);
-      producer_waiting_.store(true, std::memory_order_relaxed);
-      std::atomic_thread_fence(std::memory_order_seq_cst);
-      if (s.seq.load(std::memory_order_acquire) == p) break;
+      producer_waiting_.store(true, std::memory_order_seq_cst);  // flag, then re-check
+      if (s.seq.load(std::memory_order_seq_cst) == p) break;
       producer_wake_.wait(ticket, std::memory_order_acquire);
     }
     producer_waiting_.store(false, std::memory_order_relaxed);
@@ -247,8 +254,8 @@ class SpscRing {
   // The waker clears the flag, so only the first push after the sleeper went
   // to sleep pays for a futex wake, not every push until it runs again.
   static void wake_if_waiting(std::atomic<bool>& waiting, std::atomic<std::uint32_t>& word) {
-    if (waiting.load(std::memory_order_relaxed) &&
-        waiting.exchange(false, std::memory_order_relaxed)) {
+    if (waiting.load(std::memory_order_seq_cst) &&
+        waiting.exchange(false, std::memory_order_acq_rel)) {
       wake(word);
     }
   }

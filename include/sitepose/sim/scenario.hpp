@@ -52,7 +52,7 @@ struct RealismSpec {
   double noise_sigma = 1.5;          // gray levels, Gaussian, per pixel
   double contrast = 1.0;             // scales deviations from mid-gray (fast: < 1)
   double brightness = 1.0;           // overall gain
-  int motion_blur_samples = 1;       // > 1: average renders over the exposure
+  int motion_blur_samples = 1;       // odd; > 1: average renders over the exposure
   double exposure_time_s = 0.01;
   double right_gain = 1.0;           // right camera gain relative to the left
   bool distorted = false;            // write unrectified images with `distortion`

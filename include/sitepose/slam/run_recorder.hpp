@@ -28,10 +28,24 @@ std::int64_t peak_rss_bytes();
 // Current resident set size (VmRSS), bytes; 0 if unknown.
 std::int64_t current_rss_bytes();
 
+// One row of --states-out (FORMATS.md "Per-frame outputs of a run").
+struct StateRow {
+  std::int64_t frame = 0;
+  std::uint16_t instance = 0;
+  std::string class_name;
+  dynamic::MotionState state = dynamic::MotionState::kUnknown;
+  double score = 0.0;
+  int points = 0;
+};
+
 class RunRecorder {
  public:
+  // Records the pose and stage times; reports of the dynamic layer
+  // (report.dynamic_layer) also add mar, the pixel-mask call, the dynamic
+  // stages (detect, mask, classify, pass2) and one state row per object.
   void add(const FrameReport& report);
-  // Extra per-frame figures from the dynamic layer.
+  // Extra per-frame figures from the dynamic layer, for callers that run
+  // masking outside SlamSystem (add() records them itself otherwise).
   void add_dynamic(double masked_area_ratio, bool pixel_mask_used);
 
   int frames() const { return static_cast<int>(poses_.size()); }
@@ -43,12 +57,22 @@ class RunRecorder {
   // Poses that are not LOST, as TUM (t in seconds).
   Status write_tum(const std::string& path) const;
   Status write_stats_json(const std::string& path, const std::string& extra_json_fields = "") const;
+  // header frame,instance,class,state,score,points; one row per object per
+  // frame of mode full (state = the smoothed state the run used).
+  Status write_states_csv(const std::string& path) const;
+
+  const std::vector<StateRow>& state_rows() const { return state_rows_; }
+  const std::vector<double>& masked_area_ratios() const { return masked_area_ratio_; }
+  int pixel_mask_calls() const { return pixel_mask_calls_; }
+  // Sum over frames of each stage (ms), for time shares.
+  double stage_total_ms(const std::string& stage) const;
 
  private:
   std::vector<PoseEstimate> poses_;
   std::map<std::string, std::vector<double>> stage_ms_;
   std::vector<double> masked_area_ratio_;
   int pixel_mask_calls_ = 0;
+  std::vector<StateRow> state_rows_;
 };
 
 }  // namespace sitepose::slam

@@ -1,8 +1,19 @@
 #pragma once
-// The positioning core as one object: tracker + local mapper (+ the dynamic
-// layer when a masking mode is on). `sitepose run`, `sitepose bench track`,
-// the demo and the daemon's track stage all drive it the same way:
-// process() once per frame, in order, from one thread.
+// The positioning core as one object: tracker + local mapper + the dynamic
+// layer. `sitepose run`, `sitepose bench track`, the demo and the daemon's
+// track stage all drive it the same way: process() once per frame, in
+// order, from one thread.
+//
+// Modes (config.dynamic.mode; ARCHITECTURE.md "Inside the track stage"):
+//   none          plain stereo SLAM on every keypoint (process(frame)).
+//   bbox | pixel | hierarchical
+//                 Algorithm 1 mask; one pass on the unmasked keypoints.
+//   full          hierarchical mask; pass 1 on the background, motion states
+//                 of the objects (Algorithm 2, with pass 1's pose), pass 2
+//                 from pass 1's pose with static objects' keypoints added;
+//                 new map points from the background and static objects.
+// Keypoints are extracted once per frame and tagged with the instance under
+// them; pass 1 leaves no trace in the tracker (Tracker::estimate is const).
 //
 // Mapper threading: with `mapper_thread` the local mapper runs on its own
 // thread (the daemon); without it, queued keyframes are processed on the
@@ -10,11 +21,14 @@
 // reproducible (tests, regression thresholds, ablations).
 
 #include <memory>
+#include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
 #include "sitepose/core/pose_estimate.hpp"
 #include "sitepose/core/stereo_frame.hpp"
+#include "sitepose/dynamic/masking.hpp"
+#include "sitepose/dynamic/motion_classifier.hpp"
 #include "sitepose/map/shared_map.hpp"
 #include "sitepose/mapping/local_mapper.hpp"
 #include "sitepose/tracking/tracker.hpp"
@@ -23,6 +37,9 @@ namespace sitepose::slam {
 
 struct SlamOptions {
   bool mapper_thread = false;
+  // Frame rate of the source; sets the motion classifier's reference offset
+  // (paper mode, when dynamic.reference_offset_frames = 0) and ring length.
+  double fps = 6.0;
 };
 
 // Wall time of each stage of one frame (ms).
@@ -35,12 +52,26 @@ struct FrameTimings {
   double local_map_ms = 0.0;
   double motion_ba_ms = 0.0;
   double mapping_inline_ms = 0.0;  // local mapping run on this thread (no mapper thread)
-  double total_ms = 0.0;           // the whole frame, excluding inline mapping
+  // Dynamic layer (zero in mode none). detect_ms is filled by the caller
+  // that ran the detector (it is outside process()) and counted in total_ms
+  // only if the caller adds it.
+  double detect_ms = 0.0;
+  double mask_ms = 0.0;      // Algorithm 1 incl. pixel segmentation
+  double classify_ms = 0.0;  // Algorithm 2 (matching + tests)
+  double pass2_ms = 0.0;     // the second pose estimate
+  double total_ms = 0.0;     // the whole frame, excluding inline mapping
 };
 
 struct FrameReport {
   PoseEstimate pose;
   FrameTimings timings;
+  bool dynamic_layer = false;    // process(frame, objects) ran with a masking mode
+  double mar = 0.0;              // Algorithm 1's box-union ratio
+  double masked_ratio = 0.0;     // pixels actually masked / image
+  bool pixel_mask_used = false;  // the segmenter ran this frame
+  // Mode full: one entry per dynamic-class box of the frame, in box order
+  // (states unknown when pass 1 found no pose). Empty in other modes.
+  std::vector<dynamic::ClassifiedObject> objects;
 };
 
 class SlamSystem {
@@ -52,9 +83,19 @@ class SlamSystem {
   SlamSystem(const SlamSystem&) = delete;
   SlamSystem& operator=(const SlamSystem&) = delete;
 
-  // Frames must come in order of time. Errors are bad input (wrong image
-  // size or type); tracking failure is a state in the report, not an error.
+  // Plain stereo SLAM on every keypoint (mode none), whatever
+  // config.dynamic.mode says. Frames must come in order of time. Errors are
+  // bad input (wrong image size or type); tracking failure is a state in
+  // the report, not an error.
   Expected<FrameReport> process(const StereoFrame& frame);
+
+  // The frame with its detections, in config.dynamic.mode (see above).
+  // objects.segment is called (at most once, during this call) when the
+  // mode needs a pixel mask. Errors: those of process(frame), a pixel mask
+  // needed without a segmenter (kUnsupported), the segmenter's own error.
+  Expected<FrameReport> process(const StereoFrame& frame, const dynamic::FrameObjects& objects);
+
+  config::MaskingMode mode() const { return config_.dynamic.mode; }
 
   // Lets the mapper finish its queue (and stops its thread).
   void finish();
@@ -68,8 +109,12 @@ class SlamSystem {
   SlamSystem(const StereoCamera& camera, const config::SiteposeConfig& config,
              const SlamOptions& options);
 
+  Expected<FrameReport> process_masked(const StereoFrame& frame, const dynamic::FrameObjects& objects);
+  Status run_inline_mapping(FrameReport& report);
+
   config::SiteposeConfig config_;
   SlamOptions options_;
+  std::unique_ptr<dynamic::MotionClassifier> classifier_;
   map::SharedMap map_;
   std::unique_ptr<mapping::LocalMapper> mapper_;
   std::unique_ptr<tracking::Tracker> tracker_;

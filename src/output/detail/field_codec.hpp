@@ -18,7 +18,7 @@ struct FieldSpec {
   double raw_per_unit;  // 1 / resolution
   double offset;        // physical = raw / raw_per_unit + offset
   std::int64_t min_raw;
-  std::int64_t max_raw;      // largest valid raw value
+  std::int64_t max_raw;  // largest valid raw value
   std::int64_t not_available;
 };
 
@@ -52,17 +52,29 @@ inline double wrap_two_pi(double angle_rad) {
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 // J1939-71 ranges: raw values above 0xFA.. are error / not-available codes.
-inline constexpr FieldSpec j1939_u8(double raw_per_unit, double off) { return {raw_per_unit, off, 0, 0xFA, 0xFF}; }
-inline constexpr FieldSpec j1939_u16(double raw_per_unit, double off) { return {raw_per_unit, off, 0, 0xFAFF, 0xFFFF}; }
+inline constexpr FieldSpec j1939_u8(double raw_per_unit, double off) {
+  return {raw_per_unit, off, 0, 0xFA, 0xFF};
+}
+inline constexpr FieldSpec j1939_u16(double raw_per_unit, double off) {
+  return {raw_per_unit, off, 0, 0xFAFF, 0xFFFF};
+}
 inline constexpr FieldSpec j1939_u32(double raw_per_unit, double off) {
   return {raw_per_unit, off, 0, 0xFAFFFFFFLL, 0xFFFFFFFFLL};
 }
 
 // NMEA 2000: the top three codes are out-of-range, reserved, not-available.
-inline constexpr FieldSpec n2k_u8(double raw_per_unit) { return {raw_per_unit, 0.0, 0, 0xFC, 0xFF}; }
-inline constexpr FieldSpec n2k_u16(double raw_per_unit) { return {raw_per_unit, 0.0, 0, 0xFFFC, 0xFFFF}; }
-inline constexpr FieldSpec n2k_u32(double raw_per_unit) { return {raw_per_unit, 0.0, 0, 0xFFFFFFFCLL, 0xFFFFFFFFLL}; }
-inline constexpr FieldSpec n2k_i16(double raw_per_unit) { return {raw_per_unit, 0.0, -0x7FFF, 0x7FFC, 0x7FFF}; }
+inline constexpr FieldSpec n2k_u8(double raw_per_unit) {
+  return {raw_per_unit, 0.0, 0, 0xFC, 0xFF};
+}
+inline constexpr FieldSpec n2k_u16(double raw_per_unit) {
+  return {raw_per_unit, 0.0, 0, 0xFFFC, 0xFFFF};
+}
+inline constexpr FieldSpec n2k_u32(double raw_per_unit) {
+  return {raw_per_unit, 0.0, 0, 0xFFFFFFFCLL, 0xFFFFFFFFLL};
+}
+inline constexpr FieldSpec n2k_i16(double raw_per_unit) {
+  return {raw_per_unit, 0.0, -0x7FFF, 0x7FFC, 0x7FFF};
+}
 inline constexpr FieldSpec n2k_i32(double raw_per_unit) {
   return {raw_per_unit, 0.0, -0x7FFFFFFFLL, 0x7FFFFFFCLL, 0x7FFFFFFFLL};
 }

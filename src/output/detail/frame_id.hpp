@@ -7,7 +7,8 @@
 
 namespace sitepose::output::detail {
 
-inline std::uint32_t pdu2_id(std::uint32_t pgn, std::uint8_t priority, std::uint8_t source_address) {
+inline std::uint32_t pdu2_id(std::uint32_t pgn, std::uint8_t priority,
+                             std::uint8_t source_address) {
   SITEPOSE_CHECK(priority <= 7);
   SITEPOSE_CHECK(((pgn >> 8) & 0xFF) >= 240 && pgn <= 0x3FFFF);
   const auto id = make_j1939_id(J1939Id{priority, pgn, source_address, kJ1939GlobalAddress});

@@ -49,7 +49,9 @@ class JsonParser {
 
  private:
   void skip() {
-    while (pos_ < s_.size() && (s_[pos_] == ' ' || s_[pos_] == '\n' || s_[pos_] == '\r' || s_[pos_] == '\t')) ++pos_;
+    while (pos_ < s_.size() &&
+           (s_[pos_] == ' ' || s_[pos_] == '\n' || s_[pos_] == '\r' || s_[pos_] == '\t'))
+      ++pos_;
   }
   std::optional<Json> fail(const std::string& what) {
     error_ = what + " at offset " + std::to_string(pos_);
@@ -68,10 +70,15 @@ class JsonParser {
       if (c == '\\') {
         if (pos_ >= s_.size()) return std::nullopt;
         const char e = s_[pos_++];
-        if (e == 'n') c = '\n';
-        else if (e == 't') c = '\t';
-        else if (e == 'u') { pos_ += 4; c = '?'; }
-        else c = e;
+        if (e == 'n')
+          c = '\n';
+        else if (e == 't')
+          c = '\t';
+        else if (e == 'u') {
+          pos_ += 4;
+          c = '?';
+        } else
+          c = e;
       }
       out += c;
     }
@@ -88,7 +95,11 @@ class JsonParser {
       auto obj = std::make_shared<Json::Object>();
       ++pos_;
       skip();
-      if (pos_ < s_.size() && s_[pos_] == '}') { ++pos_; j.value = obj; return j; }
+      if (pos_ < s_.size() && s_[pos_] == '}') {
+        ++pos_;
+        j.value = obj;
+        return j;
+      }
       for (;;) {
         skip();
         if (pos_ >= s_.size() || s_[pos_] != '"') return fail("expected a key");
@@ -100,8 +111,14 @@ class JsonParser {
         if (!v) return std::nullopt;
         (*obj)[*key] = std::move(*v);
         skip();
-        if (pos_ < s_.size() && s_[pos_] == ',') { ++pos_; continue; }
-        if (pos_ < s_.size() && s_[pos_] == '}') { ++pos_; break; }
+        if (pos_ < s_.size() && s_[pos_] == ',') {
+          ++pos_;
+          continue;
+        }
+        if (pos_ < s_.size() && s_[pos_] == '}') {
+          ++pos_;
+          break;
+        }
         return fail("expected ',' or '}'");
       }
       j.value = obj;
@@ -111,14 +128,24 @@ class JsonParser {
       auto arr = std::make_shared<Json::Array>();
       ++pos_;
       skip();
-      if (pos_ < s_.size() && s_[pos_] == ']') { ++pos_; j.value = arr; return j; }
+      if (pos_ < s_.size() && s_[pos_] == ']') {
+        ++pos_;
+        j.value = arr;
+        return j;
+      }
       for (;;) {
         auto v = value();
         if (!v) return std::nullopt;
         arr->push_back(std::move(*v));
         skip();
-        if (pos_ < s_.size() && s_[pos_] == ',') { ++pos_; continue; }
-        if (pos_ < s_.size() && s_[pos_] == ']') { ++pos_; break; }
+        if (pos_ < s_.size() && s_[pos_] == ',') {
+          ++pos_;
+          continue;
+        }
+        if (pos_ < s_.size() && s_[pos_] == ']') {
+          ++pos_;
+          break;
+        }
         return fail("expected ',' or ']'");
       }
       j.value = arr;
@@ -130,9 +157,18 @@ class JsonParser {
       j.value = std::move(*str);
       return j;
     }
-    if (literal("true")) { j.value = true; return j; }
-    if (literal("false")) { j.value = false; return j; }
-    if (literal("null")) { j.value = nullptr; return j; }
+    if (literal("true")) {
+      j.value = true;
+      return j;
+    }
+    if (literal("false")) {
+      j.value = false;
+      return j;
+    }
+    if (literal("null")) {
+      j.value = nullptr;
+      return j;
+    }
     const std::string rest(s_.substr(pos_, 64));
     char* end = nullptr;
     const double d = std::strtod(rest.c_str(), &end);

@@ -128,5 +128,20 @@ TEST(MapData, ObservationWeightCountsStereoTwice) {
   EXPECT_EQ(map.observation_weight(98765), 0);
 }
 
+TEST(MapData, GeometryUpdateFollowsAMovedPointAndKeepsTheDescriptor) {
+  MapData map(ScalePyramid{1.2, 8});
+  KeyFrame kf = make_keyframe(1, 0.0);
+  kf.keypoints[0].octave = 1;
+  const KeyFrameId id = map.add_keyframe(std::move(kf));
+  const PointId pid = map.add_point({0, 0, 10}, id, 0);
+  const Descriptor descriptor = map.point(pid)->descriptor;
+  map.point(pid)->p_world = {10, 0, 10};
+  map.update_point_geometry(pid);
+  const MapPoint* p = map.point(pid);
+  EXPECT_NEAR(p->max_distance_m, std::sqrt(200.0) * 1.2, 1e-9);
+  EXPECT_LT((p->normal - Eigen::Vector3d(1, 0, 1).normalized()).norm(), 1e-12);
+  EXPECT_EQ(p->descriptor, descriptor);
+}
+
 }  // namespace
 }  // namespace sitepose::map

@@ -7,7 +7,6 @@
 #include <random>
 #include <set>
 
-#include "sitepose/mapping/keyframe_culling.hpp"
 #include "synthetic_world.hpp"
 
 namespace sitepose::mapping {
@@ -249,9 +248,9 @@ TEST(LocalMapper, LocalBaReducesPoseAndPointErrorAndKeepsTheFirstKeyframe) {
   }
   const double median_before = median(before_common);
   const double median_after = median(after_common);
-  std::printf("local BA: %d keyframes, %d points, %d observations in %.1f ms (aborted %lld)\n",
+  std::printf("local BA: %d keyframes, %d points, %d observations in %.1f ms (%.1f ms CPU; aborted %lld)\n",
               stats.last_ba_keyframes, stats.last_ba_points, stats.last_ba_observations, stats.last_ba_ms,
-              static_cast<long long>(stats.ba_aborted));
+              stats.last_ba_cpu_ms, static_cast<long long>(stats.ba_aborted));
   std::printf("mean keyframe centre error %.4f m -> %.4f m (%d -> %d keyframes); "
               "median point error %.4f -> %.4f m (%zu points)\n",
               pose_before, pose_after, n_before, n_after, median_before, median_after, after_common.size());
@@ -310,7 +309,7 @@ TEST(LocalMapper, LocalBaRemovesWrongAssociations) {
 
 TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
   const StereoCamera camera = test_camera();
-  const testing::World world = make_world(250, 7);
+  const testing::World world = make_world(200, 7);
   map::SharedMap map;
   SimTracker tracker(world, camera, map, SimTrackerOptions{});
   LocalMapper mapper(camera, config::MappingConfig{}, config::TrackingConfig{}, map);
@@ -318,19 +317,12 @@ TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
   std::size_t max_points = 0;
   for (int k = 0; k < 200; ++k) {
     const SE3 T = pose_at_x(back_and_forth_x(k, 10.0, 0.5));
-    mapper.enqueue(tracker.insert_keyframe(T, T));
+    // A real tracker misses some of the map points it sees.
+    mapper.enqueue(tracker.insert_keyframe(T, T, 0.85));
     ASSERT_TRUE(mapper.process_pending().has_value());
     map.read([&](const map::MapData& m) {
       max_keyframes = std::max(max_keyframes, m.keyframe_count());
       max_points = std::max(max_points, m.point_count());
-      if (k < 30) {
-        std::printf("DEBUG k=%d:", k);
-        for (const auto& [id, kf] : m.keyframes()) {
-          const auto c = count_redundant_points(m, id, 40.0);
-          std::printf(" %lld@%.1f(%d/%d,cov%zu)", (long long)id, kf.camera_center().x(), c.redundant_points, c.close_points, kf.covisibility.size());
-        }
-        std::printf(" points %zu\n", m.point_count());
-      }
     });
   }
   const MappingStats stats = mapper.stats();
@@ -342,15 +334,18 @@ TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
   // Points stay bounded by the world (duplicates fused, weak ones culled).
   EXPECT_LT(max_points, world.points.size() * 12 / 10);
   EXPECT_GT(stats.keyframes_culled, 160);
+  EXPECT_GT(stats.fuse_points_merged, 0);
+  // Stereo disparity noise 0.3 px gives ~0.2 m depth error at 22 m; the
+  // far plane (29 m) is triangulated over a few metres.
   const PointErrors errors = point_errors(map, tracker);
-  EXPECT_LT(errors.median(), 0.1);
-  for (double z : {0.0, 10.0, 18.0, 25.0}) {
-    const PointErrors e = point_errors(map, tracker, z);
-    std::printf("DEBUG depth>=%.0f: %zu points, median %.3f, 90%% %.3f\n", z, e.error_m.size(), e.median(), e.quantile(0.9));
-  }
+  EXPECT_LT(errors.median(), 0.2);
+  EXPECT_LT(errors.quantile(0.9), 1.5);
+  // Keyframes stay where they are (the first is fixed, the poses were true).
   map.read([&](const map::MapData& m) {
     for (const auto& [id, kf] : m.keyframes()) {
-      std::printf("DEBUG kf %lld x %.3f y %.3f z %.3f rot %.4f covis %zu\n", (long long)id, kf.camera_center().x(), kf.camera_center().y(), kf.camera_center().z(), rotation_angle_rad(kf.T_world_cam.rotation()), kf.covisibility.size());
+      EXPECT_NEAR(kf.camera_center().y(), 0.0, 0.02);
+      EXPECT_NEAR(kf.camera_center().z(), 0.0, 0.02);
+      EXPECT_LT(rotation_angle_rad(kf.T_world_cam.rotation()), 0.002);
     }
   });
   map.read([](const map::MapData& m) {

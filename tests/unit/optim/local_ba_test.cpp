@@ -12,8 +12,6 @@ namespace {
 
 using namespace testing;  // NOLINT: test helpers
 
-constexpr double kDegToRad = M_PI / 180.0;
-
 struct Errors {
   double max_translation_m = 0.0;
   double max_rotation_rad = 0.0;
@@ -115,6 +113,23 @@ TEST(LocalBa, ReducesPoseAndPointErrorsAndKeepsFixedKeyframes) {
   }
   EXPECT_GT(outliers, 20);
   EXPECT_LT(clean_flagged, 0.1 * clean);
+}
+
+TEST(LocalBa, AllKeyframesFixedRefinesPointsOnly) {
+  MapScene s = make_map_scene(0.0, 7);
+  s.input.T_cam_world = s.T_cam_world_true;
+  for (std::uint8_t& fixed : s.input.keyframe_fixed) fixed = 1;
+  const LocalBa ba(test_camera(), config::MappingConfig{}, config::TrackingConfig{});
+  auto result = ba.solve(s.input, nullptr);
+  ASSERT_TRUE(result.has_value()) << result.error().message;
+  EXPECT_EQ(result->stages_run, 2);
+  for (std::size_t k = 0; k < s.input.T_cam_world.size(); ++k) {
+    EXPECT_EQ(result->T_cam_world[k].translation(), s.input.T_cam_world[k].translation());
+  }
+  const std::vector<std::uint8_t> kept = well_observed_points(s, *result);
+  const Errors before = errors(s.input.T_cam_world, s.input.p_world, s.T_cam_world_true, s.p_world_true, kept);
+  const Errors after = errors(result->T_cam_world, result->p_world, s.T_cam_world_true, s.p_world_true, kept);
+  EXPECT_LT(after.point_rms_m, 0.5 * before.point_rms_m);
 }
 
 TEST(LocalBa, StopFlagSetBeforehandReturnsInputUnchanged) {

@@ -44,7 +44,7 @@ void BM_MotionOnlyBa(benchmark::State& state) {
   const auto obs = frame_observations(static_cast<int>(state.range(0)), 0.2, &T_world_cam);
   std::mt19937 rng(5);
   // A constant-velocity prediction is typically a few cm / tenths of a degree off.
-  const SE3 init = perturb(T_world_cam, 0.05, 0.5 * M_PI / 180.0, rng).inverse();
+  const SE3 init = perturb(T_world_cam, 0.05, 0.5 * kDegToRad, rng).inverse();
   const MotionOnlyBa ba(test_camera(), config::TrackingConfig{});
   int iterations = 0;
   for (auto _ : state) {

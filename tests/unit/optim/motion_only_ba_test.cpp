@@ -12,8 +12,6 @@ namespace {
 
 using namespace testing;  // NOLINT: test helpers
 
-constexpr double kDegToRad = M_PI / 180.0;
-
 struct Scene {
   SE3 T_world_cam_true;
   std::vector<PoseObservation> observations;

@@ -3,6 +3,7 @@
 // from a known pose, and noisy observations with ORB-like level sigmas.
 
 #include <cmath>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -28,6 +29,7 @@ inline StereoCamera test_camera() {
   return camera;
 }
 
+inline constexpr double kDegToRad = std::numbers::pi / 180.0;
 inline constexpr double kScaleFactor = 1.2;  // ORB pyramid, as OrbConfig
 inline constexpr double kCloseDepthM = 20.0;  // 40 baselines: stereo below, mono beyond
 
@@ -145,7 +147,7 @@ inline MapScene make_map_scene(double outlier_fraction, std::uint32_t seed) {
     s.input.keyframe_fixed.push_back(fixed ? 1 : 0);
     const SE3 T_world_cam = s.T_cam_world_true[k].inverse();
     s.input.T_cam_world.push_back(fixed ? s.T_cam_world_true[k]
-                                        : perturb(T_world_cam, 0.05, 0.5 * M_PI / 180.0, rng).inverse());
+                                        : perturb(T_world_cam, 0.05, 0.5 * kDegToRad, rng).inverse());
   }
   for (const Eigen::Vector3d& p : s.p_world_true) {
     s.input.p_world.push_back(p + 0.3 * Eigen::Vector3d(n(rng), n(rng), n(rng)));

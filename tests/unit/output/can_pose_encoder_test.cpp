@@ -67,12 +67,12 @@ TEST(CanPoseEncoder, CountersAdvanceAndWrap) {
   for (int k = 0; k < 300; ++k) {
     const auto frames = enc.encode(example_inputs());
     const std::uint8_t sid = static_cast<std::uint8_t>(k % 253);
-    EXPECT_EQ(frames[1].data[0], sid) << k;                     // 129026 SID
-    EXPECT_EQ(frames[2].data[0], sid) << k;                     // 127250 SID
-    EXPECT_EQ(frames[3].data[2], sid) << k;                     // 129029 SID (after seq, length)
-    EXPECT_EQ(frames[3].data[0] >> 5, k % 8) << k;              // fast-packet sequence
-    EXPECT_EQ(frames[9].data[0], ((k % 8) << 5) | 6) << k;      // its last frame
-    EXPECT_EQ(frames[12].data[1] & 0x0F, k % 16) << k;          // E2E alive counter
+    EXPECT_EQ(frames[1].data[0], sid) << k;                 // 129026 SID
+    EXPECT_EQ(frames[2].data[0], sid) << k;                 // 127250 SID
+    EXPECT_EQ(frames[3].data[2], sid) << k;                 // 129029 SID (after seq, length)
+    EXPECT_EQ(frames[3].data[0] >> 5, k % 8) << k;          // fast-packet sequence
+    EXPECT_EQ(frames[9].data[0], ((k % 8) << 5) | 6) << k;  // its last frame
+    EXPECT_EQ(frames[12].data[1] & 0x0F, k % 16) << k;      // E2E alive counter
   }
 }
 
@@ -86,7 +86,7 @@ TEST(CanPoseEncoder, LostSendsNotAvailableButKeepsQuality) {
   EXPECT_EQ(frames[0].data[3], 0x7F);
   for (int i = 0; i < 8; ++i) EXPECT_EQ(frames[10].data[i], 0xFF) << i;  // VP n/a
   for (int i = 0; i < 8; ++i) EXPECT_EQ(frames[11].data[i], 0xFF) << i;  // VDS n/a
-  EXPECT_EQ(frames[2].data[1], 0xFF);  // heading n/a
+  EXPECT_EQ(frames[2].data[1], 0xFF);                                    // heading n/a
   EXPECT_EQ(frames[2].data[2], 0xFF);
   // 129029: method "no fix" (0) in the high nibble of payload byte 31 =
   // frame 4, byte 5 (frame 0 carries 6 bytes, then 7 a frame from byte 1).

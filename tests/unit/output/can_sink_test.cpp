@@ -24,7 +24,9 @@ CanFrame frame(std::uint32_t id, std::uint8_t dlc, std::uint8_t first) {
 }
 
 struct SocketPair {
-  SocketPair() { EXPECT_EQ(::socketpair(AF_UNIX, SOCK_SEQPACKET, 0, fds), 0) << std::strerror(errno); }
+  SocketPair() {
+    EXPECT_EQ(::socketpair(AF_UNIX, SOCK_SEQPACKET, 0, fds), 0) << std::strerror(errno);
+  }
   ~SocketPair() {
     for (int fd : fds) {
       if (fd >= 0) ::close(fd);
@@ -34,7 +36,8 @@ struct SocketPair {
 };
 
 TEST(CandumpSink, FileSinkWritesReadableLogAndCounts) {
-  const auto path = (std::filesystem::temp_directory_path() / "sitepose_can_sink_test.log").string();
+  const auto path =
+      (std::filesystem::temp_directory_path() / "sitepose_can_sink_test.log").string();
   {
     auto sink = CandumpSink::open_file(path, "can0");
     ASSERT_TRUE(sink.has_value()) << sink.error().message;

@@ -18,7 +18,8 @@ CanFrame platform_example_frame() {
 }
 
 TEST(Candump, FormatsThePlatformExample) {
-  const auto line = format_candump_line({1'700'000'000'000'000'000LL, "can0", platform_example_frame()});
+  const auto line =
+      format_candump_line({1'700'000'000'000'000'000LL, "can0", platform_example_frame()});
   ASSERT_TRUE(line.has_value());
   EXPECT_EQ(*line, "(1700000000.000000) can0 09F8011C#6A3C4B23D0F1C204");
 }

@@ -47,8 +47,9 @@ TEST(J1939VehicleDirectionSpeed, HandComputedBytes) {
   expect_data(f, {0x00, 0x2D, 0x00, 0x24, 0x00, 0x64, 0x40, 0x51});
   // Heading -90 deg wraps to 270 deg = 34560 = 0x8700; pitch -5 deg:
   // 195 * 128 = 24960 = 0x6180; altitude -2500 m -> 0.
-  expect_data(encode_j1939_vehicle_direction_speed({-kPi / 2, 0.0, -5.0 * kPi / 180, -2500.0}, 0x1C),
-              {0x00, 0x87, 0x00, 0x00, 0x80, 0x61, 0x00, 0x00});
+  expect_data(
+      encode_j1939_vehicle_direction_speed({-kPi / 2, 0.0, -5.0 * kPi / 180, -2500.0}, 0x1C),
+      {0x00, 0x87, 0x00, 0x00, 0x80, 0x61, 0x00, 0x00});
 }
 
 TEST(J1939VehicleDirectionSpeed, NotAvailableAndClamping) {
@@ -95,10 +96,10 @@ TEST(SiteposePoseQuality, StateNibbleCounterWrapAndNotAvailable) {
   EXPECT_EQ(f.data[7], 0xFF);
   EXPECT_TRUE(check_sitepose_pose_quality_crc(f));
   q.state = TrackingState::kRecovering;
-  q.features_used = 100000;      // clamps to 0xFAFF
-  q.position_std_m = 100.0;      // clamps to 0xFAFF (64.255 m)
-  q.rotation_std_rad = 1.0;      // 57 deg clamps to 250 (25.0 deg)
-  q.masked_area_ratio = 1.5;     // clamps to 250 (100 %)
+  q.features_used = 100000;   // clamps to 0xFAFF
+  q.position_std_m = 100.0;   // clamps to 0xFAFF (64.255 m)
+  q.rotation_std_rad = 1.0;   // 57 deg clamps to 250 (25.0 deg)
+  q.masked_area_ratio = 1.5;  // clamps to 250 (100 %)
   const CanFrame g = encode_sitepose_pose_quality(q, 9, 0x1C);
   EXPECT_EQ(g.data[1], 0x19);
   EXPECT_EQ(g.data[2], 0xFF);

@@ -37,13 +37,15 @@ TEST(N2kPositionRapidUpdate, NegativeNotAvailableAndClamp) {
 TEST(N2kVesselHeading, HandComputedBytes) {
   // SID 5; pi/2 rad -> 15708 = 0x3D5C; deviation n/a 0x7FFF; variation
   // -0.1 rad -> -1000 = 0xFC18; reference true (0) with 6 reserved 1-bits.
-  const CanFrame f = encode_n2k_vessel_heading({5, kPi / 2, kNan, -0.1, HeadingReference::kTrue}, 0x1C);
+  const CanFrame f =
+      encode_n2k_vessel_heading({5, kPi / 2, kNan, -0.1, HeadingReference::kTrue}, 0x1C);
   EXPECT_EQ(f.id, 0x09F1121Cu);
   expect_data(f, {0x05, 0x5C, 0x3D, 0xFF, 0x7F, 0x18, 0xFC, 0xFC});
   // -pi/2 wraps to 3 pi / 2 -> 47124 = 0xB814; magnetic reference = 1.
   expect_data(encode_n2k_vessel_heading({0, -kPi / 2, 0.0, 0.0, HeadingReference::kMagnetic}, 0x1C),
               {0x00, 0x14, 0xB8, 0x00, 0x00, 0x00, 0x00, 0xFD});
-  expect_data(encode_n2k_vessel_heading({kN2kSidNotAvailable, kNan, kNan, kNan, HeadingReference::kTrue}, 0x1C),
+  expect_data(encode_n2k_vessel_heading(
+                  {kN2kSidNotAvailable, kNan, kNan, kNan, HeadingReference::kTrue}, 0x1C),
               {0xFF, 0xFF, 0xFF, 0xFF, 0x7F, 0xFF, 0x7F, 0xFC});
 }
 
@@ -100,7 +102,8 @@ TEST(N2kGnssPositionData, OptionalFieldsWhenGiven) {
   const auto p = encode_n2k_gnss_position_payload(g);
   // type 0 | method 4 << 4 = 0x40; integrity 1 | 0xFC = 0xFD; 12 SVs;
   // HDOP 80 = 0x0050; PDOP 125 = 0x007D; separation 4567 = 0x000011D7.
-  const std::vector<std::uint8_t> tail{0x40, 0xFD, 0x0C, 0x50, 0x00, 0x7D, 0x00, 0xD7, 0x11, 0x00, 0x00, 0x00};
+  const std::vector<std::uint8_t> tail{0x40, 0xFD, 0x0C, 0x50, 0x00, 0x7D,
+                                       0x00, 0xD7, 0x11, 0x00, 0x00, 0x00};
   EXPECT_EQ(hex_bytes(p.data() + 31, 12), hex_bytes(tail.data(), tail.size()));
   g.utc_t_ns = -1;  // unknown time: date and time n/a
   const auto q = encode_n2k_gnss_position_payload(g);
@@ -110,7 +113,7 @@ TEST(N2kGnssPositionData, OptionalFieldsWhenGiven) {
 TEST(N2kGnssPositionData, SevenFastPacketFrames) {
   const auto frames = encode_n2k_gnss_position_data(example_gnss(), 5, 0x1C);
   const auto payload = encode_n2k_gnss_position_payload(example_gnss());
-  ASSERT_EQ(frames.size(), 7u);  // 6 + 6 * 7 = 48 >= 43
+  ASSERT_EQ(frames.size(), 7u);                               // 6 + 6 * 7 = 48 >= 43
   for (const auto& f : frames) EXPECT_EQ(f.id, 0x0DF8051Cu);  // priority 3
   expect_data(frames[0], {0xA0, 43, 0x09, 0xDB, 0x4C, 0xD2, 0x0C, 0xAF});
   expect_data(frames[1], {0xA1, 0x2F, 0xEB, 0xA3, 0x6F, 0x23, 0x08, 0xAE});

@@ -72,6 +72,8 @@ TEST(Scenario, BadFilesNameTheKeyValueAndExpectation) {
   expect_error("name: t\ndescription: d\nduration_s: 2\nego:\n  segments:\n    - {speed_mps: 9, duration_s: 1}\n",
                {"ego.segments[0].speed_mps", "9"});
   expect_error("name: t\ndescription: d\nduration_s: 2\ncamera: {side: up}\n", {"camera.side", "up"});
+  expect_error("name: t\ndescription: d\nduration_s: 2\nrealism: {motion_blur_samples: 2}\n",
+               {"realism.motion_blur_samples", "must be odd"});
   expect_error("name: t\ndescription: d\nduration_s: 2\nmachines:\n  - {class: truck, stops: [{at_s: 1, duration_s: 2}]}\n",
                {"machines[0]", "need waypoints"});
 }

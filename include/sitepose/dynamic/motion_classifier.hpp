@@ -1,0 +1,129 @@
+#pragma once
+// Motion-state classification, Algorithm 2 of the paper (METHOD.md
+// "Motion-state classification"), in two modes:
+//
+//  * paper: reference frame (RF) = N processed frames back; objects of RF
+//    and the current frame (CF) associated by descriptor matching (the pair
+//    with most matches wins); matched points triangulated by stereo in each
+//    camera and moved to the world with that frame's pose (T_world_cam;
+//    not the authors' frame bug); errors above the median dropped; static
+//    when more than 70 % of the kept errors are below 3 sigma_bkg.
+//  * sitepose (METHOD.md "Where sitepose goes further"): the same matching,
+//    but every point pair is tested with its squared Mahalanobis distance
+//    under the propagated stereo covariance of both points and both poses
+//    (chi2, 3 dof); RF = newest kept frame whose camera centre is at least
+//    min_reference_parallax_m from CF's (the oldest kept frame when the
+//    camera stands still); per-instance hysteresis.
+// Objects with too few matched points (or not associated) are unknown and
+// stay masked.
+//
+// Frames: poses are T_world_cam of the left camera; covariances are the
+// left perturbation [translation; rotation] of T_world_cam (core/pose_estimate.hpp).
+// Thread: one instance per tracking thread; not thread-safe.
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "sitepose/config/sitepose_config.hpp"
+#include "sitepose/core/se3.hpp"
+#include "sitepose/core/stereo_camera.hpp"
+#include "sitepose/dynamic/object_types.hpp"
+#include "sitepose/tracking/prepared_frame.hpp"
+
+namespace sitepose::dynamic {
+
+// What the classifier needs of a frame: object keypoints with stereo depth,
+// their descriptors and instance tags, the pose, the dynamic boxes.
+struct ObjectFeatures {
+  std::int64_t seq = 0;
+  std::int64_t t_ns = 0;
+  SE3 T_world_cam;
+  std::optional<Matrix6d> covariance;      // of T_world_cam; nullopt = unknown (treated as 0)
+  std::vector<Eigen::Vector2d> uv_px;      // left keypoints on objects with a stereo match
+  std::vector<double> u_right_px;
+  std::vector<int> octave;
+  std::vector<std::uint16_t> instance;
+  cv::Mat descriptors;                     // one 32-byte row per keypoint above
+  std::vector<ObjectBox> boxes;            // the frame's dynamic boxes
+};
+
+// Object keypoints (instance != 0, stereo match, depth < max_depth_m) of a
+// prepared frame, with the given pose.
+ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
+                                    const std::vector<ObjectBox>& boxes, const SE3& T_world_cam,
+                                    const std::optional<Matrix6d>& covariance, double max_depth_m);
+
+// The paper's decision rule on a list of per-point statistics: static when
+// more than `fraction` of them are below `threshold` (paper: errors in m
+// and 3 sigma_bkg; sitepose: squared Mahalanobis distances and the chi2 gate).
+bool is_static_at(const std::vector<double>& statistics, double threshold, double fraction);
+
+// A verdict plus the per-point statistics it came from (for ROC sweeps:
+// is_static_at() with another threshold gives the verdict at that threshold).
+struct ClassifiedObject {
+  ObjectVerdict verdict;
+  std::vector<double> statistics;  // paper: kept errors (m); sitepose: squared Mahalanobis distances
+};
+
+struct ClassifierTimings {
+  double match_ms = 0.0;
+  double test_ms = 0.0;
+};
+
+class MotionClassifier {
+ public:
+  // fps: frame rate of the source (paper mode's default N = round(fps / 2.5),
+  // at least 1); scale_factor / n_levels: the ORB pyramid (pixel noise grows
+  // with the level).
+  MotionClassifier(const StereoCamera& camera, const config::DynamicConfig& config, double fps,
+                   double scale_factor, int n_levels);
+
+  // Classifies every box of `current` (its pose = pass 1's) against a
+  // reference frame from the ring. One entry per box, in box order.
+  std::vector<ClassifiedObject> classify(const ObjectFeatures& current);
+
+  // Adds a frame with its final pose to the ring (call after commit; frames
+  // without a pose are not added).
+  void remember(ObjectFeatures frame);
+
+  // Clears the ring and the hysteresis (e.g. after tracking was lost).
+  void reset();
+
+  int reference_offset_frames() const { return reference_offset_; }
+  std::size_t ring_capacity() const { return capacity_; }
+  std::size_t ring_size() const { return ring_.size(); }
+  const ClassifierTimings& last_timings() const { return timings_; }
+  // Largest depth of a point used (the paper: 40 baselines), m.
+  double max_depth_m() const { return max_depth_m_; }
+
+ private:
+  struct Track {
+    MotionState state = MotionState::kUnknown;
+    int static_streak = 0;
+    int moving_streak = 0;
+    int unknown_streak = 0;
+    std::int64_t last_seq = -1;
+  };
+
+  const ObjectFeatures* select_reference(const ObjectFeatures& current) const;
+  MotionState smooth(std::uint16_t instance, std::int64_t seq, MotionState raw, double score);
+  double pixel_sigma_px(int octave) const;
+
+  StereoCamera camera_;
+  config::DynamicConfig config_;
+  int reference_offset_ = 2;
+  std::size_t capacity_ = 13;
+  double max_depth_m_ = 40.0;
+  std::vector<double> level_scale_;
+  std::deque<ObjectFeatures> ring_;
+  std::map<std::uint16_t, Track> tracks_;
+  ClassifierTimings timings_;
+};
+
+}  // namespace sitepose::dynamic

@@ -1,0 +1,55 @@
+#pragma once
+// Plain types of the dynamic layer: what a detector reports about one object
+// in the left image, and what the motion-state classifier concludes.
+// The `detect` module comes after `dynamic` in the module order, so the
+// dynamic layer defines its own detection type; the slam module converts.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "sitepose/core/expected.hpp"
+
+namespace sitepose::dynamic {
+
+// One detected object in the LEFT image (pixels).
+struct ObjectBox {
+  std::uint16_t instance = 0;  // > 0; stable across frames only if the detector says so
+  std::string class_name;      // truck, roller, excavator, person, cone, ...
+  double score = 1.0;          // detector confidence, [0, 1]
+  cv::Rect box;                // left-image pixels
+};
+
+// Pixel segmentation of the given boxes: a CV_16UC1 image of the frame's
+// size, pixel = instance id of the box it belongs to, 0 = background. Called
+// by Algorithm 1 only when the box union is large (mar >= tau_mar).
+using PixelSegmenter = std::function<Expected<cv::Mat>(const std::vector<ObjectBox>& boxes)>;
+
+// A frame's detections as the dynamic layer consumes them.
+struct FrameObjects {
+  std::vector<ObjectBox> boxes;
+  PixelSegmenter segment;  // empty = no segmenter available (pixel modes fail)
+};
+
+enum class MotionState { kUnknown, kStatic, kMoving };
+const char* to_string(MotionState state);
+
+// The classifier's verdict for one object of the current frame.
+struct ObjectVerdict {
+  std::uint16_t instance = 0;
+  std::string class_name;
+  MotionState raw = MotionState::kUnknown;    // this frame's test alone
+  MotionState state = MotionState::kUnknown;  // after hysteresis (paper mode: = raw)
+  // The test statistic: paper mode = fraction of kept points within
+  // 3 sigma_bkg; sitepose mode = the 70 % quantile of the points' squared
+  // Mahalanobis distances (static when below chi2_static_3dof).
+  double score = 0.0;
+  int points = 0;                     // 3D point pairs the decision used
+  std::uint16_t reference_instance = 0;  // associated object in the reference frame, 0 = none
+  std::int64_t reference_seq = -1;       // the reference frame, -1 = none
+};
+
+}  // namespace sitepose::dynamic

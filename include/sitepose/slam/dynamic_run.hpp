@@ -1,0 +1,85 @@
+#pragma once
+// One run of the positioning core over a LabelledSource in a given masking
+// mode, scored against ground truth: ATE (eval module), coverage, the
+// motion-state samples with their ground-truth flags (ROC, re-masking
+// latency). Shared by the regression tests, the ablations and
+// `sitepose bench dynamic`. Inline mapping: reproducible.
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sitepose/config/sitepose_config.hpp"
+#include "sitepose/core/expected.hpp"
+#include "sitepose/eval/evaluate.hpp"
+#include "sitepose/io/trajectory.hpp"
+#include "sitepose/slam/labelled_source.hpp"
+#include "sitepose/slam/run_recorder.hpp"
+
+namespace sitepose::slam {
+
+struct DynamicRunOptions {
+  int frames = 0;  // 0 = all of the source
+  // Changes a frame before tracking (e.g. the occlusion sweep paints a
+  // fake occluder and its box into it).
+  std::function<void(LabelledFrame&)> alter;
+  std::function<void(int, int, const FrameReport&)> on_frame;
+};
+
+// A classified object with its ground truth, for ROC and latency figures.
+struct ObjectSample {
+  std::int64_t frame = 0;
+  std::optional<bool> moving_gt;
+  dynamic::ClassifiedObject object;
+};
+
+struct DynamicRunResult {
+  std::string name;
+  config::MaskingMode mode = config::MaskingMode::kNone;
+  int frames = 0;
+  RunRecorder recorder;
+  io::Trajectory ground_truth;
+  io::Trajectory estimate;  // poses not LOST
+  std::optional<eval::EvalResult> evaluation;
+  std::string evaluation_error;
+  std::vector<ObjectSample> samples;  // mode full only
+  double max_masked_ratio = 0.0;      // largest masked pixel fraction of a frame
+  double max_mar = 0.0;
+
+  double coverage_ok() const;  // frames OK / frames
+  double ate_m() const;        // RMSE, NaN without evaluation
+};
+
+Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const config::SiteposeConfig& config,
+                                       const DynamicRunOptions& options = {});
+
+// Latency (frames) from the first ground-truth moving frame of each instance
+// that was static in every earlier frame to the first frame its state is not
+// static (masked again); one entry per such start, -1 = never re-masked
+// while visible.
+struct RemaskEvent {
+  std::uint16_t instance = 0;
+  std::int64_t start_frame = 0;
+  int latency_frames = -1;
+};
+std::vector<RemaskEvent> remask_latencies(const std::vector<ObjectSample>& samples);
+
+// State changes of objects that are static in the ground truth for the
+// whole run, after their first static verdict (flicker).
+int static_flips(const std::vector<ObjectSample>& samples);
+
+// ROC of "static" as positive over thresholds applied to the per-point
+// statistics (is_static_at), for samples with ground truth; points with
+// too few statistics count as predicted not static.
+struct RocPoint {
+  double threshold = 0.0;
+  double tpr = 0.0;  // static predicted static
+  double fpr = 0.0;  // moving predicted static
+};
+std::vector<RocPoint> roc_curve(const std::vector<ObjectSample>& samples, const std::vector<double>& thresholds,
+                                double fraction, int min_points);
+// Area under the curve by the trapezoid rule, (0,0) and (1,1) added.
+double roc_auc(std::vector<RocPoint> curve);
+
+}  // namespace sitepose::slam

@@ -1,0 +1,285 @@
+#include "sitepose/dynamic/motion_classifier.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "sitepose/features/hamming.hpp"
+#include "sitepose/optim/triangulation.hpp"
+
+namespace sitepose::dynamic {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// Descriptor matching between the objects of RF and CF (METHOD.md: the
+// authors' ratio test 0.7; ORB-SLAM2's TH_LOW 50 bits as the upper bound).
+constexpr double kMatchRatio = 0.7;
+constexpr int kMaxMatchDistance = 50;
+// Authors' code: object points within 40 baselines; errors above 10 m are
+// mismatches, not motion.
+constexpr double kMaxDepthBaselines = 40.0;
+constexpr double kMaxPointErrorM = 10.0;
+// Level-0 keypoint noise (px) of u_l, v_l and of the refined u_r; grows with
+// the pyramid scale like ORB-SLAM2's information matrix.
+constexpr double kPixelSigmaPx = 1.0;
+// Sitepose-mode hysteresis: a verdict this many times over the gate is
+// unambiguous motion and re-masks at once; weaker evidence needs
+// hysteresis_frames consecutive verdicts (no flicker from one noisy frame).
+constexpr double kStrongMotionFactor = 4.0;
+// Ring length in seconds of frames (sitepose mode looks back for parallax).
+constexpr double kRingSeconds = 2.0;
+
+double quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const std::size_t index =
+      std::min(values.size() - 1, static_cast<std::size_t>(std::ceil(q * values.size())) - (q > 0 ? 1 : 0));
+  return values[index];
+}
+
+}  // namespace
+
+ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
+                                    const std::vector<ObjectBox>& boxes, const SE3& T_world_cam,
+                                    const std::optional<Matrix6d>& covariance, double max_depth_m) {
+  ObjectFeatures out;
+  out.seq = frame.seq;
+  out.t_ns = frame.t_ns;
+  out.T_world_cam = T_world_cam;
+  out.covariance = covariance;
+  out.boxes = boxes;
+  std::vector<int> rows;
+  for (int k = 0; k < frame.size(); ++k) {
+    if (frame.instance[k] == 0 || !frame.features.has_depth(k)) continue;
+    if (frame.features.depth_m[k] > max_depth_m) continue;
+    rows.push_back(k);
+  }
+  out.descriptors.create(static_cast<int>(rows.size()), features::kDescriptorBytes, CV_8UC1);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const int k = rows[i];
+    out.uv_px.push_back(frame.uv_px[k]);
+    out.u_right_px.push_back(frame.features.u_right[k]);
+    out.octave.push_back(frame.octave[k]);
+    out.instance.push_back(frame.instance[k]);
+    frame.features.descriptors.row(k).copyTo(out.descriptors.row(static_cast<int>(i)));
+  }
+  return out;
+}
+
+bool is_static_at(const std::vector<double>& statistics, double threshold, double fraction) {
+  if (statistics.empty()) return false;
+  const auto below = std::count_if(statistics.begin(), statistics.end(),
+                                   [&](double s) { return s < threshold; });
+  return static_cast<double>(below) > fraction * static_cast<double>(statistics.size());
+}
+
+MotionClassifier::MotionClassifier(const StereoCamera& camera, const config::DynamicConfig& config,
+                                   double fps, double scale_factor, int n_levels)
+    : camera_(camera), config_(config) {
+  reference_offset_ = config.reference_offset_frames > 0
+                          ? config.reference_offset_frames
+                          : std::max(1, static_cast<int>(std::lround(fps / 2.5)));
+  capacity_ = static_cast<std::size_t>(
+      std::max<double>(reference_offset_, std::ceil(kRingSeconds * fps)) + 1);
+  max_depth_m_ = kMaxDepthBaselines * camera.baseline_m;
+  double s = 1.0;
+  for (int l = 0; l < std::max(1, n_levels); ++l) {
+    level_scale_.push_back(s);
+    s *= scale_factor;
+  }
+}
+
+void MotionClassifier::reset() {
+  ring_.clear();
+  tracks_.clear();
+}
+
+void MotionClassifier::remember(ObjectFeatures frame) {
+  ring_.push_back(std::move(frame));
+  while (ring_.size() > capacity_) ring_.pop_front();
+}
+
+double MotionClassifier::pixel_sigma_px(int octave) const {
+  const int level = std::clamp(octave, 0, static_cast<int>(level_scale_.size()) - 1);
+  return kPixelSigmaPx * level_scale_[level];
+}
+
+const ObjectFeatures* MotionClassifier::select_reference(const ObjectFeatures& current) const {
+  if (ring_.empty()) return nullptr;
+  if (config_.classifier == config::ClassifierMode::kPaper) {
+    if (ring_.size() < static_cast<std::size_t>(reference_offset_)) return nullptr;
+    return &ring_[ring_.size() - reference_offset_];
+  }
+  // Newest frame with enough baseline to CF; else the oldest kept frame
+  // (camera standing still: stereo still triangulates, and the longest time
+  // gap shows slow motion best).
+  const Eigen::Vector3d c = current.T_world_cam.translation();
+  for (auto it = ring_.rbegin(); it != ring_.rend(); ++it) {
+    if ((it->T_world_cam.translation() - c).norm() >= config_.min_reference_parallax_m) return &*it;
+  }
+  return &ring_.front();
+}
+
+MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, MotionState raw,
+                                     double score) {
+  Track& t = tracks_[instance];
+  t.last_seq = seq;
+  const int n = config_.hysteresis_frames;
+  switch (raw) {
+    case MotionState::kMoving:
+      t.static_streak = 0;
+      t.unknown_streak = 0;
+      ++t.moving_streak;
+      if (t.state != MotionState::kStatic || t.moving_streak >= n ||
+          score >= kStrongMotionFactor * config_.chi2_static_3dof) {
+        t.state = MotionState::kMoving;
+      }
+      break;
+    case MotionState::kStatic:
+      t.moving_streak = 0;
+      t.unknown_streak = 0;
+      ++t.static_streak;
+      if (t.static_streak >= n) t.state = MotionState::kStatic;
+      break;
+    case MotionState::kUnknown:
+      t.moving_streak = 0;
+      t.static_streak = 0;
+      ++t.unknown_streak;
+      // A static object stays static through short gaps; after that it
+      // must prove itself again (masked meanwhile).
+      if (t.state != MotionState::kStatic || t.unknown_streak > n) t.state = MotionState::kUnknown;
+      break;
+  }
+  return t.state;
+}
+
+std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& current) {
+  timings_ = {};
+  std::vector<ClassifiedObject> out(current.boxes.size());
+  for (std::size_t b = 0; b < current.boxes.size(); ++b) {
+    out[b].verdict.instance = current.boxes[b].instance;
+    out[b].verdict.class_name = current.boxes[b].class_name;
+  }
+  const auto t_match = Clock::now();
+  const ObjectFeatures* ref = select_reference(current);
+  // CF keypoint -> RF keypoint (ratio test, one CF keypoint per RF keypoint).
+  std::vector<int> match(current.uv_px.size(), -1);
+  if (ref != nullptr && !ref->uv_px.empty()) {
+    std::vector<int> best_distance_of_ref(ref->uv_px.size(), 257);
+    std::vector<int> cf_of_ref(ref->uv_px.size(), -1);
+    for (int c = 0; c < static_cast<int>(current.uv_px.size()); ++c) {
+      const std::uint8_t* d = current.descriptors.ptr<std::uint8_t>(c);
+      int best = 257, second = 257, best_r = -1;
+      for (int r = 0; r < static_cast<int>(ref->uv_px.size()); ++r) {
+        const int dist = features::hamming_distance(d, ref->descriptors.ptr<std::uint8_t>(r));
+        if (dist < best) {
+          second = best;
+          best = dist;
+          best_r = r;
+        } else if (dist < second) {
+          second = dist;
+        }
+      }
+      if (best_r < 0 || best > kMaxMatchDistance || best > kMatchRatio * second) continue;
+      if (best < best_distance_of_ref[best_r]) {
+        if (cf_of_ref[best_r] >= 0) match[cf_of_ref[best_r]] = -1;
+        best_distance_of_ref[best_r] = best;
+        cf_of_ref[best_r] = c;
+        match[c] = best_r;
+      }
+    }
+  }
+  // Association: votes of matched keypoints per (CF object, RF object);
+  // greedily the pair with most matches, each object used once.
+  std::map<std::pair<std::uint16_t, std::uint16_t>, int> votes;
+  for (std::size_t c = 0; c < match.size(); ++c) {
+    if (match[c] >= 0) ++votes[{current.instance[c], ref->instance[match[c]]}];
+  }
+  std::vector<std::pair<int, std::pair<std::uint16_t, std::uint16_t>>> ranked;
+  for (const auto& [pair, n] : votes) ranked.push_back({n, pair});
+  std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::map<std::uint16_t, std::uint16_t> ref_of_current;
+  std::map<std::uint16_t, bool> ref_used;
+  for (const auto& [n, pair] : ranked) {
+    if (ref_of_current.count(pair.first) != 0 || ref_used[pair.second]) continue;
+    ref_of_current[pair.first] = pair.second;
+    ref_used[pair.second] = true;
+  }
+  timings_.match_ms = ms_since(t_match);
+
+  const auto t_test = Clock::now();
+  const bool paper = config_.classifier == config::ClassifierMode::kPaper;
+  const Matrix6d* cov_cf = current.covariance ? &*current.covariance : nullptr;
+  const Matrix6d* cov_rf = (ref != nullptr && ref->covariance) ? &*ref->covariance : nullptr;
+  for (ClassifiedObject& object : out) {
+    ObjectVerdict& v = object.verdict;
+    const auto it = ref_of_current.find(v.instance);
+    if (it != ref_of_current.end()) {
+      v.reference_instance = it->second;
+      v.reference_seq = ref->seq;
+      std::vector<double> stats;
+      for (std::size_t c = 0; c < match.size(); ++c) {
+        if (match[c] < 0 || current.instance[c] != v.instance) continue;
+        const int r = match[c];
+        if (ref->instance[r] != it->second) continue;
+        const double s_cf = pixel_sigma_px(current.octave[c]);
+        const double s_rf = pixel_sigma_px(ref->octave[r]);
+        const auto p_cf = optim::stereo_point_in_camera(camera_, current.uv_px[c], current.u_right_px[c],
+                                                        optim::stereo_pixel_covariance(s_cf, s_cf, s_cf));
+        const auto p_rf = optim::stereo_point_in_camera(camera_, ref->uv_px[r], ref->u_right_px[r],
+                                                        optim::stereo_pixel_covariance(s_rf, s_rf, s_rf));
+        if (!p_cf || !p_rf) continue;
+        const optim::PointWithCovariance w_cf = optim::point_to_world(*p_cf, current.T_world_cam, cov_cf);
+        const optim::PointWithCovariance w_rf = optim::point_to_world(*p_rf, ref->T_world_cam, cov_rf);
+        const Eigen::Vector3d d = w_cf.p - w_rf.p;
+        if (d.norm() > kMaxPointErrorM) continue;
+        if (paper) {
+          stats.push_back(d.norm());
+        } else {
+          const Eigen::Matrix3d sigma = w_cf.covariance + w_rf.covariance;
+          stats.push_back(d.dot(sigma.ldlt().solve(d)));
+        }
+      }
+      if (paper && !stats.empty()) {
+        // Keep only the errors below the median (Algorithm 2, outliers).
+        const double median = quantile(stats, 0.5);
+        std::vector<double> kept;
+        for (double e : stats) {
+          if (e < median) kept.push_back(e);
+        }
+        if (kept.empty()) kept.push_back(median);
+        stats = std::move(kept);
+      }
+      v.points = static_cast<int>(stats.size());
+      if (v.points >= config_.min_object_points) {
+        if (paper) {
+          const double gate = 3.0 * config_.sigma_bkg_m;
+          const auto below = std::count_if(stats.begin(), stats.end(), [&](double e) { return e < gate; });
+          v.score = static_cast<double>(below) / stats.size();
+          v.raw = is_static_at(stats, gate, config_.static_inlier_fraction) ? MotionState::kStatic
+                                                                            : MotionState::kMoving;
+        } else {
+          v.score = quantile(stats, config_.static_inlier_fraction);
+          v.raw = is_static_at(stats, config_.chi2_static_3dof, config_.static_inlier_fraction)
+                      ? MotionState::kStatic
+                      : MotionState::kMoving;
+        }
+      }
+      object.statistics = std::move(stats);
+    }
+    v.state = paper ? v.raw : smooth(v.instance, current.seq, v.raw, v.score);
+  }
+  // Forget instances not seen for a ring's length.
+  for (auto it = tracks_.begin(); it != tracks_.end();) {
+    it = current.seq - it->second.last_seq > static_cast<std::int64_t>(capacity_) ? tracks_.erase(it)
+                                                                                   : std::next(it);
+  }
+  timings_.test_ms = ms_since(t_test);
+  return out;
+}
+
+}  // namespace sitepose::dynamic

@@ -1,0 +1,153 @@
+#include "sitepose/slam/dynamic_run.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "sitepose/slam/slam_system.hpp"
+
+namespace sitepose::slam {
+
+double DynamicRunResult::coverage_ok() const {
+  return frames > 0 ? static_cast<double>(recorder.frames_ok()) / frames : 0.0;
+}
+
+double DynamicRunResult::ate_m() const {
+  return evaluation ? evaluation->ate_m.rmse : std::numeric_limits<double>::quiet_NaN();
+}
+
+Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const config::SiteposeConfig& config,
+                                       const DynamicRunOptions& options) {
+  SlamOptions slam_options;
+  slam_options.fps = source.fps();
+  SITEPOSE_TRY(auto system, SlamSystem::create(source.camera(), config, slam_options));
+  DynamicRunResult result;
+  result.name = source.name();
+  result.mode = config.dynamic.mode;
+  result.frames = options.frames > 0 ? std::min(options.frames, source.size()) : source.size();
+  for (int i = 0; i < result.frames; ++i) {
+    SITEPOSE_TRY(LabelledFrame frame, source.read(i));
+    if (options.alter) options.alter(frame);
+    SITEPOSE_TRY(FrameReport report, system->process(frame.frame, frame.objects));
+    result.recorder.add(report);
+    result.max_masked_ratio = std::max(result.max_masked_ratio, report.masked_ratio);
+    result.max_mar = std::max(result.max_mar, report.mar);
+    if (frame.T_world_cam_gt) {
+      result.ground_truth.push_back({static_cast<double>(frame.frame.t_ns()) * 1e-9, *frame.T_world_cam_gt});
+    }
+    if (report.pose.state != TrackingState::kLost) {
+      result.estimate.push_back({static_cast<double>(report.pose.t_ns) * 1e-9, report.pose.T_world_cam});
+    }
+    for (const auto& o : report.objects) {
+      ObjectSample s;
+      s.frame = frame.frame.seq;
+      if (const auto it = frame.moving.find(o.verdict.instance); it != frame.moving.end()) s.moving_gt = it->second;
+      s.object = o;
+      result.samples.push_back(std::move(s));
+    }
+    if (options.on_frame) options.on_frame(i, result.frames, report);
+  }
+  system->finish();
+  if (result.ground_truth.size() < 3 || result.estimate.size() < 3) {
+    result.evaluation_error = "fewer than 3 ground-truth or estimated poses";
+    return result;
+  }
+  auto evaluation = eval::evaluate(result.ground_truth, result.estimate, eval::EvalOptions{});
+  if (evaluation) {
+    result.evaluation = std::move(*evaluation);
+  } else {
+    result.evaluation_error = evaluation.error().message;
+  }
+  return result;
+}
+
+std::vector<RemaskEvent> remask_latencies(const std::vector<ObjectSample>& samples) {
+  std::map<std::uint16_t, std::vector<const ObjectSample*>> by_instance;
+  for (const auto& s : samples) by_instance[s.object.verdict.instance].push_back(&s);
+  std::vector<RemaskEvent> out;
+  for (const auto& [instance, list] : by_instance) {
+    bool was_static_gt = false;
+    bool open = false;
+    RemaskEvent event;
+    for (const ObjectSample* s : list) {
+      if (!s->moving_gt) continue;
+      if (!open && !*s->moving_gt) {
+        was_static_gt = true;
+        continue;
+      }
+      if (!open && *s->moving_gt && was_static_gt) {
+        open = true;
+        event = {instance, s->frame, -1};
+      }
+      if (open && s->object.verdict.state != dynamic::MotionState::kStatic) {
+        event.latency_frames = static_cast<int>(s->frame - event.start_frame);
+        break;
+      }
+    }
+    if (open) out.push_back(event);
+  }
+  return out;
+}
+
+int static_flips(const std::vector<ObjectSample>& samples) {
+  std::map<std::uint16_t, std::vector<const ObjectSample*>> by_instance;
+  std::map<std::uint16_t, bool> ever_moving;
+  for (const auto& s : samples) {
+    by_instance[s.object.verdict.instance].push_back(&s);
+    if (s.moving_gt && *s.moving_gt) ever_moving[s.object.verdict.instance] = true;
+  }
+  int flips = 0;
+  for (const auto& [instance, list] : by_instance) {
+    if (ever_moving[instance]) continue;
+    bool seen_static = false;
+    dynamic::MotionState last = dynamic::MotionState::kUnknown;
+    for (const ObjectSample* s : list) {
+      const dynamic::MotionState state = s->object.verdict.state;
+      if (seen_static && state != last) ++flips;
+      if (state == dynamic::MotionState::kStatic) seen_static = true;
+      last = state;
+    }
+  }
+  return flips;
+}
+
+std::vector<RocPoint> roc_curve(const std::vector<ObjectSample>& samples, const std::vector<double>& thresholds,
+                                double fraction, int min_points) {
+  std::vector<RocPoint> out;
+  for (double threshold : thresholds) {
+    int tp = 0, fn = 0, fp = 0, tn = 0;
+    for (const auto& s : samples) {
+      if (!s.moving_gt) continue;
+      const auto& stats = s.object.statistics;
+      const bool predicted_static = static_cast<int>(stats.size()) >= min_points &&
+                                    dynamic::is_static_at(stats, threshold, fraction);
+      if (!*s.moving_gt) {
+        (predicted_static ? tp : fn)++;
+      } else {
+        (predicted_static ? fp : tn)++;
+      }
+    }
+    RocPoint p;
+    p.threshold = threshold;
+    p.tpr = tp + fn > 0 ? static_cast<double>(tp) / (tp + fn) : 0.0;
+    p.fpr = fp + tn > 0 ? static_cast<double>(fp) / (fp + tn) : 0.0;
+    out.push_back(p);
+  }
+  return out;
+}
+
+double roc_auc(std::vector<RocPoint> curve) {
+  curve.push_back({0.0, 0.0, 0.0});
+  curve.push_back({0.0, 1.0, 1.0});
+  std::sort(curve.begin(), curve.end(), [](const RocPoint& a, const RocPoint& b) {
+    return a.fpr != b.fpr ? a.fpr < b.fpr : a.tpr < b.tpr;
+  });
+  double area = 0.0;
+  for (std::size_t i = 1; i < curve.size(); ++i) {
+    area += (curve[i].fpr - curve[i - 1].fpr) * 0.5 * (curve[i].tpr + curve[i - 1].tpr);
+  }
+  return area;
+}
+
+}  // namespace sitepose::slam

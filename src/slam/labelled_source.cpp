@@ -1,0 +1,139 @@
+#include "sitepose/slam/labelled_source.hpp"
+
+#include <vector>
+
+#include "sitepose/io/sequence.hpp"
+#include "sitepose/sim/scenario.hpp"
+#include "sitepose/sim/simulator.hpp"
+
+namespace sitepose::slam {
+namespace {
+
+dynamic::PixelSegmenter segmenter_of(const cv::Mat& mask) {
+  if (mask.empty()) return {};
+  return [mask](const std::vector<dynamic::ObjectBox>&) -> Expected<cv::Mat> { return mask; };
+}
+
+class SimulatedSource final : public LabelledSource {
+ public:
+  explicit SimulatedSource(sim::Simulator simulator, std::string name)
+      : simulator_(std::move(simulator)), name_(std::move(name)) {}
+  const std::string& name() const override { return name_; }
+  int size() const override { return simulator_.frame_count(); }
+  double fps() const override { return simulator_.fps(); }
+  const StereoCamera& camera() const override { return simulator_.camera(); }
+  Expected<LabelledFrame> read(int i) const override {
+    if (i < 0 || i >= size()) {
+      return make_error(ErrorCode::kInvalidArgument, name_ + ": frame " + std::to_string(i) + " out of range");
+    }
+    sim::SimFrame f = simulator_.render(i);
+    LabelledFrame out;
+    out.frame.seq = i;
+    out.frame.t_left_ns = f.t_ns;
+    out.frame.t_right_ns = f.t_ns;
+    out.frame.left = f.left;
+    out.frame.right = f.right;
+    out.frame.source_id = name_;
+    out.instance_mask = f.instance_mask;
+    out.T_world_cam_gt = f.T_world_cam;
+    for (const sim::ObjectTruth& o : f.objects) {
+      if (!o.visible) continue;
+      out.objects.boxes.push_back({o.instance, o.class_name, 1.0, o.box});
+      out.moving[o.instance] = o.moving;
+    }
+    out.objects.segment = segmenter_of(out.instance_mask);
+    return out;
+  }
+
+ private:
+  sim::Simulator simulator_;
+  std::string name_;
+};
+
+class SequenceSource final : public LabelledSource {
+ public:
+  SequenceSource(std::unique_ptr<io::Sequence> sequence, double fps)
+      : sequence_(std::move(sequence)), fps_(fps) {}
+  const std::string& name() const override { return sequence_->directory(); }
+  int size() const override { return static_cast<int>(sequence_->size()); }
+  double fps() const override { return fps_; }
+  const StereoCamera& camera() const override { return sequence_->camera(); }
+  Expected<LabelledFrame> read(int i) const override {
+    SITEPOSE_TRY(StereoFrame frame, sequence_->read_frame(static_cast<std::size_t>(i)));
+    LabelledFrame out;
+    out.frame = std::move(frame);
+    if (sequence_->has_masks()) {
+      SITEPOSE_TRY(cv::Mat mask, sequence_->read_instance_mask(static_cast<std::size_t>(i)));
+      out.instance_mask = mask;
+    }
+    if (sequence_->has_gt()) out.T_world_cam_gt = sequence_->gt_poses()[i];
+    for (const io::LabelBox& b : sequence_->boxes_for_frame(static_cast<std::size_t>(i))) {
+      out.objects.boxes.push_back({static_cast<std::uint16_t>(b.instance), b.class_name, 1.0, b.box});
+      if (b.moving) out.moving[static_cast<std::uint16_t>(b.instance)] = *b.moving;
+    }
+    out.objects.segment = segmenter_of(out.instance_mask);
+    return out;
+  }
+
+ private:
+  std::unique_ptr<io::Sequence> sequence_;
+  double fps_;
+};
+
+class CachedSource final : public LabelledSource {
+ public:
+  explicit CachedSource(std::unique_ptr<LabelledSource> inner)
+      : inner_(std::move(inner)), cache_(inner_->size()) {}
+  const std::string& name() const override { return inner_->name(); }
+  int size() const override { return inner_->size(); }
+  double fps() const override { return inner_->fps(); }
+  const StereoCamera& camera() const override { return inner_->camera(); }
+  Expected<LabelledFrame> read(int i) const override {
+    if (i >= 0 && i < size() && cache_[i]) return *cache_[i];
+    SITEPOSE_TRY(LabelledFrame frame, inner_->read(i));
+    cache_[i] = frame;
+    return frame;
+  }
+
+ private:
+  std::unique_ptr<LabelledSource> inner_;
+  mutable std::vector<std::optional<LabelledFrame>> cache_;
+};
+
+}  // namespace
+
+Expected<std::unique_ptr<LabelledSource>> open_simulated(const std::string& scenario_name, int frames,
+                                                         std::optional<int> seed) {
+  SITEPOSE_TRY(sim::Scenario scenario, sim::load_scenario(scenario_name));
+  sim::SimOptions options;
+  if (frames > 0) options.frames = frames;
+  options.seed = seed;
+  SITEPOSE_TRY(sim::Simulator simulator, sim::Simulator::create(scenario, options));
+  if (simulator.distorted()) {
+    return make_error(ErrorCode::kUnsupported, "scenario " + scenario_name +
+                                                   " renders distorted images; write it with `sitepose "
+                                                   "sim` and run the sequence instead");
+  }
+  return std::unique_ptr<LabelledSource>(new SimulatedSource(std::move(simulator), scenario.name));
+}
+
+Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::string& directory) {
+  SITEPOSE_TRY(auto sequence, io::open_sequence(directory));
+  if (!sequence->has_labels()) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      directory + ": no labels/boxes.csv; the dynamic layer's ablations need object labels");
+  }
+  double fps = 6.0;
+  if (sequence->size() >= 2) {
+    const double dt_s = static_cast<double>(sequence->time_ns(sequence->size() - 1) - sequence->time_ns(0)) *
+                        1e-9 / static_cast<double>(sequence->size() - 1);
+    if (dt_s > 0.0) fps = 1.0 / dt_s;
+  }
+  return std::unique_ptr<LabelledSource>(new SequenceSource(std::move(sequence), fps));
+}
+
+std::unique_ptr<LabelledSource> cache_frames(std::unique_ptr<LabelledSource> source) {
+  return std::make_unique<CachedSource>(std::move(source));
+}
+
+}  // namespace sitepose::slam

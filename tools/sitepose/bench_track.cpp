@@ -1,0 +1,90 @@
+// `sitepose bench track`: per-stage tracking times (p50/p99), frames/s and
+// memory on a simulated scenario or a recorded sequence. Timings only,
+// never pass/fail; rendering time is excluded from the tracking figures.
+
+#include <cstdio>
+#include <memory>
+
+#include "command_registry.hpp"
+#include "sitepose/config/config.hpp"
+#include "sitepose/experiment/track_run.hpp"
+
+namespace sitepose::cli {
+namespace {
+
+struct BenchTrackArgs {
+  std::string scenario = "static";
+  std::string sequence;
+  std::string config_path;
+  int frames = 300;
+  bool mapper_thread = true;
+  std::vector<int> rss_at_frames{1000, 3000};
+};
+
+int bench_track(const BenchTrackArgs& args) {
+  config::SiteposeConfig config;
+  if (!args.config_path.empty()) {
+    auto loaded = config::load_config(args.config_path);
+    if (!loaded) return fail("bench track", loaded.error().message, 2);
+    config = *loaded;
+  }
+  config.dynamic.mode = config::MaskingMode::kNone;
+  experiment::TrackRunOptions options;
+  options.frames = args.frames;
+  options.mapper_thread = args.mapper_thread;
+  std::vector<std::pair<int, double>> rss_marks;
+  options.on_memory = [&](int i, std::int64_t rss) {
+    for (int mark : args.rss_at_frames) {
+      if (i + 1 == mark) rss_marks.emplace_back(mark, rss / 1048576.0);
+    }
+  };
+  options.on_frame = [](int i, int n, const slam::FrameReport&) {
+    if ((i + 1) % 100 == 0 || i + 1 == n) std::fprintf(stderr, "bench track: %d/%d frames\n", i + 1, n);
+  };
+  auto run = args.sequence.empty() ? experiment::track_scenario(args.scenario, config, options)
+                                   : experiment::track_sequence(args.sequence, config, options);
+  if (!run) return fail("bench track", run.error().message, 2);
+  const auto stages = run->recorder.stage_summaries();
+  std::printf("bench track: %s, %d frames, mapper %s\n", run->name.c_str(), run->frames,
+              args.mapper_thread ? "on its own thread" : "inline (excluded from whole_frame)");
+  std::printf("%-20s %9s %9s %9s\n", "stage", "p50 ms", "p99 ms", "mean ms");
+  for (const char* name : {"extract_left", "extract_right", "stereo_match", "track_motion_model",
+                           "track_local_map", "motion_only_ba", "whole_frame"}) {
+    const auto it = stages.find(name);
+    if (it == stages.end()) continue;
+    std::printf("%-20s %9.2f %9.2f %9.2f\n", name, it->second.p50_ms, it->second.p99_ms, it->second.mean_ms);
+  }
+  std::printf("frames/s (1000 / mean whole_frame): %.1f\n", run->recorder.frames_per_second());
+  std::printf("keyframes in map %zu, points in map %zu\n", run->keyframes, run->points);
+  std::printf("peak RSS %.1f MiB\n", slam::peak_rss_bytes() / 1048576.0);
+  for (std::size_t i = 0; i < rss_marks.size(); ++i) {
+    std::printf("RSS after %d frames: %.1f MiB", rss_marks[i].first, rss_marks[i].second);
+    if (i > 0) std::printf(" (%.3f x the RSS after %d frames)", rss_marks[i].second / rss_marks[0].second,
+                           rss_marks[0].first);
+    std::printf("\n");
+  }
+  if (run->evaluation) {
+    std::printf("ATE rmse %.4f m, coverage OK %.1f %%\n", run->evaluation->ate_m.rmse,
+                100.0 * run->coverage_ok());
+  }
+  return 0;
+}
+
+const CommandRegistrar kBenchTrack{{"bench", "track",
+                                    "Tracking time per stage (p50/p99), frames/s and memory on a simulated scenario or a sequence",
+                                    [](CLI::App& sub) -> CommandAction {
+  auto args = std::make_shared<BenchTrackArgs>();
+  sub.add_option("--scenario", args->scenario, "Scenario to simulate in-process (ignored with --sequence)")
+      ->capture_default_str();
+  sub.add_option("--sequence", args->sequence, "Recorded sequence directory instead of a scenario");
+  sub.add_option("--config", args->config_path, "sitepose YAML config (mode is forced to none)");
+  sub.add_option("--frames", args->frames, "Frames to track (0 = all)")->capture_default_str();
+  sub.add_flag("!--inline-mapper", args->mapper_thread,
+               "Run local mapping inline on the tracking thread instead of its own thread");
+  sub.add_option("--rss-at", args->rss_at_frames, "Frame counts at which to report the resident set")
+      ->capture_default_str();
+  return [args] { return bench_track(*args); };
+}}};
+
+}  // namespace
+}  // namespace sitepose::cli
