@@ -27,11 +27,17 @@ function(sitepose_lcm_types target)
     string(REPLACE "." "/" package_dir ${package})
     list(APPEND headers ${out_dir}/${package_dir}/${type_name}.hpp)
   endforeach()
+  set(names)
+  foreach(lcm_file IN LISTS ARG_LCM_FILES)
+    get_filename_component(name ${lcm_file} NAME)
+    list(APPEND names ${name})
+  endforeach()
+  list(JOIN names " " names)
   add_custom_command(
     OUTPUT ${headers}
     COMMAND ${SITEPOSE_LCM_GEN} --cpp --cpp-std c++11 --cpp-hpath ${out_dir} ${ARG_LCM_FILES}
     DEPENDS ${ARG_LCM_FILES}
-    COMMENT "lcm-gen: C++ message types from ${ARG_LCM_FILES}"
+    COMMENT "lcm-gen: C++ message types from ${names}"
     VERBATIM)
   add_custom_target(${target}_generate DEPENDS ${headers})
   add_library(${target} INTERFACE)

@@ -98,6 +98,14 @@ void MotionClassifier::reset() {
   tracks_.clear();
 }
 
+std::vector<std::uint16_t> MotionClassifier::static_instances() const {
+  std::vector<std::uint16_t> out;
+  for (const auto& [instance, track] : tracks_) {
+    if (track.state == MotionState::kStatic) out.push_back(instance);
+  }
+  return out;
+}
+
 void MotionClassifier::remember(ObjectFeatures frame) {
   ring_.push_back(std::move(frame));
   while (ring_.size() > capacity_) ring_.pop_front();

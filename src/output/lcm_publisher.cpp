@@ -34,16 +34,16 @@ Status LcmPublisher::publish_health(const LcmHealth& health) {
   return send({options_.health_channel, std::move(bytes), false});
 }
 
-Status LcmPublisher::retry_last() {
-  if (pending_.bytes.empty()) return ok_status();
-  Message message = std::move(pending_);
-  pending_ = Message{};
+Status LcmPublisher::retry_pose() {
+  if (pending_pose_.bytes.empty()) return ok_status();
+  Message message = std::move(pending_pose_);
+  pending_pose_ = Message{};
   return send(std::move(message));
 }
 
 Status LcmPublisher::send(Message message) {
-  // A new message supersedes an unsent one: the newest pose matters most.
-  pending_ = Message{};
+  // A new pose supersedes an unsent one: the newest pose matters most.
+  if (message.is_pose) pending_pose_ = Message{};
   for (int attempt = 0; attempt < options_.max_send_attempts; ++attempt) {
     if (attempt > 0) retries_.fetch_add(1, std::memory_order_relaxed);
     const int rc = send_(message.channel, message.bytes.data(),
@@ -58,7 +58,7 @@ Status LcmPublisher::send(Message message) {
   messages_failed_.fetch_add(1, std::memory_order_relaxed);
   const std::string channel = message.channel;
   const std::size_t size = message.bytes.size();
-  pending_ = std::move(message);
+  if (message.is_pose) pending_pose_ = std::move(message);
   return make_error(ErrorCode::kIoError,
                     fmt::format("LCM publish on {} ({} bytes) failed {} time(s)", channel, size,
                                 options_.max_send_attempts));

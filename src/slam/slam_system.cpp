@@ -127,7 +127,24 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
   // Pass 1: background keypoints only.
   std::vector<std::uint8_t> usable(prepared.size(), 0);
   for (int k = 0; k < prepared.size(); ++k) usable[k] = prepared.instance[k] == 0 ? 1 : 0;
-  const tracking::PassResult pass1 = tracker_->estimate(prepared, usable);
+  tracking::PassResult pass1 = tracker_->estimate(prepared, usable);
+  if (mode == config::MaskingMode::kFull && !pass1.valid && !pass1.needs_initialisation) {
+    // The background alone is too small (a static machine fills the view):
+    // pass 1 again with the objects that were static up to the last frame.
+    const std::vector<std::uint16_t> known_static = classifier_->static_instances();
+    if (!known_static.empty()) {
+      std::vector<std::uint8_t> fallback = usable;
+      std::vector<std::uint8_t> is_known(65536, 0);
+      for (std::uint16_t id : known_static) is_known[id] = 1;
+      for (int k = 0; k < prepared.size(); ++k) fallback[k] |= is_known[prepared.instance[k]];
+      tracking::PassResult retry = tracker_->estimate(prepared, fallback);
+      if (retry.valid) {
+        pass1 = std::move(retry);
+        usable = std::move(fallback);
+        report.pass1_with_known_static = true;
+      }
+    }
+  }
   const tracking::PassResult* final_result = &pass1;
   tracking::PassResult pass2;
   std::vector<std::uint8_t> usable2;
@@ -174,10 +191,7 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
   report.pose.counters.masked_area_ratio = mask.mar;
 
   if (mode == config::MaskingMode::kFull) {
-    if (report.pose.state == TrackingState::kLost) {
-      // The ring's poses would no longer match the map after relocalisation.
-      classifier_->reset();
-    } else {
+    if (report.pose.state != TrackingState::kLost) {
       if (!current) {
         current = dynamic::make_object_features(prepared, mask.dynamic_boxes, report.pose.T_world_cam,
                                                 report.pose.covariance, classifier_->max_depth_m());

@@ -409,7 +409,7 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
     const std::size_t min_observations = map.keyframe_count() <= 2 ? 2 : 3;
     for (map::PointId pid : ref->point_of_keypoint) {
       const map::MapPoint* p = map.good_point(pid);
-      if (p != nullptr && p->observations.size() >= min_observations) ++reference_matches;
+      if (p != nullptr && map.observation_weight(pid) >= min_observations) ++reference_matches;
     }
   });
   // Close points (reliable stereo depth): tracked vs could-be-created.

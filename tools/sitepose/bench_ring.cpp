@@ -166,6 +166,10 @@ int run_bench_ring(std::size_t capacity, std::uint64_t items,
   const std::size_t ran = benchmark::RunSpecifiedBenchmarks(&reporter);
   benchmark::Shutdown();
   if (ran == 0) return fail("bench ring", "no benchmark matched --benchmark_filter", 2);
+  for (const auto& e : extras) {
+    if (e == "--benchmark_list_tests" || e == "--benchmark_list_tests=true")
+      return 0;  // nothing ran
+  }
   const auto mutex = reporter.rate(kMutexName);
   for (const char* name : {kRingName, kRingDropName, kMutexName}) {
     if (const auto r = reporter.rate(name)) std::printf("%s: %.3g items/s\n", name, *r);

@@ -92,8 +92,12 @@ class MotionClassifier {
   // without a pose are not added).
   void remember(ObjectFeatures frame);
 
-  // Clears the ring and the hysteresis (e.g. after tracking was lost).
+  // Clears the ring and the hysteresis.
   void reset();
+
+  // Instances whose smoothed state is static now (sitepose mode; paper mode
+  // keeps no state and returns none).
+  std::vector<std::uint16_t> static_instances() const;
 
   int reference_offset_frames() const { return reference_offset_; }
   std::size_t ring_capacity() const { return capacity_; }

@@ -2,10 +2,11 @@
 // Publishing poses and health over LCM (pose_t, health_t).
 //
 // Failures never throw: a send that fails is retried at once, up to
-// max_send_attempts in all, then the call returns kIoError and the message
-// is kept so that retry_last() can send it again later (the daemon's publish
-// stage retries failed outputs with a delay). Every failed attempt is
-// counted.
+// max_send_attempts in all, then the call returns kIoError. A pose that
+// failed is kept so that retry_pose() can send it again later (the daemon's
+// publish stage retries a failed output with a delay: PoseOutput::retry());
+// a newer pose replaces it. Health is not kept: the next report supersedes
+// it. Every failed attempt is counted.
 // Threads: an LcmPublisher is used from one thread (the publish stage);
 // stats() may be read from any thread.
 
@@ -29,7 +30,7 @@ struct LcmPublisherStats {
   std::int64_t health_published = 0;
   std::int64_t send_failures = 0;  // failed attempts, retries included
   std::int64_t retries = 0;        // attempts after a failed one
-  std::int64_t messages_failed = 0;  // calls that gave up (kIoError returned)
+  std::int64_t messages_failed = 0;  // messages given up (kIoError returned)
 };
 
 class LcmPublisher {
@@ -46,10 +47,10 @@ class LcmPublisher {
   // site: nullptr while the site anchor is unknown (see to_lcm_pose).
   Status publish_pose(const PoseEstimate& pose, const geo::SitePose* site);
   Status publish_health(const LcmHealth& health);
-  // Sends the message of the last failed publish_* again (same attempts
-  // rule). Ok and nothing sent when no message is pending.
-  Status retry_last();
-  bool has_pending() const { return !pending_.bytes.empty(); }
+  // Sends the pose of the last failed publish_pose again (same attempts
+  // rule). Ok and nothing sent when no pose is pending.
+  Status retry_pose();
+  bool has_pending_pose() const { return !pending_pose_.bytes.empty(); }
 
   LcmPublisherStats stats() const;
   const LcmOptions& options() const { return options_; }
@@ -68,7 +69,7 @@ class LcmPublisher {
   LcmOptions options_;
   SendFn send_;
   std::shared_ptr<lcm::LCM> lcm_;  // keeps the instance alive; null with a custom sender
-  Message pending_;                // last failed message, empty when none
+  Message pending_pose_;           // last failed pose, empty when none
   std::atomic<std::int64_t> poses_published_{0};
   std::atomic<std::int64_t> health_published_{0};
   std::atomic<std::int64_t> send_failures_{0};

@@ -12,6 +12,8 @@
 //                 of the objects (Algorithm 2, with pass 1's pose), pass 2
 //                 from pass 1's pose with static objects' keypoints added;
 //                 new map points from the background and static objects.
+//                 When the background alone gives no pose, pass 1 is rerun
+//                 with the objects static up to the last frame (fallback).
 // Keypoints are extracted once per frame and tagged with the instance under
 // them; pass 1 leaves no trace in the tracker (Tracker::estimate is const).
 //
@@ -69,6 +71,10 @@ struct FrameReport {
   double mar = 0.0;              // Algorithm 1's box-union ratio
   double masked_ratio = 0.0;     // pixels actually masked / image
   bool pixel_mask_used = false;  // the segmenter ran this frame
+  // Mode full: pass 1 on the background failed and was rerun with the
+  // objects still static from earlier frames (a parked machine filling the
+  // view); classification then uses that pose.
+  bool pass1_with_known_static = false;
   // Mode full: one entry per dynamic-class box of the frame, in box order
   // (states unknown when pass 1 found no pose). Empty in other modes.
   std::vector<dynamic::ClassifiedObject> objects;

@@ -5,8 +5,6 @@
 #include <chrono>
 #include <cstdio>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <gtest/gtest.h>
 
@@ -37,6 +35,11 @@ struct Score {
   int false_positives = 0;  // detections touching no ground-truth object
   int frames = 0;
   double ms_per_frame = 0.0;
+  std::int64_t mask_pixels = 0;     // pixels of the detections' masks
+  std::int64_t mask_on_object = 0;  // of those, on a ground-truth object
+  double mask_precision() const {
+    return mask_pixels > 0 ? static_cast<double>(mask_on_object) / mask_pixels : 0.0;
+  }
 };
 
 // "Visible machine": at least 1 % of the image (a few hundred pixels at
@@ -66,17 +69,19 @@ Expected<Score> run(const std::string& scenario_name, int width, int height,
     SITEPOSE_TRY(cv::Mat mask, detector->segment(frame, dets));
     total_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     ++score.frames;
+    score.mask_pixels += cv::countNonZero(mask);
+    score.mask_on_object += cv::countNonZero((mask != 0) & (f.instance_mask != 0));
+    for (const auto& d : dets) {  // pixel masks stay inside their boxes
+      const cv::Mat inside = mask(d.box) == d.instance;
+      if (cv::countNonZero(mask == d.instance) != cv::countNonZero(inside)) {
+        return make_error(ErrorCode::kRuntime, "mask pixels outside a box");
+      }
+    }
     score.detections += static_cast<int>(dets.size());
     for (const auto& d : dets) {
       bool touches = false;
       for (const auto& t : f.objects) touches = touches || (t.visible && (t.box & d.box).area() > 0);
       score.false_positives += !touches;
-      if (!touches) {
-        cv::Mat vis; cv::cvtColor(f.left, vis, cv::COLOR_GRAY2BGR);
-        for (const auto& dd : dets) cv::rectangle(vis, dd.box, dd.box == d.box ? cv::Scalar(0,0,255) : cv::Scalar(0,255,0), 1);
-        cv::imwrite("/tmp/sgdbg_" + scenario_name + "_" + std::to_string(k) + ".png", vis);
-        std::printf("FP frame %d box %d %d %d %d score %.2f\n", k, d.box.x, d.box.y, d.box.width, d.box.height, d.score);
-      }
     }
     for (const auto& t : f.objects) {
       if (!t.visible || t.class_name == "cone" || t.pixels < kMinMachineFraction * width * height) continue;
@@ -85,14 +90,7 @@ Expected<Score> run(const std::string& scenario_name, int width, int height,
       for (const auto& d : dets) {
         if (iou(d.box, t.box) >= 0.5 && (!best || iou(d.box, t.box) > iou(best->box, t.box))) best = &d;
       }
-      if (best == nullptr) {
-        cv::Mat vis; cv::cvtColor(f.left, vis, cv::COLOR_GRAY2BGR);
-        for (const auto& dd : dets) cv::rectangle(vis, dd.box, cv::Scalar(0,255,0), 1);
-        cv::rectangle(vis, t.box, cv::Scalar(255,0,0), 1);
-        cv::imwrite("/tmp/sgmiss_" + scenario_name + "_" + std::to_string(k) + ".png", vis);
-        std::printf("MISS frame %d %s box %d %d %d %d\n", k, t.class_name.c_str(), t.box.x, t.box.y, t.box.width, t.box.height);
-        continue;
-      }
+      if (best == nullptr) continue;
       ++score.found;
       if (id_switches != nullptr) {
         auto [it, inserted] = id_of_truth.emplace(t.instance, best->instance);
@@ -105,10 +103,11 @@ Expected<Score> run(const std::string& scenario_name, int width, int height,
   }
   score.ms_per_frame = total_ms / std::max(1, score.frames);
   std::printf("%s %dx%d: frames %d, machines %d, found %d (recall %.2f), detections %d, false "
-              "positives %d, %.1f ms/frame (detect + segment)\n",
+              "positives %d, mask precision %.2f, %.1f ms/frame (detect + segment)\n",
               scenario_name.c_str(), width, height, score.frames, score.machines, score.found,
               score.machines ? static_cast<double>(score.found) / score.machines : 0.0,
-              score.detections, score.false_positives, score.ms_per_frame);
+              score.detections, score.false_positives, score.mask_precision(),
+              score.ms_per_frame);
   return score;
 }
 
@@ -125,6 +124,7 @@ TEST(StereoGeometric, FindsMostVisibleMachinesOnCrowded) {
   ASSERT_GT(s->machines, 15);
   EXPECT_GE(static_cast<double>(s->found) / s->machines, 0.7);
   EXPECT_LE(s->false_positives, s->frames / 4);
+  EXPECT_GE(s->mask_precision(), 0.8);
   std::printf("crowded: %d id switches over consecutive frames 3 apart\n", switches);
 }
 
@@ -148,6 +148,22 @@ TEST(StereoGeometric, InstanceIdsStayStableFrameToFrame) {
   ASSERT_TRUE(s) << s.error().message;
   ASSERT_GT(s->found, 5);
   EXPECT_LE(switches, 1);
+}
+
+}  // namespace
+}  // namespace sitepose::detect
+
+namespace sitepose::detect {
+namespace {
+
+// Full size: the time per frame the issue asks for (printed; wall time on a
+// shared machine is not asserted) and the same recall requirement.
+TEST(StereoGeometric, FullSize960x540) {
+  auto s = run("crowded", 960, 540, every(20, 10, 5));
+  ASSERT_TRUE(s) << s.error().message;
+  ASSERT_GT(s->machines, 3);
+  EXPECT_GE(static_cast<double>(s->found) / s->machines, 0.7);
+  EXPECT_GE(s->mask_precision(), 0.8);
 }
 
 }  // namespace

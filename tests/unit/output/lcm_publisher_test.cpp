@@ -111,7 +111,7 @@ TEST(LcmPublisher, SendFailuresAreCountedRetriedAndBounded) {
   EXPECT_EQ(p.stats().send_failures, 2);
   EXPECT_EQ(p.stats().retries, 2);
   EXPECT_EQ(p.stats().poses_published, 1);
-  EXPECT_FALSE(p.has_pending());
+  EXPECT_FALSE(p.has_pending_pose());
 
   fail_next = 100;  // down: gives up after max_send_attempts, keeps the message
   auto failed = p.publish_pose(pose_at(2), nullptr);
@@ -120,18 +120,24 @@ TEST(LcmPublisher, SendFailuresAreCountedRetriedAndBounded) {
   EXPECT_NE(failed.error().message.find("SITEPOSE_POSE"), std::string::npos);
   EXPECT_EQ(calls, 6);
   EXPECT_EQ(p.stats().messages_failed, 1);
-  EXPECT_TRUE(p.has_pending());
-  EXPECT_FALSE(p.retry_last().has_value());
+  EXPECT_TRUE(p.has_pending_pose());
+  EXPECT_FALSE(p.retry_pose().has_value());
   EXPECT_EQ(calls, 9);
+  // A failed health report is not kept and does not displace the pose.
+  EXPECT_FALSE(p.publish_health(LcmHealth{}).has_value());
+  EXPECT_EQ(calls, 12);
+  EXPECT_TRUE(p.has_pending_pose());
 
-  fail_next = 0;  // back: retry_last sends the kept pose once
-  EXPECT_TRUE(p.retry_last().has_value());
-  EXPECT_EQ(calls, 10);
-  EXPECT_FALSE(p.has_pending());
-  EXPECT_TRUE(p.retry_last().has_value());  // nothing pending: no send
-  EXPECT_EQ(calls, 10);
+  fail_next = 0;  // back: retry_pose sends the kept pose once
+  EXPECT_TRUE(p.retry_pose().has_value());
+  EXPECT_EQ(calls, 13);
+  EXPECT_FALSE(p.has_pending_pose());
+  EXPECT_TRUE(p.retry_pose().has_value());  // nothing pending: no send
+  EXPECT_EQ(calls, 13);
   EXPECT_EQ(p.stats().poses_published, 2);
-  EXPECT_EQ(p.stats().send_failures, 2 + 6);
+  EXPECT_EQ(p.stats().health_published, 0);
+  EXPECT_EQ(p.stats().messages_failed, 3);
+  EXPECT_EQ(p.stats().send_failures, 2 + 9);
   EXPECT_EQ(channels, (std::vector<std::string>{"SITEPOSE_POSE", "SITEPOSE_POSE"}));
 
   LcmOptions once;

@@ -1,0 +1,61 @@
+#pragma once
+// What the `sitepose ablate ...` commands and `sitepose bench dynamic`
+// share: opening their input (a labelled sequence, or a scenario simulated
+// into a temporary sequence folder) and drawing simple charts (OpenCV).
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "sitepose/core/expected.hpp"
+#include "sitepose/slam/labelled_source.hpp"
+
+namespace sitepose::slam {
+
+// Exactly one of `sequence` and `scenario` must be non-empty. A scenario is
+// simulated (frames > 0 limits it) into `temp_dir`/<scenario>, which must
+// be empty or absent, and read back like any sequence; the frames are then
+// kept in memory (cache_frames) because ablations run several times.
+// Errors: kInvalidArgument naming the flags when both or none are given.
+struct SourceRequest {
+  std::string sequence;
+  std::string scenario;
+  int frames = 0;
+  std::string temp_dir;  // where a scenario is written; empty = a fresh folder under /tmp
+};
+Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceRequest& request,
+                                                              std::string* written_dir = nullptr);
+
+struct ChartSeries {
+  std::string name;
+  std::vector<double> x;
+  std::vector<double> y;
+  cv::Scalar color_bgr{0, 0, 0};
+};
+
+struct ChartOptions {
+  std::string title;
+  std::string x_label;
+  std::string y_label;
+  int width_px = 900;
+  int height_px = 600;
+  bool draw_diagonal = false;  // ROC: the chance line from (0,0) to (1,1)
+  bool markers = true;
+};
+
+// Line chart of the series on shared axes (ranges from the data, NaN points
+// skipped); a legend names the series. 8-bit BGR.
+cv::Mat render_line_chart(const std::vector<ChartSeries>& series, const ChartOptions& options);
+
+// Bar chart: one bar per label, value printed above it.
+cv::Mat render_bar_chart(const std::vector<std::string>& labels, const std::vector<double>& values,
+                         const ChartOptions& options);
+
+// Writes a PNG (kIoError naming the path on failure).
+Status write_png(const std::string& path, const cv::Mat& image);
+// Writes a text file (CSV) (kIoError naming the path on failure).
+Status write_text(const std::string& path, const std::string& text);
+
+}  // namespace sitepose::slam

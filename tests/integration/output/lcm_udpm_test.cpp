@@ -1,0 +1,239 @@
+// Real LCM over UDP multicast (udpm) between two processes.
+//
+// Set-up (PLATFORM.md): udpm needs a multicast route, and the root
+// namespace's default route would carry the packets off the machine, so the
+// test builds its own network namespace:
+//   ip netns add sitepose_lcm_<pid>
+//   ip -n sitepose_lcm_<pid> link set lo up
+//   ip -n sitepose_lcm_<pid> route add 224.0.0.0/4 dev lo
+// then forks a subscriber and a publisher, each entering the namespace with
+// setns(/var/run/netns/<name>) before opening
+// udpm://239.255.76.67:7667?ttl=0. The namespace is deleted at the end
+// (ip netns del), also when an assertion fails. Without root, or where
+// `ip netns add` is not permitted (e.g. an unprivileged container), the
+// tests skip and say why. CI runs as root.
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sched.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "sitepose/output/lcm_gnss_subscriber.hpp"
+#include "sitepose/output/lcm_publisher.hpp"
+
+namespace sitepose::output {
+namespace {
+
+constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+constexpr int kPoses = 50;
+
+int shell(const std::string& command, std::string* output = nullptr) {
+  const std::string log = ::testing::TempDir() + "/lcm_udpm_cmd.log";
+  const int rc = std::system((command + " >" + log + " 2>&1").c_str());
+  if (output) {
+    std::ifstream in(log);
+    std::stringstream text;
+    text << in.rdbuf();
+    *output = text.str();
+  }
+  return rc;
+}
+
+// Creates the namespace; deletes it when the test ends.
+class NetworkNamespace {
+ public:
+  explicit NetworkNamespace(std::string name) : name_(std::move(name)) {}
+  ~NetworkNamespace() {
+    if (created_) shell("ip netns del " + name_);
+  }
+  // "" on success, else why not.
+  std::string create(bool multicast_route) {
+    std::string out;
+    if (shell("ip netns add " + name_, &out) != 0) return "ip netns add failed: " + out;
+    created_ = true;
+    if (shell("ip -n " + name_ + " link set lo up", &out) != 0) return "link set lo up: " + out;
+    if (multicast_route && shell("ip -n " + name_ + " route add 224.0.0.0/4 dev lo", &out) != 0) {
+      return "route add 224.0.0.0/4: " + out;
+    }
+    return "";
+  }
+  const std::string& name() const { return name_; }
+
+ private:
+  std::string name_;
+  bool created_ = false;
+};
+
+bool enter_namespace(const std::string& name) {
+  const int fd = open(("/var/run/netns/" + name).c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool ok = setns(fd, CLONE_NEWNET) == 0;
+  close(fd);
+  return ok;
+}
+
+struct PoseSeqs {
+  std::vector<std::int64_t> seqs;
+  void on_pose(const lcm::ReceiveBuffer*, const std::string&, const sitepose::pose_t* m) {
+    seqs.push_back(m->seq);
+  }
+};
+
+// Child: subscribes, says "ready", collects poses for up to 5 s, writes
+// their seq numbers to result_fd. Exit status 0 when it ran.
+int subscriber_main(const std::string& ns, int ready_fd, int result_fd) {
+  if (!enter_namespace(ns)) return 10;
+  auto lcm = open_lcm(kUrl);
+  if (!lcm) return 11;
+  PoseSeqs received;
+  if ((*lcm)->subscribe("SITEPOSE_POSE", &PoseSeqs::on_pose, &received) == nullptr) return 12;
+  // udpm joins the group on subscribe; one handle pass makes sure.
+  (*lcm)->handleTimeout(10);
+  if (write(ready_fd, "R", 1) != 1) return 13;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (static_cast<int>(received.seqs.size()) < kPoses &&
+         std::chrono::steady_clock::now() < deadline) {
+    (*lcm)->handleTimeout(100);
+  }
+  const auto bytes = static_cast<ssize_t>(received.seqs.size() * sizeof(std::int64_t));
+  if (bytes > 0 && write(result_fd, received.seqs.data(), bytes) != bytes) return 14;
+  return 0;
+}
+
+// Child: publishes kPoses poses through LcmPublisher. Exit status 0 when
+// every publish succeeded.
+int publisher_main(const std::string& ns) {
+  if (!enter_namespace(ns)) return 20;
+  auto lcm = open_lcm(kUrl);
+  if (!lcm) return 21;
+  auto publisher = LcmPublisher::create(LcmOptions{}, *lcm);
+  if (!publisher) return 22;
+  for (int i = 0; i < kPoses; ++i) {
+    PoseEstimate pose;
+    pose.seq = i;
+    pose.t_ns = 1'000'000'000LL * i;
+    pose.state = TrackingState::kOk;
+    if (!(*publisher)->publish_pose(pose, nullptr)) return 23;
+    // Pace like a camera, well inside the socket buffer.
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return (*publisher)->stats().poses_published == kPoses ? 0 : 24;
+}
+
+int wait_exit_status(pid_t pid) {
+  int status = 0;
+  if (waitpid(pid, &status, 0) != pid) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+std::string skip_reason() {
+  if (geteuid() != 0) return "needs root to create a network namespace (ip netns add)";
+  return "";
+}
+
+TEST(LcmUdpm, PublisherAndSubscriberProcessesInANetworkNamespace) {
+  if (const std::string why = skip_reason(); !why.empty()) GTEST_SKIP() << why;
+  NetworkNamespace ns("sitepose_lcm_" + std::to_string(getpid()));
+  if (const std::string why = ns.create(true); !why.empty()) {
+    GTEST_SKIP() << "cannot set up the network namespace: " << why;
+  }
+  int ready[2], result[2];
+  ASSERT_EQ(pipe(ready), 0);
+  ASSERT_EQ(pipe(result), 0);
+  const pid_t subscriber = fork();
+  ASSERT_GE(subscriber, 0);
+  if (subscriber == 0) {
+    close(ready[0]);
+    close(result[0]);
+    _exit(subscriber_main(ns.name(), ready[1], result[1]));
+  }
+  close(ready[1]);
+  close(result[1]);
+  pollfd wait_ready{ready[0], POLLIN, 0};
+  ASSERT_EQ(poll(&wait_ready, 1, 5000), 1) << "subscriber never became ready";
+  char r = 0;
+  ASSERT_EQ(read(ready[0], &r, 1), 1);
+
+  const pid_t publisher = fork();
+  ASSERT_GE(publisher, 0);
+  if (publisher == 0) _exit(publisher_main(ns.name()));
+  EXPECT_EQ(wait_exit_status(publisher), 0) << "publisher process failed (20..24: see publisher_main)";
+
+  std::vector<std::int64_t> seqs;
+  std::int64_t seq = 0;
+  while (read(result[0], &seq, sizeof(seq)) == static_cast<ssize_t>(sizeof(seq))) seqs.push_back(seq);
+  close(ready[0]);
+  close(result[0]);
+  EXPECT_EQ(wait_exit_status(subscriber), 0) << "subscriber process failed (10..14)";
+  ASSERT_EQ(seqs.size(), static_cast<std::size_t>(kPoses));
+  for (int i = 0; i < kPoses; ++i) EXPECT_EQ(seqs[i], i);
+}
+
+TEST(LcmUdpm, WithoutMulticastRouteOpenFailsWithAReason) {
+  if (const std::string why = skip_reason(); !why.empty()) GTEST_SKIP() << why;
+  NetworkNamespace ns("sitepose_lcm_noroute_" + std::to_string(getpid()));
+  if (const std::string why = ns.create(false); !why.empty()) {
+    GTEST_SKIP() << "cannot set up the network namespace: " << why;
+  }
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    if (!enter_namespace(ns.name())) _exit(30);
+    // LCM 1.3 tests the route when it opens udpm: refused, with a reason.
+    auto lcm = open_lcm(kUrl);
+    if (lcm) _exit(31);
+    _exit(lcm.error().code == ErrorCode::kIoError &&
+                  lcm.error().message.find(kUrl) != std::string::npos
+              ? 0
+              : 32);
+  }
+  EXPECT_EQ(wait_exit_status(child), 0) << "30: setns, 31: opened without a route, 32: wrong error";
+}
+
+TEST(LcmUdpm, SendFailuresWhenTheRouteGoesAreCountedAndRetried) {
+  if (const std::string why = skip_reason(); !why.empty()) GTEST_SKIP() << why;
+  NetworkNamespace ns("sitepose_lcm_fail_" + std::to_string(getpid()));
+  if (const std::string why = ns.create(true); !why.empty()) {
+    GTEST_SKIP() << "cannot set up the network namespace: " << why;
+  }
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    if (!enter_namespace(ns.name())) _exit(40);
+    auto lcm = open_lcm(kUrl);
+    if (!lcm) _exit(41);
+    auto publisher = LcmPublisher::create(LcmOptions{}, *lcm);
+    if (!publisher) _exit(42);
+    LcmPublisher& p = **publisher;
+    PoseEstimate pose;
+    if (!p.publish_pose(pose, nullptr)) _exit(43);
+    // The route disappears (link down, misconfiguration): real sendmsg errors.
+    if (std::system("ip route del 224.0.0.0/4 dev lo") != 0) _exit(44);
+    pose.seq = 1;
+    const Status failed = p.publish_pose(pose, nullptr);
+    const LcmPublisherStats s = p.stats();
+    if (failed || s.send_failures != 3 || s.retries != 2 || s.messages_failed != 1 ||
+        !p.has_pending_pose()) {
+      _exit(45);
+    }
+    if (std::system("ip route add 224.0.0.0/4 dev lo") != 0) _exit(46);
+    if (!p.retry_pose() || p.has_pending_pose() || p.stats().poses_published != 2) _exit(47);
+    _exit(0);
+  }
+  EXPECT_EQ(wait_exit_status(child), 0) << "see the exit codes 40..47 in the test";
+}
+
+}  // namespace
+}  // namespace sitepose::output

@@ -1,0 +1,179 @@
+#include "sitepose/dynamic/motion_classifier.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace sitepose::dynamic {
+namespace {
+
+StereoCamera test_camera() {
+  StereoCamera c;
+  c.fx = c.fy = 700.0;
+  c.cx = 480.0;
+  c.cy = 270.0;
+  c.baseline_m = 1.0;
+  c.width = 960;
+  c.height = 540;
+  return c;
+}
+
+// An object: world points on a 3 m x 2 m patch 10 m in front of the origin
+// camera, each with its own random descriptor.
+struct Object {
+  std::uint16_t instance = 1;
+  std::vector<Eigen::Vector3d> p_world;
+  cv::Mat descriptors;
+};
+
+Object make_object(std::uint16_t instance, int n, double x_offset_m, std::mt19937& rng) {
+  Object o;
+  o.instance = instance;
+  std::uniform_real_distribution<double> ux(-1.5, 1.5), uy(-1.0, 1.0), uz(-0.3, 0.3);
+  o.descriptors.create(n, 32, CV_8UC1);
+  cv::randu(o.descriptors, cv::Scalar(0), cv::Scalar(256));
+  for (int i = 0; i < n; ++i) o.p_world.emplace_back(x_offset_m + ux(rng), uy(rng), 10.0 + uz(rng));
+  return o;
+}
+
+// Observes the objects (each displaced by its own world offset) from
+// T_world_cam with pixel noise sigma_px.
+ObjectFeatures observe(const std::vector<Object>& objects, const std::vector<Eigen::Vector3d>& offsets,
+                       const SE3& T_world_cam, std::int64_t seq, double sigma_px, std::mt19937& rng) {
+  const StereoCamera cam = test_camera();
+  std::normal_distribution<double> noise(0.0, sigma_px);
+  ObjectFeatures f;
+  f.seq = seq;
+  f.t_ns = seq * 166'666'667;
+  f.T_world_cam = T_world_cam;
+  f.covariance = Matrix6d::Identity() * 1e-6;
+  std::vector<cv::Mat> rows;
+  for (std::size_t j = 0; j < objects.size(); ++j) {
+    const Object& o = objects[j];
+    f.boxes.push_back({o.instance, "truck", 1.0, cv::Rect(0, 0, 10, 10)});
+    for (std::size_t i = 0; i < o.p_world.size(); ++i) {
+      const Eigen::Vector3d p_cam = T_world_cam.inverse() * (o.p_world[i] + offsets[j]);
+      const Eigen::Vector3d s = cam.project_stereo(p_cam);
+      f.uv_px.emplace_back(s.x() + noise(rng), s.y() + noise(rng));
+      f.u_right_px.push_back(s.z() + noise(rng));
+      f.octave.push_back(0);
+      f.instance.push_back(o.instance);
+      rows.push_back(o.descriptors.row(static_cast<int>(i)));
+    }
+  }
+  cv::vconcat(rows, f.descriptors);
+  return f;
+}
+
+SE3 at_x(double x_m) { return SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x_m, 0.0, 0.0)); }
+
+config::DynamicConfig config_for(config::ClassifierMode mode) {
+  config::DynamicConfig c;
+  c.classifier = mode;
+  c.reference_offset_frames = 2;
+  c.hysteresis_frames = 2;
+  c.min_object_points = 8;
+  return c;
+}
+
+TEST(MotionClassifier, PaperModeStaticAndMovingObjects) {
+  std::mt19937 rng(1);
+  const std::vector<Object> objects{make_object(1, 60, -2.0, rng), make_object(2, 60, 2.0, rng)};
+  MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kPaper), 6.0, 1.2, 8);
+  // Object 2 moves 0.3 m per frame (1.8 m/s at 6 fps): 0.6 m over N = 2
+  // frames, beyond 3 sigma_bkg = 0.36 m.
+  for (int k = 0; k < 3; ++k) {
+    classifier.remember(observe(objects, {Eigen::Vector3d::Zero(), Eigen::Vector3d(0.3 * k, 0, 0)},
+                                at_x(0.1 * k), k, 0.2, rng));
+  }
+  const auto out = classifier.classify(
+      observe(objects, {Eigen::Vector3d::Zero(), Eigen::Vector3d(0.9, 0, 0)}, at_x(0.3), 3, 0.2, rng));
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].verdict.state, MotionState::kStatic);
+  EXPECT_EQ(out[0].verdict.reference_seq, 1);  // N = 2 frames back
+  EXPECT_EQ(out[0].verdict.reference_instance, 1);
+  EXPECT_GT(out[0].verdict.score, 0.7);
+  EXPECT_EQ(out[1].verdict.state, MotionState::kMoving);
+  EXPECT_LT(out[1].verdict.score, 0.7);
+  // Kept points: those below the median, about half of the matches.
+  EXPECT_GE(out[0].verdict.points, 20);
+  EXPECT_LE(out[0].verdict.points, 31);
+}
+
+TEST(MotionClassifier, PaperModeWithoutReferenceFrameIsUnknown) {
+  std::mt19937 rng(2);
+  const std::vector<Object> objects{make_object(1, 60, 0.0, rng)};
+  MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kPaper), 6.0, 1.2, 8);
+  classifier.remember(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.0), 0, 0.2, rng));
+  const auto out = classifier.classify(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.1), 1, 0.2, rng));
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].verdict.state, MotionState::kUnknown);
+  EXPECT_EQ(out[0].verdict.reference_seq, -1);
+}
+
+TEST(MotionClassifier, TooFewPointsIsUnknown) {
+  std::mt19937 rng(3);
+  const std::vector<Object> objects{make_object(1, 6, 0.0, rng)};
+  MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+  classifier.remember(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.0), 0, 0.2, rng));
+  for (int k = 1; k < 4; ++k) {
+    const auto out = classifier.classify(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.2 * k), k, 0.2, rng));
+    ASSERT_EQ(out.size(), 1u);
+    EXPECT_EQ(out[0].verdict.raw, MotionState::kUnknown);
+    EXPECT_EQ(out[0].verdict.state, MotionState::kUnknown);
+  }
+}
+
+TEST(MotionClassifier, SiteposeReferenceByParallaxElseOldest) {
+  std::mt19937 rng(4);
+  const std::vector<Object> objects{make_object(1, 60, 0.0, rng)};
+  MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+  const double x[] = {0.0, 0.05, 0.10, 0.20, 0.25};
+  for (int k = 0; k < 5; ++k) {
+    classifier.remember(observe(objects, {Eigen::Vector3d::Zero()}, at_x(x[k]), k, 0.2, rng));
+  }
+  // CF at 0.30 m: newest frame >= 0.15 m away is seq 2 (0.10 m).
+  auto out = classifier.classify(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.30), 5, 0.2, rng));
+  EXPECT_EQ(out[0].verdict.reference_seq, 2);
+  // Camera at 0.12 m: no kept frame 0.15 m away, the oldest is used.
+  out = classifier.classify(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.12), 6, 0.2, rng));
+  EXPECT_EQ(out[0].verdict.reference_seq, 0);
+}
+
+TEST(MotionClassifier, SiteposeHysteresisUnmasksAfterTwoFramesAndRemasksStrongMotionAtOnce) {
+  std::mt19937 rng(5);
+  const std::vector<Object> objects{make_object(1, 80, 0.0, rng)};
+  MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+  int seq = 0;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  auto step = [&](double camera_x, const Eigen::Vector3d& object_offset) {
+    const ObjectFeatures f = observe(objects, {object_offset}, at_x(camera_x), seq++, 0.2, rng);
+    auto out = classifier.classify(f);
+    classifier.remember(f);
+    return out[0].verdict;
+  };
+  step(0.0, offset);
+  ObjectVerdict v = step(0.2, offset);
+  EXPECT_EQ(v.raw, MotionState::kStatic);
+  EXPECT_EQ(v.state, MotionState::kUnknown);  // one static verdict is not enough
+  v = step(0.4, offset);
+  EXPECT_EQ(v.state, MotionState::kStatic);
+  for (int k = 0; k < 5; ++k) {
+    v = step(0.6 + 0.2 * k, offset);
+    EXPECT_EQ(v.state, MotionState::kStatic) << "frame " << k;  // no flicker
+  }
+  // The object starts moving fast: re-masked in the first frame.
+  offset = Eigen::Vector3d(0.5, 0.0, 0.0);
+  v = step(1.6, offset);
+  EXPECT_EQ(v.raw, MotionState::kMoving);
+  EXPECT_EQ(v.state, MotionState::kMoving);
+}
+
+TEST(MotionClassifier, IsStaticAtNeedsMoreThanTheFraction) {
+  EXPECT_TRUE(is_static_at({0.1, 0.1, 0.1, 0.1, 5.0}, 1.0, 0.7));   // 80 %
+  EXPECT_FALSE(is_static_at({0.1, 0.1, 0.1, 5.0, 5.0}, 1.0, 0.7));  // 60 %
+  EXPECT_FALSE(is_static_at({}, 1.0, 0.7));
+}
+
+}  // namespace
+}  // namespace sitepose::dynamic

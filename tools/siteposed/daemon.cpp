@@ -1,0 +1,161 @@
+#include "daemon.hpp"
+
+#include <pthread.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+
+#include "sitepose/config/config.hpp"
+#include "sitepose/core/log.hpp"
+#include "sitepose/geo/nmea.hpp"
+#include "sitepose/pipeline/replay_source.hpp"
+#include "sitepose/pipeline/slam_tracker.hpp"
+#include "sitepose/pipeline/supervisor.hpp"
+
+namespace sitepose::daemon {
+
+Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config) {
+  std::unique_ptr<Daemon> d(new Daemon(config));
+
+  SITEPOSE_TRY(auto source, pipeline::ReplaySource::open(config.replay));
+  spdlog::info("source: {}", source->describe());
+  StereoCamera camera = source->camera();
+  if (config.sitepose.camera.stereo) camera = *config.sitepose.camera.stereo;
+  SITEPOSE_TRY(auto tracker, pipeline::SlamPoseTracker::create(camera, config.sitepose));
+
+  SITEPOSE_TRY(d->anchoring_, Anchoring::create(config.geo));
+  if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kNmeaFile) {
+    SITEPOSE_TRY(geo::NmeaReadResult fixes, geo::read_nmea_file(config.geo.nmea_file, {}));
+    spdlog::info("geo: {} GNSS fixes from {}", fixes.fixes.size(), config.geo.nmea_file);
+    d->anchoring_->set_scheduled_fixes(std::move(fixes.fixes));
+  }
+
+  std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
+  if (config.lcm.enabled) {
+    SITEPOSE_TRY(d->lcm_, output::open_lcm(config.lcm.lcm.url));
+    SITEPOSE_TRY(auto publisher, output::LcmPublisher::create(config.lcm.lcm, d->lcm_));
+    outputs.push_back(std::make_unique<LcmOutput>(std::move(publisher), *d->anchoring_));
+  }
+  if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kLcm) {
+    if (!d->lcm_) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        "geo.online.gnss_input = lcm: needs outputs.lcm.enabled = true");
+    }
+    Anchoring* anchoring = d->anchoring_.get();
+    SITEPOSE_TRY(d->gnss_, output::LcmGnssSubscriber::create(
+                               config.lcm.lcm, d->lcm_,
+                               [anchoring](const geo::GnssFix& fix) { anchoring->push_fix(fix); }));
+  }
+  if (config.can.enabled) {
+    std::unique_ptr<output::CanSink> sink;
+    if (config.can.sink == CanSinkKind::kStdout) {
+      sink = output::CandumpSink::make_stdout(config.can.interface);
+    } else {
+      SITEPOSE_TRY(sink, output::CandumpSink::open_file(config.can.path, config.can.interface));
+    }
+    outputs.push_back(std::make_unique<CanOutput>(config.can.frames, std::move(sink), *d->anchoring_));
+  }
+  if (config.trajectory.enabled) {
+    SITEPOSE_TRY(auto trajectory, TrajectoryOutput::open(config.trajectory.path, config.trajectory.append));
+    outputs.push_back(std::move(trajectory));
+  }
+  SITEPOSE_TRY(d->pipeline_, pipeline::Pipeline::create(config.pipeline, std::move(source),
+                                                        std::make_unique<pipeline::PassThroughDetect>(),
+                                                        std::move(tracker), std::move(outputs)));
+  return d;
+}
+
+Daemon::~Daemon() {
+  gnss_thread_ = {};  // stop and join before the anchoring goes
+  pipeline_.reset();
+}
+
+void Daemon::log_health(const pipeline::PipelineHealth& h) const {
+  std::string stages;
+  for (const auto& s : h.stages) {
+    stages += fmt::format(" {}[n={} depth={} drops={} p50={:.1f}ms p99={:.1f}ms]", s.name, s.items,
+                          s.queue_depth, s.drops, s.p50_ms, s.p99_ms);
+  }
+  std::string outputs;
+  for (const auto& o : h.outputs) {
+    outputs += fmt::format(" {}[ok={} errors={} retries={} failed={}]", o.name, o.published, o.errors,
+                           o.retries, o.failed);
+  }
+  std::string anchor;
+  if (auto st = anchoring_->anchor_status()) {
+    anchor = fmt::format(" anchor[{} fixes={} pairs={} inliers={}]", geo::to_string(st->state),
+                         st->fixes_received, st->pairs, st->inliers);
+  }
+  spdlog::info("health: {} captured={} stalls={} track_errors={} |{} |{}{}", pipeline::format_status(h),
+               h.frames_captured, h.stalls, h.track_errors, stages, outputs, anchor);
+}
+
+int Daemon::run(const sigset_t& stop_signals) {
+  if (gnss_) {
+    gnss_thread_ = std::jthread([this](std::stop_token stop) {
+      pthread_setname_np(pthread_self(), "sp-gnss");
+      // handle() waits at most 100 ms, so a stop is seen within that.
+      while (!stop.stop_requested()) {
+        if (auto r = gnss_->handle(100); !r) {
+          spdlog::warn("gnss: LCM receive failed: {}", r.error().message);
+        }
+      }
+    });
+  }
+  pipeline::Supervisor supervisor(config_.supervisor, notifier_.watchdog_interval_ns());
+  if (notifier_.enabled()) {
+    spdlog::info("systemd: notify socket set, watchdog {}",
+                 notifier_.watchdog_interval_ns()
+                     ? fmt::format("every {:.1f} s", *notifier_.watchdog_interval_ns() * 1e-9)
+                     : std::string("off"));
+  }
+  auto notify = [this](const Status& st) {
+    if (!st && (notifier_.failures() <= 3 || notifier_.failures() % 100 == 0)) {
+      spdlog::warn("systemd: {}", st.error().message);
+    }
+  };
+  pipeline_->start();
+  const auto tick = supervisor.tick_interval();
+  bool stopped_by_signal = false;
+  for (;;) {
+    timespec ts{};
+    ts.tv_sec = static_cast<time_t>(tick.count() / 1'000'000'000);
+    ts.tv_nsec = static_cast<long>(tick.count() % 1'000'000'000);
+    const int sig = sigtimedwait(&stop_signals, nullptr, &ts);
+    if (sig > 0) {
+      spdlog::info("received {}, stopping", sigabbrev_np(sig) ? sigabbrev_np(sig) : "signal");
+      notify(notifier_.stopping("stopping on signal"));
+      pipeline_->stop();
+      stopped_by_signal = true;
+      break;
+    }
+    if (sig < 0 && errno != EAGAIN && errno != EINTR) {
+      spdlog::error("sigtimedwait: {}", std::strerror(errno));
+    }
+    const pipeline::PipelineHealth h = pipeline_->health();
+    const pipeline::SupervisorActions a = supervisor.tick(h, pipeline::SteadyClock::now());
+    if (a.ready) {
+      spdlog::info("first frame captured: ready");
+      notify(notifier_.ready(a.status.value_or("ready")));
+    } else if (a.status) {
+      notify(notifier_.status(*a.status));
+    }
+    if (a.watchdog) notify(notifier_.watchdog());
+    if (a.log) log_health(h);
+    if (pipeline_->finished()) break;
+  }
+  const Status st = pipeline_->wait();
+  const pipeline::PipelineHealth h = pipeline_->health();
+  log_health(h);
+  if (!stopped_by_signal) notify(notifier_.stopping(st ? "source ended" : "source failed"));
+  gnss_thread_ = {};
+  if (!st) {
+    spdlog::error("source failed: {}", st.error().message);
+    return 1;
+  }
+  spdlog::info("stopped: {} frames tracked, {} poses published", h.frames_tracked, h.poses_published);
+  return 0;
+}
+
+}  // namespace sitepose::daemon

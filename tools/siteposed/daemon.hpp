@@ -1,0 +1,50 @@
+#pragma once
+// siteposed's supervisor: builds the source, the tracker, the anchoring and
+// the outputs from a validated DaemonConfig, runs the pipeline and talks to
+// systemd (READY after the first source frame, STATUS lines, WATCHDOG only
+// while frames flow and the track stage progresses, STOPPING on a stop
+// signal), logging health periodically.
+// Threads: create() and run() on the main thread, which must have blocked
+// the stop signals (SIGTERM, SIGINT) before any thread was started, so that
+// only run()'s sigtimedwait() receives them. A GNSS receiving thread runs
+// when geo.mode is online with gnss_input lcm.
+
+#include <signal.h>
+
+#include <memory>
+#include <thread>
+
+#include "daemon_config.hpp"
+#include "outputs.hpp"
+#include "sitepose/output/lcm_gnss_subscriber.hpp"
+#include "sitepose/pipeline/pipeline.hpp"
+#include "sitepose/pipeline/systemd_notify.hpp"
+
+namespace sitepose::daemon {
+
+class Daemon {
+ public:
+  // Opens everything the config names; errors name the key or file
+  // (Error::exit_status(): 2 for bad input such as a missing sequence, 1
+  // for a run-time failure such as an LCM URL that cannot be opened).
+  static Expected<std::unique_ptr<Daemon>> create(const DaemonConfig& config);
+  ~Daemon();
+
+  // Runs until the source ends or a signal of `stop_signals` arrives; 0 on
+  // a clean end or stop, 1 when the source failed.
+  int run(const sigset_t& stop_signals);
+
+ private:
+  explicit Daemon(const DaemonConfig& config) : config_(config) {}
+  void log_health(const pipeline::PipelineHealth& health) const;
+
+  DaemonConfig config_;
+  pipeline::SystemdNotifier notifier_;
+  std::unique_ptr<Anchoring> anchoring_;             // outlives the outputs
+  std::shared_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<output::LcmGnssSubscriber> gnss_;  // used by gnss_thread_ only
+  std::unique_ptr<pipeline::Pipeline> pipeline_;     // owns source, tracker, outputs
+  std::jthread gnss_thread_;                         // joined first (declared last)
+};
+
+}  // namespace sitepose::daemon

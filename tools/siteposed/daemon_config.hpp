@@ -1,0 +1,86 @@
+#pragma once
+// siteposed's settings: one YAML file (config/siteposed.yaml documents every
+// key) holding the daemon's own sections (source, pipeline, supervisor,
+// outputs, geo) next to the sitepose sections (camera, orb, stereo,
+// tracking, mapping, dynamic, detector, logging; config/sitepose.yaml).
+// load_daemon_config() validates everything before anything starts: unknown
+// keys, wrong types, broken rules and cross-field problems are reported all
+// at once, each naming file:line, the key path, the value and the rule
+// (kInvalidArgument; kNotFound for a missing file). Relative paths in the
+// file are resolved against the file's directory.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "sitepose/config/sitepose_config.hpp"
+#include "sitepose/core/expected.hpp"
+#include "sitepose/core/se3.hpp"
+#include "sitepose/geo/site_anchor.hpp"
+#include "sitepose/output/can_pose_encoder.hpp"
+#include "sitepose/output/lcm_bus.hpp"
+#include "sitepose/pipeline/pipeline.hpp"
+#include "sitepose/pipeline/replay_source.hpp"
+#include "sitepose/pipeline/supervisor.hpp"
+
+namespace sitepose::daemon {
+
+struct TrajectoryOutputConfig {
+  bool enabled = true;
+  std::string path;    // TUM lines, T_world_cam in the SLAM frame
+  bool append = true;  // keep lines of earlier runs (a restart loses nothing)
+};
+
+enum class CanSinkKind { kCandumpFile, kStdout };
+
+struct CanOutputConfig {
+  bool enabled = true;
+  CanSinkKind sink = CanSinkKind::kCandumpFile;
+  std::string path;  // candump log (sink candump)
+  std::string interface = "can0";
+  output::CanOutputOptions frames;
+};
+
+struct LcmOutputConfig {
+  bool enabled = true;
+  output::LcmOptions lcm;
+};
+
+enum class GeoMode { kNone, kFixed, kOnline };
+enum class GnssInput { kLcm, kNmeaFile };
+
+struct GeoConfig {
+  GeoMode mode = GeoMode::kNone;
+  geo::Geodetic origin;
+  geo::ForwardAxis forward_axis_cam = geo::ForwardAxis::kMinusX;
+  SE3 T_site_slam;  // mode fixed
+  // mode online (SiteAnchor): origin, forward axis and the options below.
+  GnssInput gnss_input = GnssInput::kLcm;
+  std::string nmea_file;  // gnss_input nmea_file
+  geo::SiteAnchorOptions anchor;
+};
+
+struct DaemonConfig {
+  std::string source_type = "replay";
+  pipeline::ReplayOptions replay;
+  pipeline::PipelineOptions pipeline;
+  pipeline::SupervisorOptions supervisor;
+  TrajectoryOutputConfig trajectory;
+  CanOutputConfig can;
+  LcmOutputConfig lcm;
+  GeoConfig geo;
+  config::SiteposeConfig sitepose;
+};
+
+Expected<DaemonConfig> load_daemon_config(const std::string& path);
+Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text,
+                                                      const std::string& source_name,
+                                                      const std::string& base_dir);
+
+// The daemon's own sections, resolved, as YAML (logged once at startup next
+// to config::to_yaml of the sitepose sections).
+std::string daemon_sections_to_yaml(const DaemonConfig& config);
+
+}  // namespace sitepose::daemon

@@ -1,0 +1,218 @@
+#include "outputs.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "sitepose/output/j1939.hpp"
+
+namespace sitepose::daemon {
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+}  // namespace
+
+// ---------------------------------------------------------------- Anchoring
+
+Expected<std::unique_ptr<Anchoring>> Anchoring::create(const GeoConfig& config) {
+  std::unique_ptr<Anchoring> a(new Anchoring(config));
+  if (config.mode == GeoMode::kFixed) {
+    SITEPOSE_TRY(geo::SiteFrame frame,
+                 geo::SiteFrame::create(config.origin, config.T_site_slam, config.forward_axis_cam));
+    a->fixed_ = std::move(frame);
+  } else if (config.mode == GeoMode::kOnline) {
+    SITEPOSE_TRY(geo::SiteAnchor anchor, geo::SiteAnchor::create(config.anchor));
+    a->anchor_ = std::move(anchor);
+  }
+  return a;
+}
+
+void Anchoring::push_fix(const geo::GnssFix& fix) {
+  // Drop-oldest: a burst of fixes must not stall the receiving thread.
+  geo::GnssFix copy = fix;
+  (void)fixes_.push_drop_oldest(std::move(copy));
+}
+
+void Anchoring::set_scheduled_fixes(std::vector<geo::GnssFix> fixes) {
+  scheduled_ = std::move(fixes);
+  next_scheduled_ = 0;
+}
+
+std::optional<geo::AnchorStatus> Anchoring::anchor_status() const {
+  if (!anchor_) return std::nullopt;
+  return anchor_->status();
+}
+
+const geo::SitePose* Anchoring::site_pose(const pipeline::PosePacket& packet) {
+  const PoseEstimate& pose = packet.pose;
+  if (cache_valid_ && cached_seq_ == pose.seq && cached_t_ns_ == pose.t_ns &&
+      cached_stall_ == packet.from_stall) {
+    return cached_ ? &*cached_ : nullptr;
+  }
+  cache_valid_ = true;
+  cached_seq_ = pose.seq;
+  cached_t_ns_ = pose.t_ns;
+  cached_stall_ = packet.from_stall;
+  cached_.reset();
+  const geo::SiteFrame* frame = nullptr;
+  if (fixed_) {
+    frame = &*fixed_;
+  } else if (anchor_) {
+    // Fixes first (those up to this pose's time), then the pose, so a fix
+    // waiting for a later SLAM pose finds it.
+    while (auto fix = fixes_.try_pop()) anchor_->add_fix(*fix);
+    while (next_scheduled_ < scheduled_.size() &&
+           scheduled_[next_scheduled_].t_ns + config_.anchor.gnss_clock_offset_ns <= pose.t_ns) {
+      anchor_->add_fix(scheduled_[next_scheduled_++]);
+    }
+    if (pose.state == TrackingState::kOk && !packet.from_stall) {
+      anchor_->add_slam_pose(pose.t_ns, pose.T_world_cam);
+    }
+    if (anchor_->site_frame()) frame = &*anchor_->site_frame();
+  }
+  if (frame == nullptr) return nullptr;
+  auto site = frame->to_site(pose);
+  if (!site) return nullptr;  // not finite or outside UTM/UPS: published without a site
+  cached_ = std::move(*site);
+  return &*cached_;
+}
+
+// --------------------------------------------------------- TrajectoryOutput
+
+Expected<std::unique_ptr<TrajectoryOutput>> TrajectoryOutput::open(const std::string& path, bool append) {
+  const int flags = O_WRONLY | O_CREAT | O_CLOEXEC | (append ? O_APPEND : O_TRUNC);
+  const int fd = ::open(path.c_str(), flags, 0644);
+  if (fd < 0) {
+    return make_error(ErrorCode::kIoError,
+                      "outputs.trajectory.path: cannot open " + path + ": " + std::strerror(errno));
+  }
+  return std::unique_ptr<TrajectoryOutput>(new TrajectoryOutput(fd, path));
+}
+
+TrajectoryOutput::~TrajectoryOutput() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+Status TrajectoryOutput::write_pending() {
+  while (!pending_.empty()) {
+    const ssize_t n = ::write(fd_, pending_.data(), pending_.size());
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return make_error(ErrorCode::kIoError, "trajectory " + path_ + ": " + std::strerror(errno));
+    }
+    pending_.erase(0, static_cast<std::size_t>(n));
+  }
+  ++lines_written_;
+  return ok_status();
+}
+
+Status TrajectoryOutput::publish(const pipeline::PosePacket& packet) {
+  const PoseEstimate& p = packet.pose;
+  pending_.clear();
+  if (p.state == TrackingState::kLost || packet.from_stall) return ok_status();
+  const auto& t = p.T_world_cam.translation();
+  const auto& q = p.T_world_cam.rotation();
+  pending_ = fmt::format("{:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f}\n",
+                         static_cast<double>(p.t_ns) * 1e-9, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+  return write_pending();
+}
+
+Status TrajectoryOutput::retry() { return pending_.empty() ? ok_status() : write_pending(); }
+
+// ---------------------------------------------------------------- CanOutput
+
+Status CanOutput::publish(const pipeline::PosePacket& packet) {
+  const PoseEstimate& pose = packet.pose;
+  const geo::SitePose* site = anchoring_.site_pose(packet);
+  output::CanPoseInputs in;
+  in.utc_t_ns = pose.t_ns;
+  in.quality = output::pose_quality_from_estimate(pose);
+  if (site == nullptr) {
+    in.latitude_deg = in.longitude_deg = in.altitude_m = kNaN;
+    in.heading_rad = in.course_over_ground_rad = in.speed_over_ground_mps = in.pitch_rad = kNaN;
+    in.quality.state = TrackingState::kLost;  // no WGS84 position to steer by
+  } else {
+    in.latitude_deg = site->geodetic.latitude_deg;
+    in.longitude_deg = site->geodetic.longitude_deg;
+    in.altitude_m = site->geodetic.height_m;
+    in.heading_rad = site->heading_deg * kDegToRad;  // NaN stays NaN: "not available"
+    in.quality.position_std_m = site->position_std_m;
+    const Eigen::Vector3d forward =
+        site->T_site_cam.rotation() * geo::axis_vector(anchoring_.forward_axis());
+    in.pitch_rad = std::atan2(forward.z(), std::hypot(forward.x(), forward.y()));
+    in.course_over_ground_rad = in.speed_over_ground_mps = kNaN;
+    const Eigen::Vector3d p = site->T_site_cam.translation();
+    if (last_site_position_ && pose.t_ns > last_site_position_->first &&
+        pose.state != TrackingState::kLost) {
+      const Eigen::Vector3d d = p - last_site_position_->second;
+      const double dt_s = static_cast<double>(pose.t_ns - last_site_position_->first) * 1e-9;
+      in.speed_over_ground_mps = std::hypot(d.x(), d.y()) / dt_s;
+      if (in.speed_over_ground_mps > 0.01) {  // a course needs motion
+        in.course_over_ground_rad = std::atan2(d.x(), d.y());
+        if (in.course_over_ground_rad < 0) in.course_over_ground_rad += 2 * std::numbers::pi;
+      }
+    }
+    if (pose.state != TrackingState::kLost && !packet.from_stall) last_site_position_ = {pose.t_ns, p};
+  }
+  frames_ = encoder_.encode(in);
+  next_frame_ = 0;
+  flushed_ = false;
+  frame_t_ns_ = pose.t_ns;
+  return send_pending();
+}
+
+Status CanOutput::send_pending() {
+  while (next_frame_ < frames_.size()) {
+    SITEPOSE_TRY_STATUS(sink_->send(frame_t_ns_, frames_[next_frame_]));
+    ++next_frame_;
+  }
+  if (!flushed_) {
+    SITEPOSE_TRY_STATUS(sink_->flush());
+    flushed_ = true;
+  }
+  return ok_status();
+}
+
+Status CanOutput::retry() { return send_pending(); }
+
+// ---------------------------------------------------------------- LcmOutput
+
+Status LcmOutput::publish(const pipeline::PosePacket& packet) {
+  return publisher_->publish_pose(packet.pose, anchoring_.site_pose(packet));
+}
+
+output::LcmHealth to_lcm_health(const pipeline::PipelineHealth& h, std::int64_t t_ns) {
+  output::LcmHealth l;
+  l.t_ns = t_ns;
+  l.fps = h.fps;
+  l.latency_p50_ms = h.latency_p50_ms;
+  l.latency_p99_ms = h.latency_p99_ms;
+  l.state = h.state;
+  l.state_reason = h.state_reason;
+  l.frames_captured = static_cast<std::int64_t>(h.frames_captured);
+  l.frames_tracked = static_cast<std::int64_t>(h.frames_tracked);
+  l.stalls = static_cast<std::int64_t>(h.stalls);
+  for (const auto& s : h.stages) {
+    l.stages.push_back({s.name, static_cast<std::int64_t>(s.drops), static_cast<std::int32_t>(s.queue_depth),
+                        s.p50_ms, s.p99_ms});
+  }
+  for (const auto& o : h.outputs) {
+    l.outputs.push_back({o.name, static_cast<std::int64_t>(o.errors), static_cast<std::int64_t>(o.failed)});
+  }
+  return l;
+}
+
+Status LcmOutput::publish_health(const pipeline::PipelineHealth& health) {
+  const auto now = std::chrono::system_clock::now().time_since_epoch();
+  return publisher_->publish_health(
+      to_lcm_health(health, std::chrono::duration_cast<std::chrono::nanoseconds>(now).count()));
+}
+
+}  // namespace sitepose::daemon

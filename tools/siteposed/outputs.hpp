@@ -1,0 +1,129 @@
+#pragma once
+// The daemon's publish side: the site anchoring every output shares, and
+// the pipeline::PoseOutput implementations (LCM, CAN, TUM trajectory).
+// Threads: everything here runs on the pipeline's publish thread, except
+// Anchoring::push_fix() (one GNSS receiving thread; a lock-free SPSC ring
+// hands the fixes over) and the outputs' destructors (after the threads end).
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "daemon_config.hpp"
+#include "sitepose/geo/site_anchor.hpp"
+#include "sitepose/geo/site_frame.hpp"
+#include "sitepose/output/can_pose_encoder.hpp"
+#include "sitepose/output/can_sink.hpp"
+#include "sitepose/output/lcm_publisher.hpp"
+#include "sitepose/pipeline/hooks.hpp"
+#include "sitepose/pipeline/spsc_ring.hpp"
+
+namespace sitepose::daemon {
+
+// T_site_slam for the outputs: fixed from the config, or estimated online
+// by geo::SiteAnchor from GNSS fixes (LCM or an NMEA file), or none. Each
+// pose is anchored once and the result shared by every output, so LCM and
+// CAN never disagree about one pose even while the estimate changes.
+class Anchoring {
+ public:
+  static Expected<std::unique_ptr<Anchoring>> create(const GeoConfig& config);
+
+  // The pose in the site frame; nullptr while no site frame is known (mode
+  // none, or online before the first estimate) or when the pose cannot be
+  // converted. Caches the last pose's answer (keyed by seq, t_ns, stall).
+  const geo::SitePose* site_pose(const pipeline::PosePacket& packet);
+  // Any one thread (the GNSS subscriber): a fix for the online anchor.
+  void push_fix(const geo::GnssFix& fix);
+  // Fixes known up front (an NMEA file); fed as the poses reach their time.
+  void set_scheduled_fixes(std::vector<geo::GnssFix> fixes);
+
+  GeoMode mode() const { return config_.mode; }
+  geo::ForwardAxis forward_axis() const { return config_.forward_axis_cam; }
+  std::optional<geo::AnchorStatus> anchor_status() const;
+
+ private:
+  explicit Anchoring(const GeoConfig& config) : config_(config), fixes_(256) {}
+
+  GeoConfig config_;
+  std::optional<geo::SiteFrame> fixed_;
+  std::optional<geo::SiteAnchor> anchor_;
+  pipeline::SpscRing<geo::GnssFix> fixes_;
+  std::vector<geo::GnssFix> scheduled_;
+  std::size_t next_scheduled_ = 0;
+  // Cache of the last anchored pose.
+  std::int64_t cached_seq_ = -1, cached_t_ns_ = -1;
+  bool cached_stall_ = false, cache_valid_ = false;
+  std::optional<geo::SitePose> cached_;
+};
+
+// TUM lines "t x y z qx qy qz qw" (T_world_cam, SLAM frame, FORMATS.md) of
+// every published pose that is not LOST. One write() per line on an
+// O_APPEND descriptor: a stop or crash leaves only complete lines, and a
+// retry writes the rest of a partial line, never a duplicate.
+class TrajectoryOutput final : public pipeline::PoseOutput {
+ public:
+  static Expected<std::unique_ptr<TrajectoryOutput>> open(const std::string& path, bool append);
+  ~TrajectoryOutput() override;
+  std::string name() const override { return "trajectory"; }
+  Status publish(const pipeline::PosePacket& packet) override;
+  Status retry() override;
+  std::uint64_t lines_written() const { return lines_written_; }
+
+ private:
+  TrajectoryOutput(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
+  Status write_pending();
+  int fd_;
+  std::string path_;
+  std::string pending_;  // unwritten rest of the current line
+  std::uint64_t lines_written_ = 0;
+};
+
+// The CAN frame set of each pose (canring's CanPoseEncoder) into a CanSink.
+// Without a site frame the frames say LOST ("no site anchor"): the ECU
+// needs WGS84 positions. Speed and course come from the last two site
+// positions. A failed frame is resumed by retry() from that frame on, so
+// the ECU never sees a frame twice; the sink is flushed once per pose.
+class CanOutput final : public pipeline::PoseOutput {
+ public:
+  CanOutput(const output::CanOutputOptions& options, std::unique_ptr<output::CanSink> sink,
+            Anchoring& anchoring)
+      : encoder_(options), sink_(std::move(sink)), anchoring_(anchoring) {}
+  std::string name() const override { return "can"; }
+  Status publish(const pipeline::PosePacket& packet) override;
+  Status retry() override;
+  output::CanSinkCounters sink_counters() const { return sink_->counters(); }
+
+ private:
+  Status send_pending();
+  output::CanPoseEncoder encoder_;
+  std::unique_ptr<output::CanSink> sink_;
+  Anchoring& anchoring_;
+  std::vector<output::CanFrame> frames_;
+  std::size_t next_frame_ = 0;
+  bool flushed_ = true;
+  std::int64_t frame_t_ns_ = 0;
+  std::optional<std::pair<std::int64_t, Eigen::Vector3d>> last_site_position_;
+};
+
+// pose_t per pose and health_t per health report (geolcm's LcmPublisher).
+class LcmOutput final : public pipeline::PoseOutput {
+ public:
+  LcmOutput(std::unique_ptr<output::LcmPublisher> publisher, Anchoring& anchoring)
+      : publisher_(std::move(publisher)), anchoring_(anchoring) {}
+  std::string name() const override { return "lcm"; }
+  Status publish(const pipeline::PosePacket& packet) override;
+  Status retry() override { return publisher_->retry_pose(); }
+  Status publish_health(const pipeline::PipelineHealth& health) override;
+  output::LcmPublisherStats stats() const { return publisher_->stats(); }
+
+ private:
+  std::unique_ptr<output::LcmPublisher> publisher_;
+  Anchoring& anchoring_;
+};
+
+// pipeline health -> LCM health_t contents.
+output::LcmHealth to_lcm_health(const pipeline::PipelineHealth& health, std::int64_t t_ns);
+
+}  // namespace sitepose::daemon
