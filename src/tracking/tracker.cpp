@@ -406,7 +406,7 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   map_.read([&](const map::MapData& map) {
     const map::KeyFrame* ref = map.keyframe(reference_keyframe_);
     if (ref == nullptr) return;
-    const std::size_t min_observations = map.keyframe_count() <= 2 ? 2 : 3;
+    const int min_observations = map.keyframe_count() <= 2 ? 2 : 3;
     for (map::PointId pid : ref->point_of_keypoint) {
       const map::MapPoint* p = map.good_point(pid);
       if (p != nullptr && map.observation_weight(pid) >= min_observations) ++reference_matches;

@@ -1,0 +1,127 @@
+#include "sitepose/tracking/tracker.hpp"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "sitepose/sim/simulator.hpp"
+
+namespace sitepose::tracking {
+namespace {
+
+// A small simulated site (480x270) keeps the test fast.
+struct SmallSite {
+  sim::Simulator simulator;
+  static SmallSite make(const char* scenario_name, int frames) {
+    auto scenario = sim::load_scenario(std::string(SITEPOSE_SCENARIO_DIR) + "/" + scenario_name + ".yaml");
+    SITEPOSE_CHECK(scenario.has_value());
+    sim::SimOptions options;
+    options.frames = frames;
+    options.width = 480;
+    options.height = 270;
+    auto simulator = sim::Simulator::create(*scenario, options);
+    SITEPOSE_CHECK(simulator.has_value());
+    return SmallSite{std::move(*simulator)};
+  }
+  StereoFrame frame(int i, sim::SimFrame* truth = nullptr) const {
+    sim::SimFrame f = simulator.render(i);
+    StereoFrame frame{i, f.t_ns, f.t_ns, f.left, f.right, "test"};
+    if (truth != nullptr) *truth = f;
+    return frame;
+  }
+};
+
+config::SiteposeConfig small_config() {
+  config::SiteposeConfig config;
+  config.orb.n_features = 1000;
+  return config;
+}
+
+TEST(Tracker, TracksASmallStaticSite) {
+  const SmallSite site = SmallSite::make("static", 30);
+  map::SharedMap map;
+  Tracker tracker(site.simulator.camera(), small_config(), map);
+  double max_error_m = 0.0;
+  for (int i = 0; i < 30; ++i) {
+    sim::SimFrame truth;
+    auto pose = tracker.track(site.frame(i, &truth));
+    ASSERT_TRUE(pose.has_value()) << pose.error().message;
+    EXPECT_EQ(pose->state, TrackingState::kOk) << "frame " << i << ": " << pose->state_reason;
+    // World = first camera in both, so no alignment is needed.
+    max_error_m = std::max(max_error_m, (pose->T_world_cam.translation() - truth.T_world_cam.translation()).norm());
+    EXPECT_GT(pose->counters.features_used, 50);
+  }
+  EXPECT_LT(max_error_m, 0.03);
+  EXPECT_GE(tracker.counters().keyframes_created, 1);
+}
+
+TEST(Tracker, EstimateLeavesNoTrace) {
+  const SmallSite site = SmallSite::make("static", 12);
+  map::SharedMap map;
+  Tracker tracker(site.simulator.camera(), small_config(), map);
+  for (int i = 0; i < 10; ++i) ASSERT_TRUE(tracker.track(site.frame(i)).has_value());
+  auto prepared = tracker.prepare(site.frame(10));
+  ASSERT_TRUE(prepared.has_value());
+  const std::vector<std::uint8_t> all(prepared->size(), 1);
+  const auto keyframes_before = map.read([](const map::MapData& m) { return m.keyframe_count(); });
+  const auto last_before = tracker.last_T_world_cam();
+  const PassResult first = tracker.estimate(*prepared, all);
+  const PassResult second = tracker.estimate(*prepared, all);
+  ASSERT_TRUE(first.valid);
+  EXPECT_EQ(first.point_of_keypoint, second.point_of_keypoint);
+  EXPECT_LT((first.T_cam_world.matrix() - second.T_cam_world.matrix()).norm(), 1e-12);
+  EXPECT_EQ(map.read([](const map::MapData& m) { return m.keyframe_count(); }), keyframes_before);
+  EXPECT_LT((tracker.last_T_world_cam()->matrix() - last_before->matrix()).norm(), 1e-15);
+  // A pass that may use only half of the keypoints gives fewer inliers and
+  // starting from the first pass's pose converges to the same place.
+  std::vector<std::uint8_t> half(prepared->size(), 0);
+  for (int k = 0; k < prepared->size(); k += 2) half[k] = 1;
+  const PassResult restricted = tracker.estimate(*prepared, half);
+  EXPECT_LT(restricted.n_inliers, first.n_inliers);
+  for (int k = 1; k < prepared->size(); k += 2) EXPECT_EQ(restricted.point_of_keypoint[k], map::kNoPoint);
+  const PassResult from_first = tracker.estimate(*prepared, all, first.T_cam_world);
+  EXPECT_LT((from_first.T_cam_world.translation() - first.T_cam_world.translation()).norm(), 0.005);
+}
+
+TEST(Tracker, PrepareTagsInstancesAndMovesTheBudget) {
+  const SmallSite site = SmallSite::make("parked", 1);
+  map::SharedMap map;
+  Tracker tracker(site.simulator.camera(), small_config(), map);
+  sim::SimFrame truth;
+  const StereoFrame frame = site.frame(0, &truth);
+  ASSERT_GT(cv::countNonZero(truth.instance_mask), 0) << "parked must show machines";
+  auto tagged = tracker.prepare(frame, truth.instance_mask);
+  ASSERT_TRUE(tagged.has_value());
+  int on_objects = 0;
+  for (int k = 0; k < tagged->size(); ++k) {
+    const cv::Point p(static_cast<int>(std::lround(tagged->uv_px[k].x())),
+                      static_cast<int>(std::lround(tagged->uv_px[k].y())));
+    EXPECT_EQ(tagged->instance[k], truth.instance_mask.at<std::uint16_t>(p));
+    on_objects += tagged->instance[k] != 0 ? 1 : 0;
+  }
+  EXPECT_GT(on_objects, 0);
+  // With the objects as extraction mask, the background gets the full budget.
+  const cv::Mat mask = truth.instance_mask != 0;
+  auto split = tracker.prepare(frame, truth.instance_mask, mask);
+  ASSERT_TRUE(split.has_value());
+  int background_plain = 0;
+  int background_split = 0;
+  for (auto id : tagged->instance) background_plain += id == 0 ? 1 : 0;
+  for (auto id : split->instance) background_split += id == 0 ? 1 : 0;
+  EXPECT_GT(background_split, background_plain);
+}
+
+TEST(Tracker, RejectsFramesOfTheWrongSize) {
+  const SmallSite site = SmallSite::make("static", 1);
+  map::SharedMap map;
+  Tracker tracker(site.simulator.camera(), small_config(), map);
+  StereoFrame frame = site.frame(0);
+  cv::resize(frame.left, frame.left, cv::Size(), 0.5, 0.5);
+  cv::resize(frame.right, frame.right, cv::Size(), 0.5, 0.5);
+  auto prepared = tracker.prepare(frame);
+  ASSERT_FALSE(prepared.has_value());
+  EXPECT_NE(prepared.error().message.find("240x135"), std::string::npos) << prepared.error().message;
+}
+
+}  // namespace
+}  // namespace sitepose::tracking
