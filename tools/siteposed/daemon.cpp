@@ -15,10 +15,12 @@
 
 namespace sitepose::daemon {
 
-Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config) {
+Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
+                                                 std::unique_ptr<pipeline::FrameSource> source) {
   std::unique_ptr<Daemon> d(new Daemon(config));
-
-  SITEPOSE_TRY(auto source, pipeline::ReplaySource::open(config.replay));
+  if (!source) {
+    SITEPOSE_TRY(source, pipeline::ReplaySource::open(config.replay));
+  }
   spdlog::info("source: {}", source->describe());
   StereoCamera camera = source->camera();
   if (config.sitepose.camera.stereo) camera = *config.sitepose.camera.stereo;

@@ -27,7 +27,10 @@ class Daemon {
   // Opens everything the config names; errors name the key or file
   // (Error::exit_status(): 2 for bad input such as a missing sequence, 1
   // for a run-time failure such as an LCM URL that cannot be opened).
-  static Expected<std::unique_ptr<Daemon>> create(const DaemonConfig& config);
+  // `source`: a test seam replacing the configured source (nullptr: open
+  // the one the config names).
+  static Expected<std::unique_ptr<Daemon>> create(const DaemonConfig& config,
+                                                  std::unique_ptr<pipeline::FrameSource> source = nullptr);
   ~Daemon();
 
   // Runs until the source ends or a signal of `stop_signals` arrives; 0 on

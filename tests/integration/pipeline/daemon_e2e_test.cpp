@@ -1,0 +1,281 @@
+// siteposed as a process, end to end: replays a simulated sequence; an LCM
+// subscriber (udpm, inside a network namespace this test creates: the
+// multicast route stays off the host) receives every pose; the candump log
+// decodes (tools/can_decode.py, an independent decoder) to the same poses;
+// the trajectory matches the ground truth; sd_notify READY / STATUS /
+// WATCHDOG arrive on a test socket. Plus: SIGTERM mid-run, bad configs,
+// --check-config, and `systemd-analyze verify` of the unit.
+
+#include <sched.h>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "../output/mini_json.hpp"
+#include "daemon_test_util.hpp"
+#include "sitepose/pose_t.hpp"
+#include "sitepose/health_t.hpp"
+
+namespace sitepose::daemon::testing {
+namespace {
+
+using namespace std::chrono_literals;
+
+constexpr char kPython[] = "/usr/bin/python3";
+
+std::string config_text(const std::string& seq, const TempDir& dir, const std::string& rate,
+                        const std::string& lcm_url) {
+  return "source:\n  replay: {sequence: \"" + seq + "\", rate: " + rate + "}\n"
+         "pipeline: {stall_timeout_s: 2.0}\n"
+         "supervisor: {status_interval_s: 0.5}\n"
+         "outputs:\n"
+         "  trajectory: {path: \"" + (dir / "traj.tum") + "\", append: false}\n"
+         "  can: {path: \"" + (dir / "can.log") + "\"}\n"
+         "  lcm: {url: \"" + lcm_url + "\"}\n"
+         "geo:\n  mode: fixed\n"
+         "  origin: {latitude_deg: 48.137, longitude_deg: 11.575, height_m: 520.0}\n"
+         "  T_site_slam: {translation_m: [0, 0, 2], rotation_wxyz: [0.5, -0.5, 0.5, -0.5]}\n"
+         "dynamic: {mode: none}\n";
+}
+
+struct LcmCapture {
+  std::mutex mutex;
+  std::vector<sitepose::pose_t> poses;
+  std::vector<sitepose::health_t> health;
+  void on_pose(const lcm::ReceiveBuffer*, const std::string&, const sitepose::pose_t* m) {
+    std::lock_guard lock(mutex);
+    poses.push_back(*m);
+  }
+  void on_health(const lcm::ReceiveBuffer*, const std::string&, const sitepose::health_t* m) {
+    std::lock_guard lock(mutex);
+    health.push_back(*m);
+  }
+};
+
+// Enters a fresh network namespace with lo up and a multicast route (root
+// only); false with the reason when not permitted.
+bool enter_network_namespace(std::string& why) {
+  if (unshare(CLONE_NEWNET) != 0) {
+    why = std::string("unshare(CLONE_NEWNET): ") + std::strerror(errno) + " (needs root)";
+    return false;
+  }
+  if (std::system("ip link set lo up && ip route add 224.0.0.0/4 dev lo") != 0) {
+    why = "ip link/route in the new namespace failed";
+    return false;
+  }
+  return true;
+}
+
+TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
+  const std::string seq = shared_sequence();
+  ASSERT_FALSE(seq.empty()) << "could not simulate the test sequence";
+  std::string why;
+  if (!enter_network_namespace(why)) GTEST_SKIP() << why;
+  TempDir dir("e2e");
+  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  write_file(dir / "siteposed.yaml", config_text(seq, dir, "max", url));
+
+  lcm::LCM lcm(url);
+  ASSERT_TRUE(lcm.good());
+  LcmCapture capture;
+  lcm.subscribe("SITEPOSE_POSE", &LcmCapture::on_pose, &capture);
+  lcm.subscribe("SITEPOSE_HEALTH", &LcmCapture::on_health, &capture);
+  std::jthread receiver([&](std::stop_token stop) {
+    while (!stop.stop_requested()) lcm.handleTimeout(50);
+  });
+
+  NotifySocket notify(dir / "notify.sock");
+  ASSERT_TRUE(notify.ok());
+  Child daemon({SITEPOSED_EXE, "--config", dir / "siteposed.yaml"},
+               {{"NOTIFY_SOCKET", dir / "notify.sock"}, {"WATCHDOG_USEC", "2000000"}, {"WATCHDOG_PID", "self"}},
+               dir / "stderr.txt");
+  const int status = daemon.wait(90s);
+  std::this_thread::sleep_for(300ms);  // the last datagrams
+  receiver = {};
+  const std::string log = [&] {
+    std::string s;
+    for (auto& l : read_lines(dir / "stderr.txt")) s += l + "\n";
+    return s;
+  }();
+  ASSERT_EQ(status, 0) << log;
+
+  // LCM: every frame's pose once, in order, stamped with the frame's time.
+  const auto times = io::read_times(seq + "/times.txt");
+  ASSERT_TRUE(times);
+  std::lock_guard lock(capture.mutex);
+  ASSERT_EQ(capture.poses.size(), static_cast<std::size_t>(kSequenceFrames)) << log;
+  int ok = 0;
+  for (std::size_t i = 0; i < capture.poses.size(); ++i) {
+    const auto& p = capture.poses[i];
+    EXPECT_EQ(p.seq, static_cast<std::int64_t>(i));
+    EXPECT_EQ(p.utime, static_cast<std::int64_t>(std::floor((*times)[i] * 1e6 + 0.5))) << i;
+    EXPECT_EQ(p.frame, sitepose::pose_t::FRAME_SITE);
+    EXPECT_NEAR(p.latitude_deg, 48.137, 0.001);
+    ok += p.state == sitepose::pose_t::STATE_OK;
+  }
+  EXPECT_GE(ok, kSequenceFrames - 2);
+  ASSERT_FALSE(capture.health.empty());
+  EXPECT_EQ(capture.health.back().num_stages, 4);
+
+  // Trajectory: one complete line per pose that is not LOST; ATE within the
+  // SLAM accuracy (2 cm).
+  const auto tum = read_lines(dir / "traj.tum");
+  expect_complete_tum_lines(tum);
+  int not_lost = 0;
+  for (const auto& p : capture.poses) not_lost += p.state != sitepose::pose_t::STATE_LOST;
+  EXPECT_EQ(static_cast<int>(tum.size()), not_lost);
+  EXPECT_LE(ate_rmse_m(seq, dir / "traj.tum"), 0.02);
+
+  // CAN: the independent decoder reads the candump log back to the same poses.
+  const std::string cmd = std::string(kPython) + " " SITEPOSE_SOURCE_DIR "/tools/can_decode.py --dbc " +
+                          SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + (dir / "can.log") + " > " +
+                          (dir / "can.json");
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream json_in(dir / "can.json");
+  std::stringstream json_text;
+  json_text << json_in.rdbuf();
+  const std::string json = json_text.str();
+  sitepose::testing::JsonParser parser(json);
+  auto decoded = parser.parse();
+  ASSERT_TRUE(decoded.has_value()) << parser.error();
+  EXPECT_TRUE((*decoded)["errors"].array().empty());
+  std::vector<const sitepose::testing::Json*> rapid, quality;
+  for (const auto& m : (*decoded)["messages"].array()) {
+    if (m["name"].string() == "N2kPositionRapidUpdate") rapid.push_back(&m);
+    if (m["name"].string() == "SiteposePoseQuality") quality.push_back(&m);
+  }
+  ASSERT_EQ(rapid.size(), capture.poses.size());
+  ASSERT_EQ(quality.size(), capture.poses.size());
+  for (std::size_t i = 0; i < rapid.size(); ++i) {
+    const auto& p = capture.poses[i];
+    EXPECT_NEAR((*rapid[i])["t"].number(), p.utime * 1e-6, 2e-6) << i;
+    EXPECT_NEAR((*rapid[i])["signals"]["Latitude"].number(), p.latitude_deg, 0.5e-7 + 1e-12) << i;
+    EXPECT_NEAR((*rapid[i])["signals"]["Longitude"].number(), p.longitude_deg, 0.5e-7 + 1e-12) << i;
+    EXPECT_EQ((*quality[i])["signals"]["TrackingState"].number(), p.state) << i;
+  }
+
+  // systemd: READY once, STATUS lines, WATCHDOG pings while frames flowed.
+  EXPECT_EQ(notify.with("READY=1").size(), 1u);
+  EXPECT_FALSE(notify.with("STATUS=OK").empty());
+  EXPECT_FALSE(notify.with("WATCHDOG=1").empty());
+  EXPECT_FALSE(notify.with("STOPPING=1").empty());
+}
+
+// Counts the pose/quality frames (PGN 65296 = 0xFF10) of a candump log and
+// those whose TrackingState (data byte 1, high nibble) is not LOST.
+std::pair<int, int> count_quality_frames(const std::string& path) {
+  int all = 0, not_lost = 0;
+  for (const auto& line : read_lines(path)) {
+    const auto hash = line.find('#');
+    if (hash == std::string::npos || hash < 8) continue;
+    const std::string id = line.substr(hash - 8, 8);
+    if (id.substr(2, 4) != "FF10") continue;
+    ++all;
+    const int state = std::stoi(line.substr(hash + 3, 2), nullptr, 16) >> 4;
+    not_lost += state != 2;
+  }
+  return {all, not_lost};
+}
+
+TEST(DaemonEndToEnd, SigtermMidRunStopsWithinTwoSecondsAndLosesNoLine) {
+  const std::string seq = shared_sequence();
+  ASSERT_FALSE(seq.empty());
+  TempDir dir("sigterm");
+  // Recorded rate (6 fps): still running when the signal comes. LCM into an
+  // in-process queue nobody reads (this test is about files).
+  write_file(dir / "siteposed.yaml", config_text(seq, dir, "recorded", "memq://"));
+  NotifySocket notify(dir / "notify.sock");
+  Child daemon({SITEPOSED_EXE, "--config", dir / "siteposed.yaml"}, {{"NOTIFY_SOCKET", dir / "notify.sock"}},
+               dir / "stderr.txt");
+  const auto end = Clock::now() + 60s;
+  while (read_lines(dir / "traj.tum").size() < 8 && Clock::now() < end) std::this_thread::sleep_for(50ms);
+  ASSERT_GE(read_lines(dir / "traj.tum").size(), 8u);
+  const auto t0 = Clock::now();
+  ASSERT_EQ(kill(daemon.pid(), SIGTERM), 0);
+  const int status = daemon.wait(10s);
+  const auto stop_time = Clock::now() - t0;
+  EXPECT_EQ(status, 0);
+  EXPECT_LT(stop_time, 2s);
+  const auto tum = read_lines(dir / "traj.tum");
+  expect_complete_tum_lines(tum);
+  EXPECT_LT(tum.size(), static_cast<std::size_t>(kSequenceFrames)) << "the signal came too late to test";
+  const auto [published, not_lost] = count_quality_frames(dir / "can.log");
+  EXPECT_EQ(static_cast<int>(tum.size()), not_lost) << "TUM lines vs poses published on CAN";
+  EXPECT_GE(published, not_lost);
+  EXPECT_FALSE(notify.with("STOPPING=1").empty());
+}
+
+std::pair<int, std::string> run_siteposed(const std::vector<std::string>& args, const TempDir& dir) {
+  std::vector<std::string> argv{SITEPOSED_EXE};
+  argv.insert(argv.end(), args.begin(), args.end());
+  Child child(argv, {}, dir / "out.txt");
+  const int status = child.wait(30s);
+  std::string out;
+  for (auto& l : read_lines(dir / "out.txt")) out += l + "\n";
+  return {status, out};
+}
+
+TEST(DaemonConfig, BadConfigExitsTwoNamingEveryKey) {
+  TempDir dir("badcfg");
+  write_file(dir / "bad.yaml",
+             "source:\n  replay: {sequence: /nonexistent, rate: fastest}\n"
+             "pipeline: {capture_ring_capacity: 6}\n"
+             "outputs:\n  lcm: {urll: x}\n  can: {enabled: true, path: can.log}\n"
+             "dynamic: {mode: full}\n");
+  auto [status, out] = run_siteposed({"--config", dir / "bad.yaml"}, dir);
+  EXPECT_EQ(status, 2) << out;
+  for (const char* key : {"source.replay.rate", "pipeline.capture_ring_capacity", "outputs.lcm.urll",
+                          "outputs.can.enabled", "dynamic.mode"}) {
+    EXPECT_NE(out.find(key), std::string::npos) << key << " not named in:\n" << out;
+  }
+  auto [missing_status, missing_out] = run_siteposed({"--config", dir / "nope.yaml"}, dir);
+  EXPECT_EQ(missing_status, 2) << missing_out;
+  EXPECT_NE(missing_out.find("nope.yaml"), std::string::npos);
+  auto [usage_status, usage_out] = run_siteposed({}, dir);
+  EXPECT_EQ(usage_status, 2) << usage_out;
+}
+
+TEST(DaemonConfig, CheckConfigValidatesAndPrintsTheResolvedSettings) {
+  const std::string seq = shared_sequence();
+  ASSERT_FALSE(seq.empty());
+  TempDir dir("check");
+  write_file(dir / "good.yaml", config_text(seq, dir, "max", "memq://"));
+  auto [status, out] = run_siteposed({"--config", dir / "good.yaml", "--check-config"}, dir);
+  EXPECT_EQ(status, 0) << out;
+  EXPECT_NE(out.find("rate: max"), std::string::npos) << out;
+  EXPECT_NE(out.find("mode: none"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "traj.tum")) << "--check-config must not start anything";
+  // The shipped settings file is valid apart from its deployment paths.
+  auto [shipped_status, shipped_out] =
+      run_siteposed({"--config", SITEPOSE_SOURCE_DIR "/config/siteposed.yaml", "--check-config"}, dir);
+  EXPECT_EQ(shipped_status, 2);
+  EXPECT_NE(shipped_out.find("source.replay.sequence: /var/lib/siteposed/replay"), std::string::npos)
+      << shipped_out;
+}
+
+TEST(SystemdUnit, VerifiesWithoutAnyMessage) {
+  if (std::system("command -v systemd-analyze > /dev/null") != 0) GTEST_SKIP() << "no systemd-analyze";
+  TempDir dir("unit");
+  // verify checks that ExecStart's binary exists: point it at the build.
+  std::ifstream in(SITEPOSE_SOURCE_DIR "/systemd/siteposed.service");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string unit = text.str();
+  ASSERT_NE(unit.find("Type=notify"), std::string::npos);
+  ASSERT_NE(unit.find("WatchdogSec="), std::string::npos);
+  for (auto pos = unit.find("/usr/bin/siteposed"); pos != std::string::npos;
+       pos = unit.find("/usr/bin/siteposed", pos)) {
+    unit.replace(pos, std::strlen("/usr/bin/siteposed"), SITEPOSED_EXE);
+  }
+  write_file(dir / "siteposed.service", unit);
+  const std::string cmd = "systemd-analyze verify " + (dir / "siteposed.service") + " > " +
+                          (dir / "verify.txt") + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  std::string out;
+  for (auto& l : read_lines(dir / "verify.txt")) out += l + "\n";
+  EXPECT_EQ(rc, 0) << out;
+  // Unknown keys only warn (exit 0): any message at all fails the lint.
+  EXPECT_TRUE(out.empty()) << out;
+}
+
+}  // namespace
+}  // namespace sitepose::daemon::testing
