@@ -5,6 +5,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${SITEPOSE_BUILD_DIR:-build/release}
 jobs=${SITEPOSE_JOBS:-2}
+# Paths relative to the checkout let ccache reuse objects across clones.
+export CCACHE_BASEDIR="$PWD"
 if [[ ! -f "$build_dir/build.ninja" ]]; then
   cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release
 fi

@@ -26,12 +26,43 @@ constexpr double kMaxPointErrorM = 10.0;
 // Level-0 keypoint noise (px) of u_l, v_l and of the refined u_r; grows with
 // the pyramid scale like ORB-SLAM2's information matrix.
 constexpr double kPixelSigmaPx = 1.0;
-// Sitepose-mode hysteresis: a verdict this many times over the gate is
-// unambiguous motion and re-masks at once; weaker evidence needs
-// hysteresis_frames consecutive verdicts (no flicker from one noisy frame).
-constexpr double kStrongMotionFactor = 4.0;
+// Sitepose mode: a static verdict needs this much time between RF and CF;
+// over a shorter gap a slowly starting machine has not moved measurably yet
+// (the authors' reference: 0.5 s). Moving verdicts count at any gap.
+constexpr double kMinStaticEvidenceS = 0.4;
 // Ring length in seconds of frames (sitepose mode looks back for parallax).
 constexpr double kRingSeconds = 2.0;
+
+// Object-level test (sitepose mode): the mean displacement of the object's
+// inlier points against its covariance. Pixel noise averages out over the
+// points, the pose terms do not (common to all), so a machine that has just
+// started moving shows long before most single points do. chi2 3 dof,
+// 99.9 %: a static object trips it once in a thousand frames.
+constexpr double kPooledGate = 16.27;
+
+double quantile(std::vector<double> values, double q);
+
+double pooled_statistic(const std::vector<double>& m, const std::vector<Eigen::Vector3d>& d,
+                        const std::vector<Eigen::Matrix3d>& pixel_cov, const std::vector<Eigen::Matrix3d>& full_cov,
+                        double fraction) {
+  if (m.empty()) return 0.0;
+  const double cut = quantile(m, fraction);  // drop mismatches
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d pixel_sum = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d pose_sum = Eigen::Matrix3d::Zero();
+  int n = 0;
+  for (std::size_t i = 0; i < m.size(); ++i) {
+    if (m[i] > cut) continue;
+    mean += d[i];
+    pixel_sum += pixel_cov[i];
+    pose_sum += full_cov[i] - pixel_cov[i];
+    ++n;
+  }
+  if (n == 0) return 0.0;
+  mean /= n;
+  const Eigen::Matrix3d sigma = pixel_sum / (static_cast<double>(n) * n) + pose_sum / n;
+  return mean.dot(sigma.ldlt().solve(mean));
+}
 
 double quantile(std::vector<double> values, double q) {
   if (values.empty()) return 0.0;
@@ -122,39 +153,38 @@ const ObjectFeatures* MotionClassifier::select_reference(const ObjectFeatures& c
     if (ring_.size() < static_cast<std::size_t>(reference_offset_)) return nullptr;
     return &ring_[ring_.size() - reference_offset_];
   }
-  // Newest frame with enough baseline to CF; else the oldest kept frame
-  // (camera standing still: stereo still triangulates, and the longest time
-  // gap shows slow motion best).
+  // Newest frame with enough baseline to CF (and time for static evidence);
+  // else the oldest kept frame (camera standing still: stereo still
+  // triangulates, and the longest time gap shows slow motion best).
   const Eigen::Vector3d c = current.T_world_cam.translation();
   for (auto it = ring_.rbegin(); it != ring_.rend(); ++it) {
-    if ((it->T_world_cam.translation() - c).norm() >= config_.min_reference_parallax_m) return &*it;
+    if ((it->T_world_cam.translation() - c).norm() >= config_.min_reference_parallax_m &&
+        static_cast<double>(current.t_ns - it->t_ns) * 1e-9 >= kMinStaticEvidenceS) {
+      return &*it;
+    }
   }
   return &ring_.front();
 }
 
 MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, MotionState raw,
-                                     double score) {
+                                     bool static_evidence_counts) {
   Track& t = tracks_[instance];
   t.last_seq = seq;
   const int n = config_.hysteresis_frames;
   switch (raw) {
     case MotionState::kMoving:
+      // Safety first: one moving verdict masks the object again at once.
       t.static_streak = 0;
       t.unknown_streak = 0;
-      ++t.moving_streak;
-      if (t.state != MotionState::kStatic || t.moving_streak >= n ||
-          score >= kStrongMotionFactor * config_.chi2_static_3dof) {
-        t.state = MotionState::kMoving;
-      }
+      t.state = MotionState::kMoving;
       break;
     case MotionState::kStatic:
-      t.moving_streak = 0;
       t.unknown_streak = 0;
+      if (!static_evidence_counts) break;  // too short a time span to tell
       ++t.static_streak;
       if (t.static_streak >= n) t.state = MotionState::kStatic;
       break;
     case MotionState::kUnknown:
-      t.moving_streak = 0;
       t.static_streak = 0;
       ++t.unknown_streak;
       // A static object stays static through short gaps; after that it
@@ -200,6 +230,22 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
         match[c] = best_r;
       }
     }
+    // Mutual check: the RF keypoint's own best CF keypoint must be the same
+    // one (few-point objects were called moving on mismatches otherwise).
+    for (int c = 0; c < static_cast<int>(match.size()); ++c) {
+      const int r = match[c];
+      if (r < 0) continue;
+      const std::uint8_t* d = ref->descriptors.ptr<std::uint8_t>(r);
+      int best = 257, best_c = -1;
+      for (int c2 = 0; c2 < static_cast<int>(current.uv_px.size()); ++c2) {
+        const int dist = features::hamming_distance(d, current.descriptors.ptr<std::uint8_t>(c2));
+        if (dist < best) {
+          best = dist;
+          best_c = c2;
+        }
+      }
+      if (best_c != c) match[c] = -1;
+    }
   }
   // Association: votes of matched keypoints per (CF object, RF object);
   // greedily the pair with most matches, each object used once.
@@ -222,7 +268,11 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
   const auto t_test = Clock::now();
   const bool paper = config_.classifier == config::ClassifierMode::kPaper;
   const Matrix6d* cov_cf = current.covariance ? &*current.covariance : nullptr;
-  const Matrix6d* cov_rf = (ref != nullptr && ref->covariance) ? &*ref->covariance : nullptr;
+  // RF's pose error is left out: RF and CF are tracked against the same map
+  // points, so their errors are strongly correlated and adding both
+  // covariances overstates the relative error (measured: a machine 8 cm
+  // from where it was looked static).
+  const Matrix6d* cov_rf = nullptr;
   for (ClassifiedObject& object : out) {
     ObjectVerdict& v = object.verdict;
     const auto it = ref_of_current.find(v.instance);
@@ -230,6 +280,8 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
       v.reference_instance = it->second;
       v.reference_seq = ref->seq;
       std::vector<double> stats;
+      std::vector<Eigen::Vector3d> displacements;
+      std::vector<Eigen::Matrix3d> pixel_covariances, full_covariances;
       for (std::size_t c = 0; c < match.size(); ++c) {
         if (match[c] < 0 || current.instance[c] != v.instance) continue;
         const int r = match[c];
@@ -250,6 +302,13 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
         } else {
           const Eigen::Matrix3d sigma = w_cf.covariance + w_rf.covariance;
           stats.push_back(d.dot(sigma.ldlt().solve(d)));
+          displacements.push_back(d);
+          // Pixel-noise part alone (independent per point, averages out).
+          pixel_covariances.push_back(current.T_world_cam.rotation_matrix() * p_cf->covariance *
+                                          current.T_world_cam.rotation_matrix().transpose() +
+                                      ref->T_world_cam.rotation_matrix() * p_rf->covariance *
+                                          ref->T_world_cam.rotation_matrix().transpose());
+          full_covariances.push_back(sigma);
         }
       }
       if (paper && !stats.empty()) {
@@ -272,14 +331,19 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
                                                                             : MotionState::kMoving;
         } else {
           v.score = quantile(stats, config_.static_inlier_fraction);
-          v.raw = is_static_at(stats, config_.chi2_static_3dof, config_.static_inlier_fraction)
+          v.pooled_statistic = pooled_statistic(stats, displacements, pixel_covariances, full_covariances,
+                                                config_.static_inlier_fraction);
+          v.raw = is_static_at(stats, config_.chi2_static_3dof, config_.static_inlier_fraction) &&
+                          v.pooled_statistic <= kPooledGate
                       ? MotionState::kStatic
                       : MotionState::kMoving;
         }
       }
       object.statistics = std::move(stats);
     }
-    v.state = paper ? v.raw : smooth(v.instance, current.seq, v.raw, v.score);
+    const bool long_enough =
+        ref != nullptr && static_cast<double>(current.t_ns - ref->t_ns) * 1e-9 >= kMinStaticEvidenceS;
+    v.state = paper ? v.raw : smooth(v.instance, current.seq, v.raw, long_enough);
   }
   // Forget instances not seen for a ring's length.
   for (auto it = tracks_.begin(); it != tracks_.end();) {

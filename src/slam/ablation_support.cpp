@@ -130,7 +130,7 @@ cv::Mat render_line_chart(const std::vector<ChartSeries>& series, const ChartOpt
     if (options.markers) {
       for (const auto& p : pts) cv::circle(img, p, 3, s.color_bgr, cv::FILLED, cv::LINE_AA);
     }
-    const cv::Point l(axes.plot.x + axes.plot.width - 260, legend_y);
+    const cv::Point l(axes.plot.x + axes.plot.width - 340, legend_y);
     cv::line(img, l, {l.x + 25, l.y}, s.color_bgr, 3);
     cv::putText(img, s.name, {l.x + 32, l.y + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1,
                 cv::LINE_AA);

@@ -71,7 +71,7 @@ int run(Args args) {
   if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   slam::ChartOptions chart;
   chart.height_px = 400;
-  chart.title = "Masking on " + (*source)->name() + ": ATE RMSE (m)";
+  chart.title = "Masking on " + std::filesystem::path((*source)->name()).filename().string() + ": ATE RMSE (m)";
   cv::Mat a = slam::render_bar_chart(labels, ates, chart);
   chart.title = "Largest masked ratio of a frame";
   cv::Mat b = slam::render_bar_chart(labels, masked, chart);

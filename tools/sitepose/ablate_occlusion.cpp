@@ -86,13 +86,13 @@ int run(Args args) {
   const std::string png_lost = args.out_dir + "/occlusion_sweep_lost.png";
   if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   slam::ChartOptions chart;
-  chart.title = "Occlusion sweep on " + (*source)->name() + ": ATE vs centred masked ratio";
+  chart.title = "Occlusion sweep on " + std::filesystem::path((*source)->name()).filename().string() + ": ATE vs centred masked ratio";
   chart.x_label = "occlusion ratio";
   chart.y_label = "ATE RMSE (m)";
   if (auto st = slam::write_png(png_ate, slam::render_line_chart({ate}, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }
-  chart.title = "Occlusion sweep on " + (*source)->name() + ": lost frames vs centred masked ratio";
+  chart.title = "Occlusion sweep on " + std::filesystem::path((*source)->name()).filename().string() + ": lost frames vs centred masked ratio";
   chart.y_label = "share of frames LOST";
   if (auto st = slam::write_png(png_lost, slam::render_line_chart({lost}, chart)); !st) {
     return fail(kCommand, st.error().message, 1);

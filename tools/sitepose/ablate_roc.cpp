@@ -89,7 +89,7 @@ int run(Args args) {
   if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   if (auto st = slam::write_text(summary_path, summary.str()); !st) return fail(kCommand, st.error().message, 1);
   slam::ChartOptions chart;
-  chart.title = "Motion states on " + (*source)->name() + ": ROC, static = positive";
+  chart.title = "Motion states on " + std::filesystem::path((*source)->name()).filename().string() + ": ROC, static = positive";
   chart.x_label = "false positive rate (moving called static)";
   chart.y_label = "true positive rate";
   chart.draw_diagonal = true;

@@ -73,7 +73,7 @@ int run(Args args) {
   const std::string png_path = args.out_dir + "/unmask.png";
   if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   slam::ChartOptions chart;
-  chart.title = "Unmasking static objects on " + (*source)->name() + ": ATE RMSE (m)";
+  chart.title = "Unmasking static objects on " + std::filesystem::path((*source)->name()).filename().string() + ": ATE RMSE (m)";
   if (auto st = slam::write_png(png_path, slam::render_bar_chart(labels, ates, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }

@@ -4,6 +4,8 @@
 
 #include <signal.h>
 
+#include <spdlog/sinks/stdout_color_sinks.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
@@ -59,6 +61,9 @@ int main(int argc, char** argv) {
   sigaddset(&stop_signals, SIGTERM);
   sigaddset(&stop_signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  // Logs on stderr (the journal under systemd); stdout may carry candump lines.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("siteposed"));
 
   auto config = sitepose::daemon::load_daemon_config(config_path);
   if (!config) return fail(config.error().message, 2);

@@ -43,7 +43,8 @@ cv::Mat box_instance_labels(const std::vector<ObjectBox>& boxes, cv::Size image_
 // Algorithm 1 for one frame. Modes: none -> empty labels (mar still
 // reported); bbox -> box mask; pixel -> segmentation always; hierarchical
 // and full -> segmentation only when mar >= tau_mar. Pixels of the
-// segmentation whose id is not one of the dynamic boxes are ignored.
+// segmentation whose id is not one of the dynamic boxes are ignored; the
+// pixel mask is dilated by 8 px (silhouette corners move with the object).
 // Errors: kUnsupported when a pixel mask is needed and `objects.segment` is
 // empty; the segmenter's own error; kInvalidArgument when it returns an
 // image of the wrong type or size.

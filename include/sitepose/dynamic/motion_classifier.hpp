@@ -10,10 +10,14 @@
 //    when more than 70 % of the kept errors are below 3 sigma_bkg.
 //  * sitepose (METHOD.md "Where sitepose goes further"): the same matching,
 //    but every point pair is tested with its squared Mahalanobis distance
-//    under the propagated stereo covariance of both points and both poses
-//    (chi2, 3 dof); RF = newest kept frame whose camera centre is at least
-//    min_reference_parallax_m from CF's (the oldest kept frame when the
-//    camera stands still); per-instance hysteresis.
+//    under the propagated stereo covariance of both points and CF's pose
+//    (chi2, 3 dof; static when > 70 % pass), plus an object-level test of
+//    the mean displacement (pixel noise averages out, pose noise does not;
+//    chi2 3 dof 99.9 %) so a machine that starts moving is caught early; RF = newest kept frame whose camera centre is at least
+//    min_reference_parallax_m from CF's and at least 0.4 s older (the
+//    oldest kept frame when the camera stands still); per-instance
+//    hysteresis: one moving verdict re-masks at once, unmasking needs
+//    hysteresis_frames consecutive static verdicts over >= 0.4 s each.
 // Objects with too few matched points (or not associated) are unknown and
 // stay masked.
 //
@@ -110,13 +114,12 @@ class MotionClassifier {
   struct Track {
     MotionState state = MotionState::kUnknown;
     int static_streak = 0;
-    int moving_streak = 0;
     int unknown_streak = 0;
     std::int64_t last_seq = -1;
   };
 
   const ObjectFeatures* select_reference(const ObjectFeatures& current) const;
-  MotionState smooth(std::uint16_t instance, std::int64_t seq, MotionState raw, double score);
+  MotionState smooth(std::uint16_t instance, std::int64_t seq, MotionState raw, bool static_evidence_counts);
   double pixel_sigma_px(int octave) const;
 
   StereoCamera camera_;

@@ -47,6 +47,9 @@ struct ObjectVerdict {
   // 3 sigma_bkg; sitepose mode = the 70 % quantile of the points' squared
   // Mahalanobis distances (static when below chi2_static_3dof).
   double score = 0.0;
+  // sitepose mode: squared Mahalanobis distance of the object's mean
+  // displacement (inlier points), a second test with gate chi2 3 dof 99.9 %.
+  double pooled_statistic = 0.0;
   int points = 0;                     // 3D point pairs the decision used
   std::uint16_t reference_instance = 0;  // associated object in the reference frame, 0 = none
   std::int64_t reference_seq = -1;       // the reference frame, -1 = none

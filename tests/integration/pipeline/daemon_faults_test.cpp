@@ -90,14 +90,16 @@ TEST(DaemonFaults, StalledSourceStopsTheWatchdogAndPublishesLost) {
   sigaddset(&none, SIGUSR2);  // never sent: the run ends with the source
   pthread_sigmask(SIG_BLOCK, &none, nullptr);
   EXPECT_EQ((*daemon)->run(none), 0);
+  // The pipeline's threads have ended: the source's record is stable (and
+  // goes with the daemon).
+  ASSERT_TRUE(stalling->stall_begin_);
+  const auto stall_begin = *stalling->stall_begin_, stall_end = *stalling->stall_end_;
   daemon->reset();
   std::this_thread::sleep_for(100ms);
   unsetenv("NOTIFY_SOCKET");
   unsetenv("WATCHDOG_USEC");
   unsetenv("WATCHDOG_PID");
 
-  ASSERT_TRUE(stalling->stall_begin_);
-  const auto stall_begin = *stalling->stall_begin_, stall_end = *stalling->stall_end_;
   // Watchdog: pinged while frames flowed, silent through the stall (after
   // the frames already in the pipeline were tracked), pinged again after.
   int before = 0, during = 0, after = 0;
@@ -109,6 +111,12 @@ TEST(DaemonFaults, StalledSourceStopsTheWatchdogAndPublishesLost) {
   EXPECT_GT(before, 0);
   EXPECT_EQ(during, 0);
   EXPECT_GT(after, 0);
+  if (::testing::Test::HasFailure()) {
+    for (const auto& m : notify.messages()) {
+      std::printf("%+6.0f ms %s\n", std::chrono::duration<double, std::milli>(m.t - stall_begin).count(),
+                  m.text.c_str());
+    }
+  }
   bool lost_status = false;
   for (const auto& m : notify.with("STATUS=LOST")) {
     lost_status |= m.t > stall_begin && m.t < stall_end + 300ms &&
@@ -226,7 +234,8 @@ TEST(DaemonFaults, CanSinkErrorsAreCountedAndResumedWithoutDuplicates) {
   ASSERT_TRUE(anchoring);
   auto file = output::CandumpSink::open_file(dir / "can.log", "can0");
   ASSERT_TRUE(file);
-  auto sink = std::make_unique<FlakySink>(std::move(*file), 5);
+  // One failure at most per pose (13 frames), so 4 attempts always suffice.
+  auto sink = std::make_unique<FlakySink>(std::move(*file), 17);
   output::CanSink* sink_view = sink.get();
   std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
   outputs.push_back(std::make_unique<CanOutput>(output::CanOutputOptions{}, std::move(sink), **anchoring));
@@ -238,7 +247,7 @@ TEST(DaemonFaults, CanSinkErrorsAreCountedAndResumedWithoutDuplicates) {
   EXPECT_EQ(h.outputs[0].failed, 0u);
   EXPECT_EQ(h.outputs[0].published, 20u);
   EXPECT_EQ(sink_view->counters().send_errors, h.outputs[0].errors);
-  EXPECT_GT(h.outputs[0].errors, 10u);
+  EXPECT_GE(h.outputs[0].errors, 15u);  // 260 frames / 17, each a retried pose
   // 13 frames a pose (7 fast-packet frames of 129029 included), each once.
   auto records = output::read_candump_file(dir / "can.log");
   ASSERT_TRUE(records);

@@ -4,6 +4,7 @@
 #include <chrono>
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/detect/plugin_loader.hpp"
@@ -17,8 +18,10 @@ namespace {
 class LabelsPlugin : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
+    // One folder per process: ctest runs the cases of this suite in parallel
+    // processes, each with its own SetUpTestSuite.
     dir_ = new std::string((std::filesystem::temp_directory_path() / "sitepose_detect_test" /
-                            "labels_sequence").string());
+                            ("labels_sequence_" + std::to_string(::getpid()))).string());
     std::filesystem::remove_all(*dir_);
     auto scenario = sim::load_scenario("crowded");
     ASSERT_TRUE(scenario) << scenario.error().message;
@@ -35,6 +38,7 @@ class LabelsPlugin : public ::testing::Test {
   }
   static void TearDownTestSuite() {
     delete sequence_;
+    std::filesystem::remove_all(*dir_);
     delete dir_;
   }
 

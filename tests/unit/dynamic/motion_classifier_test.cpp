@@ -140,7 +140,7 @@ TEST(MotionClassifier, SiteposeReferenceByParallaxElseOldest) {
   EXPECT_EQ(out[0].verdict.reference_seq, 0);
 }
 
-TEST(MotionClassifier, SiteposeHysteresisUnmasksAfterTwoFramesAndRemasksStrongMotionAtOnce) {
+TEST(MotionClassifier, SiteposeHysteresisUnmasksAfterTwoVerdictsAndRemasksAtOnce) {
   std::mt19937 rng(5);
   const std::vector<Object> objects{make_object(1, 80, 0.0, rng)};
   MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
@@ -155,16 +155,21 @@ TEST(MotionClassifier, SiteposeHysteresisUnmasksAfterTwoFramesAndRemasksStrongMo
   step(0.0, offset);
   ObjectVerdict v = step(0.2, offset);
   EXPECT_EQ(v.raw, MotionState::kStatic);
-  EXPECT_EQ(v.state, MotionState::kUnknown);  // one static verdict is not enough
+  EXPECT_EQ(v.state, MotionState::kUnknown);  // 1/6 s is too short to call it static
   v = step(0.4, offset);
-  EXPECT_EQ(v.state, MotionState::kStatic);
+  EXPECT_EQ(v.state, MotionState::kUnknown);  // 1/3 s: still too short
+  v = step(0.6, offset);
+  EXPECT_EQ(v.reference_seq, 0);
+  EXPECT_EQ(v.state, MotionState::kUnknown);  // first counted static verdict (0.5 s)
+  v = step(0.8, offset);
+  EXPECT_EQ(v.state, MotionState::kStatic);   // second: unmasked
   for (int k = 0; k < 5; ++k) {
-    v = step(0.6 + 0.2 * k, offset);
+    v = step(1.0 + 0.2 * k, offset);
     EXPECT_EQ(v.state, MotionState::kStatic) << "frame " << k;  // no flicker
   }
-  // The object starts moving fast: re-masked in the first frame.
-  offset = Eigen::Vector3d(0.5, 0.0, 0.0);
-  v = step(1.6, offset);
+  // The object starts moving: one moving verdict re-masks it.
+  offset = Eigen::Vector3d(0.3, 0.0, 0.0);
+  v = step(2.0, offset);
   EXPECT_EQ(v.raw, MotionState::kMoving);
   EXPECT_EQ(v.state, MotionState::kMoving);
 }

@@ -1,0 +1,134 @@
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/slam/slam_system.hpp"
+
+namespace sitepose::slam {
+namespace {
+
+ObjectSample make_sample(std::int64_t frame, std::uint16_t instance, bool moving, dynamic::MotionState state,
+                    std::vector<double> statistics = {}) {
+  ObjectSample s;
+  s.frame = frame;
+  s.moving_gt = moving;
+  s.object.verdict.instance = instance;
+  s.object.verdict.state = state;
+  s.object.statistics = std::move(statistics);
+  return s;
+}
+
+TEST(DynamicRun, RemaskLatencyCountsFramesFromTheFirstMovingFrame) {
+  using dynamic::MotionState;
+  std::vector<ObjectSample> samples{
+      make_sample(10, 3, false, MotionState::kStatic), make_sample(11, 3, false, MotionState::kStatic),
+      make_sample(12, 3, true, MotionState::kStatic),  make_sample(13, 3, true, MotionState::kStatic),
+      make_sample(14, 3, true, MotionState::kMoving),  make_sample(15, 3, true, MotionState::kMoving),
+      // Instance 4 moves from its first frame: no start event.
+      make_sample(10, 4, true, MotionState::kUnknown)};
+  const auto events = remask_latencies(samples);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].instance, 3);
+  EXPECT_EQ(events[0].start_frame, 12);
+  EXPECT_EQ(events[0].latency_frames, 2);
+}
+
+TEST(DynamicRun, StaticFlipsIgnoreTheInitialUnknownFrames) {
+  using dynamic::MotionState;
+  std::vector<ObjectSample> samples{
+      make_sample(0, 1, false, MotionState::kUnknown), make_sample(1, 1, false, MotionState::kStatic),
+      make_sample(2, 1, false, MotionState::kMoving),  make_sample(3, 1, false, MotionState::kStatic),
+      make_sample(0, 2, false, MotionState::kUnknown), make_sample(1, 2, false, MotionState::kStatic)};
+  EXPECT_EQ(static_flips(samples), 2);
+}
+
+TEST(DynamicRun, RocOfAPerfectSeparatorHasAreaOne) {
+  using dynamic::MotionState;
+  std::vector<ObjectSample> samples;
+  for (int i = 0; i < 10; ++i) {
+    samples.push_back(make_sample(i, 1, false, MotionState::kStatic, std::vector<double>(10, 0.1)));
+    samples.push_back(make_sample(i, 2, true, MotionState::kMoving, std::vector<double>(10, 5.0)));
+  }
+  const auto curve = roc_curve(samples, {0.05, 1.0, 10.0}, 0.7, 8);
+  ASSERT_EQ(curve.size(), 3u);
+  EXPECT_DOUBLE_EQ(curve[0].tpr, 0.0);
+  EXPECT_DOUBLE_EQ(curve[1].tpr, 1.0);
+  EXPECT_DOUBLE_EQ(curve[1].fpr, 0.0);
+  EXPECT_DOUBLE_EQ(curve[2].fpr, 1.0);
+  EXPECT_NEAR(roc_auc(curve), 1.0, 1e-12);
+  // Too few points: never predicted static.
+  samples.push_back(make_sample(0, 3, false, MotionState::kUnknown, std::vector<double>(3, 0.1)));
+  EXPECT_LT(roc_curve(samples, {1.0}, 0.7, 8)[0].tpr, 1.0);
+}
+
+TEST(DynamicRun, RocAucOfChanceIsOneHalf) {
+  EXPECT_NEAR(roc_auc({{1.0, 0.5, 0.5}}), 0.5, 1e-12);
+}
+
+TEST(RunRecorder, WritesStatesCsvOfDynamicReports) {
+  FrameReport report;
+  report.dynamic_layer = true;
+  report.pose.seq = 7;
+  report.mar = 0.55;
+  report.pixel_mask_used = true;
+  dynamic::ClassifiedObject o;
+  o.verdict.instance = 12;
+  o.verdict.class_name = "truck";
+  o.verdict.state = dynamic::MotionState::kStatic;
+  o.verdict.score = 1.25;
+  o.verdict.points = 40;
+  report.objects.push_back(o);
+  RunRecorder recorder;
+  recorder.add(report);
+  EXPECT_EQ(recorder.pixel_mask_calls(), 1);
+  ASSERT_EQ(recorder.masked_area_ratios().size(), 1u);
+  const std::string path = ::testing::TempDir() + "/states_test.csv";
+  ASSERT_TRUE(recorder.write_states_csv(path));
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), "frame,instance,class,state,score,points\n7,12,truck,static,1.2500,40\n");
+}
+
+TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
+  StereoCamera camera;
+  camera.fx = camera.fy = 100.0;
+  camera.cx = 32.0;
+  camera.cy = 24.0;
+  camera.baseline_m = 0.5;
+  camera.width = 64;
+  camera.height = 48;
+  config::SiteposeConfig config;
+  config.dynamic.mode = config::MaskingMode::kPixel;
+  auto system = SlamSystem::create(camera, config);
+  ASSERT_TRUE(system) << system.error().message;
+  StereoFrame frame;
+  frame.left = cv::Mat(48, 64, CV_8UC1, cv::Scalar(100));
+  frame.right = frame.left.clone();
+  dynamic::FrameObjects objects;
+  objects.boxes.push_back({1, "truck", 1.0, cv::Rect(0, 0, 10, 10)});
+  auto report = (*system)->process(frame, objects);
+  ASSERT_FALSE(report);
+  EXPECT_EQ(report.error().code, ErrorCode::kUnsupported);
+}
+
+TEST(SlamSystem, RejectsNonPositiveFps) {
+  StereoCamera camera;
+  camera.fx = camera.fy = 100.0;
+  camera.cx = 32.0;
+  camera.cy = 24.0;
+  camera.baseline_m = 0.5;
+  camera.width = 64;
+  camera.height = 48;
+  SlamOptions options;
+  options.fps = 0.0;
+  auto system = SlamSystem::create(camera, config::SiteposeConfig{}, options);
+  ASSERT_FALSE(system);
+  EXPECT_EQ(system.error().code, ErrorCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace sitepose::slam
