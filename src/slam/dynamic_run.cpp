@@ -21,6 +21,7 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
                                        const DynamicRunOptions& options) {
   SlamOptions slam_options;
   slam_options.fps = source.fps();
+  slam_options.mapper_thread = options.mapper_thread;
   SITEPOSE_TRY(auto system, SlamSystem::create(source.camera(), config, slam_options));
   DynamicRunResult result;
   result.name = source.name();
@@ -49,6 +50,8 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
     if (options.on_frame) options.on_frame(i, result.frames, report);
   }
   system->finish();
+  result.keyframes = system->keyframe_count();
+  result.points = system->point_count();
   if (result.ground_truth.size() < 3 || result.estimate.size() < 3) {
     result.evaluation_error = "fewer than 3 ground-truth or estimated poses";
     return result;

@@ -117,9 +117,10 @@ Expected<std::unique_ptr<LabelledSource>> open_simulated(const std::string& scen
   return std::unique_ptr<LabelledSource>(new SimulatedSource(std::move(simulator), scenario.name));
 }
 
-Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::string& directory) {
+Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::string& directory,
+                                                                 bool require_labels) {
   SITEPOSE_TRY(auto sequence, io::open_sequence(directory));
-  if (!sequence->has_labels()) {
+  if (require_labels && !sequence->has_labels()) {
     return make_error(ErrorCode::kInvalidArgument,
                       directory + ": no labels/boxes.csv; the dynamic layer's ablations need object labels");
   }

@@ -399,7 +399,8 @@ bool Tracker::initialise(const PreparedFrame& frame, const std::vector<std::uint
   return true;
 }
 
-bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result) const {
+bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result,
+                            const std::vector<std::uint8_t>& usable) const {
   const int queued = mapper_.queue_size ? mapper_.queue_size() : 0;
   const bool mapper_idle = mapper_.is_idle ? mapper_.is_idle() : true;
   int reference_matches = 0;
@@ -412,11 +413,13 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
       if (p != nullptr && map.observation_weight(pid) >= min_observations) ++reference_matches;
     }
   });
-  // Close points (reliable stereo depth): tracked vs could-be-created.
+  // Close points (reliable stereo depth): tracked vs could-be-created. Only
+  // usable keypoints count: masked ones can never become map points.
   const double close_depth_m = config_.tracking.close_depth_baselines * camera_.baseline_m;
   int tracked_close = 0;
   int untracked_close = 0;
   for (int k = 0; k < frame.size(); ++k) {
+    if (!usable[k]) continue;
     const double depth = frame.features.depth_m[k];
     if (depth <= 0.0 || depth >= close_depth_m) continue;
     if (result.point_of_keypoint[k] != map::kNoPoint) {
@@ -561,7 +564,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_found;
     }
   });
-  if (need_keyframe(frame, result)) create_keyframe(frame, result, usable);
+  if (need_keyframe(frame, result, usable)) create_keyframe(frame, result, usable);
 
   pose.state = state_;
   if (state_ == TrackingState::kRecovering) {

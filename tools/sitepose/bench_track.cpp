@@ -7,7 +7,8 @@
 
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/experiment/track_run.hpp"
+#include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/slam/labelled_source.hpp"
 
 namespace sitepose::cli {
 namespace {
@@ -29,21 +30,21 @@ int bench_track(const BenchTrackArgs& args) {
     config = *loaded;
   }
   config.dynamic.mode = config::MaskingMode::kNone;
-  experiment::TrackRunOptions options;
+  slam::DynamicRunOptions options;
   options.frames = args.frames;
   options.mapper_thread = args.mapper_thread;
   std::vector<std::pair<int, double>> rss_marks;
-  options.on_memory = [&](int i, std::int64_t rss) {
+  options.on_frame = [&](int i, int n, const slam::FrameReport&) {
     for (int mark : args.rss_at_frames) {
-      if (i + 1 == mark) rss_marks.emplace_back(mark, rss / 1048576.0);
+      if (i + 1 == mark) rss_marks.emplace_back(mark, slam::current_rss_bytes() / 1048576.0);
     }
-  };
-  options.on_frame = [](int i, int n, const slam::FrameReport&) {
     if ((i + 1) % 100 == 0 || i + 1 == n) std::fprintf(stderr, "bench track: %d/%d frames\n", i + 1, n);
   };
-  auto run = args.sequence.empty() ? experiment::track_scenario(args.scenario, config, options)
-                                   : experiment::track_sequence(args.sequence, config, options);
-  if (!run) return fail("bench track", run.error().message, 2);
+  auto source = args.sequence.empty() ? slam::open_simulated(args.scenario, args.frames)
+                                      : slam::open_labelled_sequence(args.sequence, false);
+  if (!source) return fail("bench track", source.error().message, 2);
+  auto run = slam::run_dynamic(**source, config, options);
+  if (!run) return fail("bench track", run.error().message, 1);
   const auto stages = run->recorder.stage_summaries();
   std::printf("bench track: %s, %d frames, mapper %s\n", run->name.c_str(), run->frames,
               args.mapper_thread ? "on its own thread" : "inline (excluded from whole_frame)");

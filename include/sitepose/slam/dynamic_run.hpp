@@ -21,6 +21,9 @@ namespace sitepose::slam {
 
 struct DynamicRunOptions {
   int frames = 0;  // 0 = all of the source
+  // Local mapping on its own thread as in the daemon; false = inline after
+  // each frame, which makes runs reproducible.
+  bool mapper_thread = false;
   // Changes a frame before tracking (e.g. the occlusion sweep paints a
   // fake occluder and its box into it).
   std::function<void(LabelledFrame&)> alter;
@@ -46,6 +49,8 @@ struct DynamicRunResult {
   std::vector<ObjectSample> samples;  // mode full only
   double max_masked_ratio = 0.0;      // largest masked pixel fraction of a frame
   double max_mar = 0.0;
+  std::size_t keyframes = 0;  // in the map at the end of the run
+  std::size_t points = 0;
 
   double coverage_ok() const;  // frames OK / frames
   double ate_m() const;        // RMSE, NaN without evaluation

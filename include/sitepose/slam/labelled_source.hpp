@@ -47,8 +47,11 @@ Expected<std::unique_ptr<LabelledSource>> open_simulated(const std::string& scen
                                                          std::optional<int> seed = std::nullopt);
 
 // A sitepose sequence; boxes and masks from labels/ (kInvalidArgument when
-// the sequence has no labels/boxes.csv). fps from times.txt.
-Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::string& directory);
+// the sequence has no labels/boxes.csv and `require_labels`; without it such
+// a sequence gives frames without objects, enough for mode none). fps from
+// times.txt.
+Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::string& directory,
+                                                                 bool require_labels = true);
 
 // Keeps every frame of `source` in memory after the first read (tests and
 // ablations run several modes on the same frames).

@@ -114,7 +114,8 @@ class Tracker {
                      const std::vector<int>& match_of_keypoint, PassResult& result) const;
 
   bool initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable);
-  bool need_keyframe(const PreparedFrame& frame, const PassResult& result) const;
+  bool need_keyframe(const PreparedFrame& frame, const PassResult& result,
+                     const std::vector<std::uint8_t>& usable) const;
   void create_keyframe(const PreparedFrame& frame, const PassResult& result,
                        const std::vector<std::uint8_t>& usable);
 

@@ -4,9 +4,10 @@
 
 #include <gtest/gtest.h>
 
-#include "sitepose/experiment/track_run.hpp"
+#include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/slam/labelled_source.hpp"
 
-namespace sitepose::experiment {
+namespace sitepose::slam {
 namespace {
 
 struct Case {
@@ -21,9 +22,9 @@ TEST_P(SlamAccuracy, AteAndCoverageWithinThresholds) {
   const Case c = GetParam();
   config::SiteposeConfig config;
   config.dynamic.mode = config::MaskingMode::kNone;
-  TrackRunOptions options;
-  options.frames = c.frames;
-  auto run = track_scenario(std::string(SITEPOSE_SCENARIO_DIR) + "/" + c.scenario + ".yaml", config, options);
+  auto source = open_simulated(std::string(SITEPOSE_SCENARIO_DIR) + "/" + c.scenario + ".yaml", c.frames);
+  ASSERT_TRUE(source.has_value()) << source.error().message;
+  auto run = run_dynamic(**source, config);
   ASSERT_TRUE(run.has_value()) << run.error().message;
   ASSERT_TRUE(run->evaluation.has_value()) << run->evaluation_error;
   const auto& e = *run->evaluation;
@@ -42,4 +43,4 @@ INSTANTIATE_TEST_SUITE_P(Scenarios, SlamAccuracy,
                          [](const auto& info) { return std::string(info.param.scenario); });
 
 }  // namespace
-}  // namespace sitepose::experiment
+}  // namespace sitepose::slam
