@@ -8,6 +8,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "ablation_inputs.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/slam/ablation_support.hpp"
@@ -25,19 +26,10 @@ struct Args {
 };
 
 int run(Args args) {
-  config::SiteposeConfig config;
-  if (!args.config_path.empty()) {
-    auto loaded = config::load_config(args.config_path);
-    if (!loaded) return fail(kCommand, loaded.error().message, 2);
-    config = *loaded;
-  }
-  std::error_code ec;
-  std::filesystem::create_directories(args.out_dir, ec);
-  if (ec) return fail(kCommand, "--out-dir " + args.out_dir + ": " + ec.message(), 2);
-  if (args.source.sequence.empty() && args.source.scenario.empty()) args.source.scenario = "crowded";
-  if (args.source.temp_dir.empty()) args.source.temp_dir = args.out_dir + "/sequence";
-  auto source = slam::open_ablation_source(args.source);
-  if (!source) return fail(kCommand, source.error().message, 2);
+  auto inputs = open_ablation_inputs(args.config_path, args.out_dir, args.source, "crowded");
+  if (!inputs) return fail(kCommand, inputs.error().message, 2);
+  config::SiteposeConfig& config = inputs->config;
+  const auto& source = inputs->source;
 
   std::ostringstream csv;
   csv << "mode,ate_rmse_m,ate_max_m,coverage,max_masked_ratio,max_mar,pixel_mask_calls,frames,"
@@ -47,7 +39,7 @@ int run(Args args) {
   for (config::MaskingMode mode :
        {config::MaskingMode::kBbox, config::MaskingMode::kHierarchical, config::MaskingMode::kPixel}) {
     config.dynamic.mode = mode;
-    auto result = slam::run_dynamic(**source, config);
+    auto result = slam::run_dynamic(*source, config);
     if (!result) return fail(kCommand, result.error().message, 1);
     const auto stages = result->recorder.stage_summaries();
     const double mask_ms = stages.count("mask") ? stages.at("mask").mean_ms : 0.0;
@@ -71,7 +63,7 @@ int run(Args args) {
   if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   slam::ChartOptions chart;
   chart.height_px = 400;
-  chart.title = "Masking on " + std::filesystem::path((*source)->name()).filename().string() + ": ATE RMSE (m)";
+  chart.title = "Masking on " + std::filesystem::path(source->name()).filename().string() + ": ATE RMSE (m)";
   cv::Mat a = slam::render_bar_chart(labels, ates, chart);
   chart.title = "Largest masked ratio of a frame";
   cv::Mat b = slam::render_bar_chart(labels, masked, chart);

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "ablation_inputs.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/slam/ablation_support.hpp"
@@ -29,27 +30,18 @@ struct Args {
 };
 
 int run(Args args) {
-  config::SiteposeConfig config;
-  if (!args.config_path.empty()) {
-    auto loaded = config::load_config(args.config_path);
-    if (!loaded) return fail(kCommand, loaded.error().message, 2);
-    config = *loaded;
-  }
   for (double r : args.ratios) {
     if (!(r >= 0.0 && r < 1.0)) return fail(kCommand, "--ratios: " + std::to_string(r) + " is not in [0, 1)", 2);
   }
-  std::error_code ec;
-  std::filesystem::create_directories(args.out_dir, ec);
-  if (ec) return fail(kCommand, "--out-dir " + args.out_dir + ": " + ec.message(), 2);
-  if (args.source.sequence.empty() && args.source.scenario.empty()) args.source.scenario = "static";
-  if (args.source.temp_dir.empty()) args.source.temp_dir = args.out_dir + "/sequence";
-  auto source = slam::open_ablation_source(args.source);
-  if (!source) return fail(kCommand, source.error().message, 2);
+  auto inputs = open_ablation_inputs(args.config_path, args.out_dir, args.source, "static");
+  if (!inputs) return fail(kCommand, inputs.error().message, 2);
+  config::SiteposeConfig& config = inputs->config;
+  const auto& source = inputs->source;
   // Box masking of the occluder only: the sequence's own machines stay
   // unmasked, so the curve isolates the effect of masked area.
   config.dynamic.mode = config::MaskingMode::kBbox;
   config.dynamic.dynamic_classes = {"occluder"};
-  const cv::Size size((*source)->camera().width, (*source)->camera().height);
+  const cv::Size size(source->camera().width, source->camera().height);
 
   std::ostringstream csv;
   csv << "occlusion_ratio,ate_rmse_m,ate_max_m,frames,frames_ok,frames_lost,coverage\n";
@@ -64,7 +56,7 @@ int run(Args args) {
       f.objects.boxes.clear();
       if (box.area() > 0) f.objects.boxes.push_back({kOccluderInstance, "occluder", 1.0, box});
     };
-    auto result = slam::run_dynamic(**source, config, options);
+    auto result = slam::run_dynamic(*source, config, options);
     if (!result) return fail(kCommand, result.error().message, 1);
     const int ok = result->recorder.frames_ok();
     const int lost_frames = static_cast<int>(std::count_if(
@@ -86,13 +78,13 @@ int run(Args args) {
   const std::string png_lost = args.out_dir + "/occlusion_sweep_lost.png";
   if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   slam::ChartOptions chart;
-  chart.title = "Occlusion sweep on " + std::filesystem::path((*source)->name()).filename().string() + ": ATE vs centred masked ratio";
+  chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() + ": ATE vs centred masked ratio";
   chart.x_label = "occlusion ratio";
   chart.y_label = "ATE RMSE (m)";
   if (auto st = slam::write_png(png_ate, slam::render_line_chart({ate}, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }
-  chart.title = "Occlusion sweep on " + std::filesystem::path((*source)->name()).filename().string() + ": lost frames vs centred masked ratio";
+  chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() + ": lost frames vs centred masked ratio";
   chart.y_label = "share of frames LOST";
   if (auto st = slam::write_png(png_lost, slam::render_line_chart({lost}, chart)); !st) {
     return fail(kCommand, st.error().message, 1);

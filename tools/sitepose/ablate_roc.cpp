@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "ablation_inputs.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/slam/ablation_support.hpp"
@@ -28,19 +29,10 @@ struct Args {
 };
 
 int run(Args args) {
-  config::SiteposeConfig config;
-  if (!args.config_path.empty()) {
-    auto loaded = config::load_config(args.config_path);
-    if (!loaded) return fail(kCommand, loaded.error().message, 2);
-    config = *loaded;
-  }
-  std::error_code ec;
-  std::filesystem::create_directories(args.out_dir, ec);
-  if (ec) return fail(kCommand, "--out-dir " + args.out_dir + ": " + ec.message(), 2);
-  if (args.source.sequence.empty() && args.source.scenario.empty()) args.source.scenario = "crowded";
-  if (args.source.temp_dir.empty()) args.source.temp_dir = args.out_dir + "/sequence";
-  auto source = slam::open_ablation_source(args.source);
-  if (!source) return fail(kCommand, source.error().message, 2);
+  auto inputs = open_ablation_inputs(args.config_path, args.out_dir, args.source, "crowded");
+  if (!inputs) return fail(kCommand, inputs.error().message, 2);
+  config::SiteposeConfig& config = inputs->config;
+  const auto& source = inputs->source;
   config.dynamic.mode = config::MaskingMode::kFull;
 
   std::ostringstream csv, summary;
@@ -49,7 +41,7 @@ int run(Args args) {
   std::vector<slam::ChartSeries> curves;
   for (config::ClassifierMode classifier : {config::ClassifierMode::kPaper, config::ClassifierMode::kSitepose}) {
     config.dynamic.classifier = classifier;
-    auto result = slam::run_dynamic(**source, config);
+    auto result = slam::run_dynamic(*source, config);
     if (!result) return fail(kCommand, result.error().message, 1);
     const bool paper = classifier == config::ClassifierMode::kPaper;
     std::vector<double> parameters, thresholds;
@@ -89,7 +81,7 @@ int run(Args args) {
   if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   if (auto st = slam::write_text(summary_path, summary.str()); !st) return fail(kCommand, st.error().message, 1);
   slam::ChartOptions chart;
-  chart.title = "Motion states on " + std::filesystem::path((*source)->name()).filename().string() + ": ROC, static = positive";
+  chart.title = "Motion states on " + std::filesystem::path(source->name()).filename().string() + ": ROC, static = positive";
   chart.x_label = "false positive rate (moving called static)";
   chart.y_label = "true positive rate";
   chart.draw_diagonal = true;

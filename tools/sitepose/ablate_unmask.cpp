@@ -8,6 +8,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "ablation_inputs.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/slam/ablation_support.hpp"
@@ -25,19 +26,10 @@ struct Args {
 };
 
 int run(Args args) {
-  config::SiteposeConfig config;
-  if (!args.config_path.empty()) {
-    auto loaded = config::load_config(args.config_path);
-    if (!loaded) return fail(kCommand, loaded.error().message, 2);
-    config = *loaded;
-  }
-  std::error_code ec;
-  std::filesystem::create_directories(args.out_dir, ec);
-  if (ec) return fail(kCommand, "--out-dir " + args.out_dir + ": " + ec.message(), 2);
-  if (args.source.sequence.empty() && args.source.scenario.empty()) args.source.scenario = "parked";
-  if (args.source.temp_dir.empty()) args.source.temp_dir = args.out_dir + "/sequence";
-  auto source = slam::open_ablation_source(args.source);
-  if (!source) return fail(kCommand, source.error().message, 2);
+  auto inputs = open_ablation_inputs(args.config_path, args.out_dir, args.source, "parked");
+  if (!inputs) return fail(kCommand, inputs.error().message, 2);
+  config::SiteposeConfig& config = inputs->config;
+  const auto& source = inputs->source;
 
   std::ostringstream csv;
   csv << "variant,mode,ate_rmse_m,ate_max_m,coverage,mean_static_objects_unmasked,mean_features_pass1,"
@@ -50,7 +42,7 @@ int run(Args args) {
       {"static unmasked", config::MaskingMode::kFull}};
   for (const auto& [name, mode] : variants) {
     config.dynamic.mode = mode;
-    auto result = slam::run_dynamic(**source, config);
+    auto result = slam::run_dynamic(*source, config);
     if (!result) return fail(kCommand, result.error().message, 1);
     double unmasked = 0, f1 = 0, f2 = 0;
     for (const PoseEstimate& p : result->recorder.poses()) {
@@ -73,7 +65,7 @@ int run(Args args) {
   const std::string png_path = args.out_dir + "/unmask.png";
   if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   slam::ChartOptions chart;
-  chart.title = "Unmasking static objects on " + std::filesystem::path((*source)->name()).filename().string() + ": ATE RMSE (m)";
+  chart.title = "Unmasking static objects on " + std::filesystem::path(source->name()).filename().string() + ": ATE RMSE (m)";
   if (auto st = slam::write_png(png_path, slam::render_bar_chart(labels, ates, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }
