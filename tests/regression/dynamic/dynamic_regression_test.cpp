@@ -199,26 +199,28 @@ machines:
     start_s: 4
 )";
 
-// Known unmet requirement (issue 6): re-masked after 3 frames, not <= 2.
-// StartingMachineIsRemaskedWithoutFlicker below keeps the rest enabled.
-TEST(DynamicRegression, DISABLED_StartingMachineIsRemaskedWithinTwoFrames) {
+// Runs kStartScenario in mode full and checks what holds today: the
+// machine is unmasked while parked, never flickers, is masked again once it
+// moves, and tracking never degrades. Returns the re-mask latency (frames),
+// or -1 when an assertion failed.
+int remask_latency_frames() {
   const std::string path = ::testing::TempDir() + "/sitepose_remask_scenario_" +
                            std::to_string(::getpid()) + ".yaml";
-  {
-    std::FILE* f = std::fopen(path.c_str(), "w");
-    ASSERT_NE(f, nullptr);
-    std::fputs(kStartScenario, f);
-    std::fclose(f);
-  }
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  EXPECT_NE(f, nullptr);
+  if (f == nullptr) return -1;
+  std::fputs(kStartScenario, f);
+  std::fclose(f);
   Scenario s(path, 0);
-  ASSERT_TRUE(s.error().empty()) << s.error();
+  EXPECT_TRUE(s.error().empty()) << s.error();
+  if (!s.error().empty()) return -1;
   const ModeFigures full = s.run(config::MaskingMode::kFull);
   print_states(full.run);
   const auto events = remask_latencies(full.run.samples);
-  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events.size(), 1u);
+  if (events.size() != 1u) return -1;
   EXPECT_EQ(events[0].start_frame, 25);  // first frame whose pose differs from the one before
-  EXPECT_GE(events[0].latency_frames, 0);
-  EXPECT_LE(events[0].latency_frames, 2);
+  EXPECT_GE(events[0].latency_frames, 0) << "the moving machine must be masked again";
   // It was unmasked while parked (otherwise re-masking proves nothing).
   int static_before = 0;
   for (const ObjectSample& smp : full.run.samples) {
@@ -227,31 +229,15 @@ TEST(DynamicRegression, DISABLED_StartingMachineIsRemaskedWithinTwoFrames) {
   EXPECT_GE(static_before, 10);
   EXPECT_EQ(static_flips(full.run.samples), 0);
   EXPECT_DOUBLE_EQ(full.coverage, 1.0);
+  std::printf("[figures] re-masked %d frames after the start\n", events[0].latency_frames);
+  return events[0].latency_frames;
 }
 
-TEST(DynamicRegression, StartingMachineIsRemaskedWithoutFlicker) {
-  const std::string path = ::testing::TempDir() + "/sitepose_remask_scenario_" +
-                           std::to_string(::getpid()) + ".yaml";
-  {
-    std::FILE* f = std::fopen(path.c_str(), "w");
-    ASSERT_NE(f, nullptr);
-    std::fputs(kStartScenario, f);
-    std::fclose(f);
-  }
-  Scenario s(path, 0);
-  ASSERT_TRUE(s.error().empty()) << s.error();
-  const ModeFigures full = s.run(config::MaskingMode::kFull);
-  const auto events = remask_latencies(full.run.samples);
-  ASSERT_EQ(events.size(), 1u);
-  std::printf("[figures] re-masked %d frames after the start\n", events[0].latency_frames);
-  EXPECT_GE(events[0].latency_frames, 0) << "the moving machine must be masked again";
-  int static_before = 0;
-  for (const ObjectSample& smp : full.run.samples) {
-    if (smp.frame < 24 && smp.object.verdict.state == dynamic::MotionState::kStatic) ++static_before;
-  }
-  EXPECT_GE(static_before, 10);
-  EXPECT_EQ(static_flips(full.run.samples), 0);
-  EXPECT_DOUBLE_EQ(full.coverage, 1.0);
+TEST(DynamicRegression, StartingMachineIsRemaskedWithoutFlicker) { remask_latency_frames(); }
+
+// Known unmet requirement (issue 6): re-masked after 3 frames, not <= 2.
+TEST(DynamicRegression, DISABLED_StartingMachineIsRemaskedWithinTwoFrames) {
+  EXPECT_LE(remask_latency_frames(), 2);
 }
 
 // ROC of the motion states (static = positive) on crowded: sitepose mode
