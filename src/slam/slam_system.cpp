@@ -15,6 +15,18 @@ using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
+
+// Extraction and pass timings of one frame into the report.
+void copy_stage_timings(const tracking::PreparedFrame& prepared, const tracking::PassResult& pass,
+                        FrameTimings& timings) {
+  timings.extract_left_ms = prepared.timings.extract_left_ms;
+  timings.extract_right_ms = prepared.timings.extract_right_ms;
+  timings.stereo_match_ms = prepared.timings.stereo_match_ms;
+  timings.prepare_ms = prepared.timings.total_ms;
+  timings.motion_model_ms = pass.timings.motion_model_ms;
+  timings.local_map_ms = pass.timings.local_map_ms;
+  timings.motion_ba_ms = pass.timings.motion_ba_ms;
+}
 }  // namespace
 
 Expected<std::unique_ptr<SlamSystem>> SlamSystem::create(const StereoCamera& camera,
@@ -64,13 +76,7 @@ Expected<FrameReport> SlamSystem::process(const StereoFrame& frame) {
   const tracking::PassResult result = tracker_->estimate(prepared, usable);
   FrameReport report;
   report.pose = tracker_->commit(prepared, result, usable);
-  report.timings.extract_left_ms = prepared.timings.extract_left_ms;
-  report.timings.extract_right_ms = prepared.timings.extract_right_ms;
-  report.timings.stereo_match_ms = prepared.timings.stereo_match_ms;
-  report.timings.prepare_ms = prepared.timings.total_ms;
-  report.timings.motion_model_ms = result.timings.motion_model_ms;
-  report.timings.local_map_ms = result.timings.local_map_ms;
-  report.timings.motion_ba_ms = result.timings.motion_ba_ms;
+  copy_stage_timings(prepared, result, report.timings);
   report.timings.total_ms = ms_since(start);
   SITEPOSE_TRY_STATUS(run_inline_mapping(report));
   return report;
@@ -202,13 +208,7 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
     }
   }
 
-  report.timings.extract_left_ms = prepared.timings.extract_left_ms;
-  report.timings.extract_right_ms = prepared.timings.extract_right_ms;
-  report.timings.stereo_match_ms = prepared.timings.stereo_match_ms;
-  report.timings.prepare_ms = prepared.timings.total_ms;
-  report.timings.motion_model_ms = pass1.timings.motion_model_ms;
-  report.timings.local_map_ms = pass1.timings.local_map_ms;
-  report.timings.motion_ba_ms = pass1.timings.motion_ba_ms;
+  copy_stage_timings(prepared, pass1, report.timings);
   report.timings.total_ms = ms_since(start);
   SITEPOSE_TRY_STATUS(run_inline_mapping(report));
   return report;
