@@ -53,23 +53,33 @@ cv::Mat box_instance_labels(const std::vector<ObjectBox>& boxes, cv::Size image_
   return labels;
 }
 
-Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& objects,
-                                cv::Size image_size, const config::DynamicConfig& config) {
-  MaskResult out;
+std::vector<ObjectBox> dynamic_boxes(const std::vector<ObjectBox>& boxes, cv::Size image_size,
+                                     const config::DynamicConfig& config) {
+  std::vector<ObjectBox> out;
   const cv::Rect image(cv::Point(0, 0), image_size);
-  for (const ObjectBox& b : objects.boxes) {
+  for (const ObjectBox& b : boxes) {
     if (!is_dynamic_class(b.class_name, config.dynamic_classes)) continue;
     ObjectBox clipped = b;
     clipped.box = b.box & image;
-    if (clipped.box.area() > 0 && b.instance > 0) out.dynamic_boxes.push_back(std::move(clipped));
+    if (clipped.box.area() > 0 && b.instance > 0) out.push_back(std::move(clipped));
   }
+  return out;
+}
+
+bool wants_pixel_mask(config::MaskingMode mode, double mar, const config::DynamicConfig& config) {
+  return mode == config::MaskingMode::kPixel ||
+         ((mode == config::MaskingMode::kHierarchical || mode == config::MaskingMode::kFull) &&
+          mar >= config.tau_mar);
+}
+
+Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& objects,
+                                cv::Size image_size, const config::DynamicConfig& config) {
+  MaskResult out;
+  out.dynamic_boxes = dynamic_boxes(objects.boxes, image_size, config);
   out.mar = box_union_ratio(out.dynamic_boxes, image_size);
   if (mode == config::MaskingMode::kNone) return out;
 
-  const bool want_pixels =
-      mode == config::MaskingMode::kPixel ||
-      ((mode == config::MaskingMode::kHierarchical || mode == config::MaskingMode::kFull) &&
-       out.mar >= config.tau_mar);
+  const bool want_pixels = wants_pixel_mask(mode, out.mar, config);
   if (!want_pixels || out.dynamic_boxes.empty()) {
     out.instance_labels = box_instance_labels(out.dynamic_boxes, image_size);
   } else {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "sitepose/features/hamming.hpp"
 #include "sitepose/optim/triangulation.hpp"
@@ -26,6 +28,11 @@ constexpr double kMaxPointErrorM = 10.0;
 // Level-0 keypoint noise (px) of u_l, v_l and of the refined u_r; grows with
 // the pyramid scale like ORB-SLAM2's information matrix.
 constexpr double kPixelSigmaPx = 1.0;
+// Bounds on the a-posteriori variance factor used to calibrate the noise
+// model: never more than ~4.5x more confident than the unit pixel model
+// (a lucky frame), never more than 2x less.
+constexpr double kMinVarianceFactor = 0.05;
+constexpr double kMaxVarianceFactor = 4.0;
 // Sitepose mode: a static verdict needs this much time between RF and CF;
 // over a shorter gap a slowly starting machine has not moved measurably yet
 // (the authors' reference: 0.5 s). Moving verdicts count at any gap.
@@ -39,6 +46,10 @@ constexpr double kRingSeconds = 2.0;
 // started moving shows long before most single points do. chi2 3 dof,
 // 99.9 %: a static object trips it once in a thousand frames.
 constexpr double kPooledGate = 16.27;
+// When the point test fails as well, two independent signs of motion agree
+// and a lower object-level gate (chi2 3 dof, 97.5 %) suffices: a slowly
+// starting machine is caught about a frame earlier.
+constexpr double kPooledGateWithPoints = 9.35;
 
 double quantile(std::vector<double> values, double q);
 
@@ -76,8 +87,10 @@ double quantile(std::vector<double> values, double q) {
 
 ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
                                     const std::vector<ObjectBox>& boxes, const SE3& T_world_cam,
-                                    const std::optional<Matrix6d>& covariance, double max_depth_m) {
+                                    const std::optional<Matrix6d>& covariance, double variance_factor,
+                                    double max_depth_m) {
   ObjectFeatures out;
+  out.variance_factor = variance_factor;
   out.seq = frame.seq;
   out.t_ns = frame.t_ns;
   out.T_world_cam = T_world_cam;
@@ -87,6 +100,8 @@ ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
   for (int k = 0; k < frame.size(); ++k) {
     if (frame.instance[k] == 0 || !frame.features.has_depth(k)) continue;
     if (frame.features.depth_m[k] > max_depth_m) continue;
+    // A wrong stereo match looks like motion of several metres.
+    if (!frame.features.stereo_ambiguous.empty() && frame.features.stereo_ambiguous[k]) continue;
     rows.push_back(k);
   }
   out.descriptors.create(static_cast<int>(rows.size()), features::kDescriptorBytes, CV_8UC1);
@@ -142,9 +157,10 @@ void MotionClassifier::remember(ObjectFeatures frame) {
   while (ring_.size() > capacity_) ring_.pop_front();
 }
 
-double MotionClassifier::pixel_sigma_px(int octave) const {
+double MotionClassifier::pixel_sigma_px(int octave, double variance_factor) const {
   const int level = std::clamp(octave, 0, static_cast<int>(level_scale_.size()) - 1);
-  return kPixelSigmaPx * level_scale_[level];
+  return kPixelSigmaPx * level_scale_[level] *
+         std::sqrt(std::clamp(variance_factor, kMinVarianceFactor, kMaxVarianceFactor));
 }
 
 const ObjectFeatures* MotionClassifier::select_reference(const ObjectFeatures& current) const {
@@ -167,7 +183,7 @@ const ObjectFeatures* MotionClassifier::select_reference(const ObjectFeatures& c
 }
 
 MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, MotionState raw,
-                                     bool static_evidence_counts) {
+                                     bool static_evidence_counts, bool conflicting_evidence) {
   Track& t = tracks_[instance];
   t.last_seq = seq;
   const int n = config_.hysteresis_frames;
@@ -186,6 +202,13 @@ MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, M
       break;
     case MotionState::kUnknown:
       t.static_streak = 0;
+      if (conflicting_evidence) {
+        // The points disagree with "static": mask again now (unmasking
+        // needs proof, masking only doubt).
+        t.unknown_streak = 0;
+        t.state = MotionState::kUnknown;
+        break;
+      }
       ++t.unknown_streak;
       // A static object stays static through short gaps; after that it
       // must prove itself again (masked meanwhile).
@@ -267,7 +290,12 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
 
   const auto t_test = Clock::now();
   const bool paper = config_.classifier == config::ClassifierMode::kPaper;
-  const Matrix6d* cov_cf = current.covariance ? &*current.covariance : nullptr;
+  std::optional<Matrix6d> scaled_cov_cf;
+  if (current.covariance) {
+    scaled_cov_cf = *current.covariance *
+                    std::clamp(current.variance_factor, kMinVarianceFactor, kMaxVarianceFactor);
+  }
+  const Matrix6d* cov_cf = scaled_cov_cf ? &*scaled_cov_cf : nullptr;
   // RF's pose error is left out: RF and CF are tracked against the same map
   // points, so their errors are strongly correlated and adding both
   // covariances overstates the relative error (measured: a machine 8 cm
@@ -286,8 +314,8 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
         if (match[c] < 0 || current.instance[c] != v.instance) continue;
         const int r = match[c];
         if (ref->instance[r] != it->second) continue;
-        const double s_cf = pixel_sigma_px(current.octave[c]);
-        const double s_rf = pixel_sigma_px(ref->octave[r]);
+        const double s_cf = pixel_sigma_px(current.octave[c], current.variance_factor);
+        const double s_rf = pixel_sigma_px(ref->octave[r], ref->variance_factor);
         const auto p_cf = optim::stereo_point_in_camera(camera_, current.uv_px[c], current.u_right_px[c],
                                                         optim::stereo_pixel_covariance(s_cf, s_cf, s_cf));
         const auto p_rf = optim::stereo_point_in_camera(camera_, ref->uv_px[r], ref->u_right_px[r],
@@ -296,6 +324,7 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
         const optim::PointWithCovariance w_cf = optim::point_to_world(*p_cf, current.T_world_cam, cov_cf);
         const optim::PointWithCovariance w_rf = optim::point_to_world(*p_rf, ref->T_world_cam, cov_rf);
         const Eigen::Vector3d d = w_cf.p - w_rf.p;
+        if (std::getenv("SP_DBG")) std::fprintf(stderr, "DBG seq %lld cf(%.1f,%.1f,ur %.1f o%d) rf(%.1f,%.1f,ur %.1f o%d) zc %.2f zr %.2f d %.3f %.3f %.3f f %.2f\n", (long long)current.seq, current.uv_px[c].x(), current.uv_px[c].y(), current.u_right_px[c], current.octave[c], ref->uv_px[r].x(), ref->uv_px[r].y(), ref->u_right_px[r], ref->octave[r], p_cf->p.z(), p_rf->p.z(), d.x(), d.y(), d.z(), current.variance_factor);
         if (d.norm() > kMaxPointErrorM) continue;
         if (paper) {
           stats.push_back(d.norm());
@@ -333,17 +362,22 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
           v.score = quantile(stats, config_.static_inlier_fraction);
           v.pooled_statistic = pooled_statistic(stats, displacements, pixel_covariances, full_covariances,
                                                 config_.static_inlier_fraction);
-          v.raw = is_static_at(stats, config_.chi2_static_3dof, config_.static_inlier_fraction) &&
-                          v.pooled_statistic <= kPooledGate
-                      ? MotionState::kStatic
-                      : MotionState::kMoving;
+          const bool points_agree = is_static_at(stats, config_.chi2_static_3dof, config_.static_inlier_fraction);
+          const bool object_still =
+              v.pooled_statistic <= (points_agree ? kPooledGate : kPooledGateWithPoints);
+          // Points that disagree while the object as a whole has not moved
+          // are mismatches (common on objects with few points): no verdict.
+          v.raw = !object_still   ? MotionState::kMoving
+                  : points_agree ? MotionState::kStatic
+                                 : MotionState::kUnknown;
         }
       }
       object.statistics = std::move(stats);
     }
     const bool long_enough =
         ref != nullptr && static_cast<double>(current.t_ns - ref->t_ns) * 1e-9 >= kMinStaticEvidenceS;
-    v.state = paper ? v.raw : smooth(v.instance, current.seq, v.raw, long_enough);
+    const bool conflicting = v.points >= config_.min_object_points && v.raw == MotionState::kUnknown;
+    v.state = paper ? v.raw : smooth(v.instance, current.seq, v.raw, long_enough, conflicting);
   }
   // Forget instances not seen for a ring's length.
   for (auto it = tracks_.begin(); it != tracks_.end();) {

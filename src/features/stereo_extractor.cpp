@@ -42,6 +42,7 @@ Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv:
   out.left_pyramid = std::move(left_features->pyramid);
   out.u_right = std::move(matches.u_right);
   out.depth_m = std::move(matches.depth_m);
+  out.stereo_ambiguous = std::move(matches.ambiguous);
   out.stats = matches.stats;
   out.right_keypoints = std::move(right_features->keypoints);
   out.right_descriptors = std::move(right_features->descriptors);

@@ -143,6 +143,7 @@ Expected<StereoMatches> StereoMatcher::match(const OrbFeatures& left, const OrbF
 
   StereoMatches out;
   out.u_right.assign(n_left, kNoMatch);
+  out.ambiguous.assign(n_left, 0);
   out.depth_m.assign(n_left, kNoMatch);
   out.stats.n_left = n_left;
   if (n_left == 0) return out;
@@ -179,6 +180,21 @@ Expected<StereoMatches> StereoMatcher::match(const OrbFeatures& left, const OrbF
         best_distance = distance;
         best_j = j;
       }
+    }
+    if (best_j >= 0) {
+      // Second best among candidates away from the best one (the same
+      // corner is often detected twice, a pixel apart).
+      const double best_u = right.keypoints[best_j].pt.x;
+      int second_distance = kDescriptorBits + 1;
+      for (int k = index.begin[row]; k < index.begin[row + 1]; ++k) {
+        const int j = index.ids[k];
+        const cv::KeyPoint& kr = right.keypoints[j];
+        if (kr.octave < level - 1 || kr.octave > level + 1) continue;
+        if (kr.pt.x < min_u || kr.pt.x > max_u) continue;
+        if (std::abs(kr.pt.x - best_u) < kAmbiguityMinSeparationPx) continue;
+        second_distance = std::min(second_distance, hamming_distance(dl, right.descriptors.ptr<std::uint8_t>(j)));
+      }
+      out.ambiguous[i] = best_distance >= kAmbiguityRatio * second_distance ? 1 : 0;
     }
     if (best_j < 0) {
       ++out.stats.n_no_candidate;

@@ -149,6 +149,7 @@ Expected<MotionBaResult> MotionOnlyBa::solve(const SE3& T_cam_world_init,
 
   result.T_cam_world = from_pose_block(pose.data());
   Matrix6d H = Matrix6d::Zero();
+  int inlier_residuals = 0;
   for (std::size_t i = 0; i < n; ++i) {
     if (!result.inlier[i]) continue;
     const PoseObservation& o = observations[i];
@@ -162,9 +163,12 @@ Expected<MotionBaResult> MotionOnlyBa::solve(const SE3& T_cam_world_init,
     const double* params[1] = {pose.data()};
     SITEPOSE_CHECK(costs[i]->Evaluate(params, r, jacobians));  // inliers are in front
     const int rows = costs[i]->num_residuals();
+    inlier_residuals += rows;
     const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 7, Eigen::RowMajor>> Jm(J, rows, 7);
     H.noalias() += Jm.leftCols<6>().transpose() * Jm.leftCols<6>();
   }
+  // Redundancy of at least 20 before the factor is trusted.
+  if (inlier_residuals >= 26) result.variance_factor = result.chi2_inlier_sum / (inlier_residuals - 6);
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(H);
   const double max_ev = eig.eigenvalues().maxCoeff();
   if (result.num_inliers > 0 && max_ev > 0.0 &&

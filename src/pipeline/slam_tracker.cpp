@@ -1,18 +1,70 @@
 #include "sitepose/pipeline/slam_tracker.hpp"
 
-namespace sitepose::pipeline {
+#include <algorithm>
 
-Expected<std::unique_ptr<SlamPoseTracker>> SlamPoseTracker::create(
-    const StereoCamera& camera, const config::SiteposeConfig& config) {
+#include "sitepose/dynamic/masking.hpp"
+
+namespace sitepose::pipeline {
+namespace {
+// The frame rate assumed when the source does not know its own.
+constexpr double kDefaultFps = 30.0;
+}  // namespace
+
+Expected<std::unique_ptr<SlamPoseTracker>> SlamPoseTracker::create(const StereoCamera& camera,
+                                                                   const config::SiteposeConfig& config,
+                                                                   double fps) {
   slam::SlamOptions options;
   options.mapper_thread = true;
+  options.fps = fps > 0.0 ? fps : kDefaultFps;
   SITEPOSE_TRY(auto system, slam::SlamSystem::create(camera, config, options));
   return std::unique_ptr<SlamPoseTracker>(new SlamPoseTracker(std::move(system)));
 }
 
 Expected<PoseEstimate> SlamPoseTracker::track(const FramePacket& packet) {
-  SITEPOSE_TRY(slam::FrameReport report, system_->process(packet.frame));
+  if (system_->mode() == config::MaskingMode::kNone) {
+    SITEPOSE_TRY(slam::FrameReport report, system_->process(packet.frame));
+    return std::move(report.pose);
+  }
+  return track_with_objects(packet);
+}
+
+Expected<PoseEstimate> SlamPoseTracker::track_with_objects(const FramePacket& packet) {
+  const StereoFrame& frame = packet.frame;
+  const std::vector<dynamic::ObjectBox>* boxes = &packet.objects;
+  if (packet.detected) {
+    last_objects_ = packet.objects;
+    last_detected_t_ns_ = frame.t_ns();
+    have_last_objects_ = true;
+  } else if (have_last_objects_ &&
+             static_cast<double>(frame.t_ns() - last_detected_t_ns_) * 1e-9 <= kMaxDetectionReuseS) {
+    boxes = &last_objects_;
+    reused_detections_.fetch_add(1, std::memory_order_relaxed);
+  } else {
+    tracked_unmasked_.fetch_add(1, std::memory_order_relaxed);
+    SITEPOSE_TRY(slam::FrameReport report, system_->process(frame));
+    if (report.pose.state == TrackingState::kOk) {
+      report.pose.state = TrackingState::kRecovering;
+      report.pose.state_reason = "no detections: tracked without masking";
+    }
+    return std::move(report.pose);
+  }
+
+  dynamic::FrameObjects objects;
+  objects.boxes = *boxes;
+  const cv::Mat& pixel_mask = packet.detected ? packet.instance_mask : cv::Mat();
+  const cv::Size size = frame.left.size();
+  objects.segment = [this, &pixel_mask, size](const std::vector<dynamic::ObjectBox>& wanted) -> Expected<cv::Mat> {
+    if (!pixel_mask.empty()) return pixel_mask;
+    box_mask_for_pixel_mask_.fetch_add(1, std::memory_order_relaxed);
+    return dynamic::box_instance_labels(wanted, size);
+  };
+  SITEPOSE_TRY(slam::FrameReport report, system_->process(frame, objects));
   return std::move(report.pose);
+}
+
+TrackerFallbackCounters SlamPoseTracker::fallback_counters() const {
+  return {box_mask_for_pixel_mask_.load(std::memory_order_relaxed),
+          reused_detections_.load(std::memory_order_relaxed), tracked_unmasked_.load(std::memory_order_relaxed)};
 }
 
 void SlamPoseTracker::finish() {

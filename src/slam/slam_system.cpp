@@ -162,7 +162,8 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
       // Algorithm 2 with pass 1's pose, then pass 2 with static objects.
       const auto t_classify = Clock::now();
       current = dynamic::make_object_features(prepared, mask.dynamic_boxes, pass1.T_cam_world.inverse(),
-                                              pass1.covariance_world_cam, classifier_->max_depth_m());
+                                              pass1.covariance_world_cam, pass1.variance_factor,
+                                              classifier_->max_depth_m());
       report.objects = classifier_->classify(*current);
       report.timings.classify_ms = ms_since(t_classify);
       std::vector<std::uint8_t> is_static(65536, 0);
@@ -200,10 +201,12 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
     if (report.pose.state != TrackingState::kLost) {
       if (!current) {
         current = dynamic::make_object_features(prepared, mask.dynamic_boxes, report.pose.T_world_cam,
-                                                report.pose.covariance, classifier_->max_depth_m());
+                                                report.pose.covariance, final_result->variance_factor,
+                                                classifier_->max_depth_m());
       }
       current->T_world_cam = report.pose.T_world_cam;
       current->covariance = report.pose.covariance;
+      current->variance_factor = final_result->variance_factor;
       classifier_->remember(std::move(*current));
     }
   }

@@ -120,6 +120,7 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
   out.features.descriptors = left->descriptors;
   out.features.u_right = std::move(stereo.u_right);
   out.features.depth_m = std::move(stereo.depth_m);
+  out.features.stereo_ambiguous = std::move(stereo.ambiguous);
   out.features.right_keypoints = std::move(right->keypoints);
   out.features.right_descriptors = right->descriptors;
   out.features.left_pyramid = std::move(left->pyramid);
@@ -168,6 +169,7 @@ void Tracker::optimise_pose(const PreparedFrame& frame, const std::vector<PointV
   }
   result.T_cam_world = solved->T_cam_world;
   result.covariance_world_cam = solved->covariance_world_cam;
+  result.variance_factor = solved->variance_factor;
   for (std::size_t j = 0; j < observations.size(); ++j) {
     if (!solved->inlier[j]) continue;
     const int k = keypoint_of_observation[j];

@@ -9,6 +9,8 @@
 #include "sitepose/config/config.hpp"
 #include "sitepose/core/log.hpp"
 #include "sitepose/geo/nmea.hpp"
+#include "sitepose/detect/create_detector.hpp"
+#include "sitepose/pipeline/detect_stage.hpp"
 #include "sitepose/pipeline/replay_source.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"
 #include "sitepose/pipeline/supervisor.hpp"
@@ -24,7 +26,25 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
   spdlog::info("source: {}", source->describe());
   StereoCamera camera = source->camera();
   if (config.sitepose.camera.stereo) camera = *config.sitepose.camera.stereo;
-  SITEPOSE_TRY(auto tracker, pipeline::SlamPoseTracker::create(camera, config.sitepose));
+  SITEPOSE_TRY(auto tracker, pipeline::SlamPoseTracker::create(camera, config.sitepose, source->frame_rate_hz()));
+  d->tracker_ = tracker.get();
+  std::unique_ptr<pipeline::DetectHook> detect_hook;
+  if (config.sitepose.dynamic.mode == config::MaskingMode::kNone) {
+    detect_hook = std::make_unique<pipeline::PassThroughDetect>();
+  } else {
+    detect::DetectorContext context;
+    if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
+    context.camera = camera;
+    SITEPOSE_TRY(auto detector, detect::create_detector(config.sitepose.detector, context));
+    if (config.sitepose.dynamic.mode == config::MaskingMode::kPixel && !detector->capabilities().has_segmentation) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        "dynamic.mode pixel: detector \"" + config.sitepose.detector.name +
+                            "\" gives no pixel masks (choose bbox, hierarchical or full)");
+    }
+    detect_hook = std::make_unique<pipeline::DetectorStage>(std::move(detector), config.sitepose.dynamic);
+  }
+  spdlog::info("detect stage: {}, dynamic.mode {}", detect_hook->name(),
+               config::to_string(config.sitepose.dynamic.mode));
 
   SITEPOSE_TRY(d->anchoring_, Anchoring::create(config.geo));
   if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kNmeaFile) {
@@ -63,7 +83,7 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
     outputs.push_back(std::move(trajectory));
   }
   SITEPOSE_TRY(d->pipeline_, pipeline::Pipeline::create(config.pipeline, std::move(source),
-                                                        std::make_unique<pipeline::PassThroughDetect>(),
+                                                        std::move(detect_hook),
                                                         std::move(tracker), std::move(outputs)));
   return d;
 }
@@ -89,8 +109,14 @@ void Daemon::log_health(const pipeline::PipelineHealth& h) const {
     anchor = fmt::format(" anchor[{} fixes={} pairs={} inliers={}]", geo::to_string(st->state),
                          st->fixes_received, st->pairs, st->inliers);
   }
-  spdlog::info("health: {} captured={} stalls={} track_errors={} |{} |{}{}", pipeline::format_status(h),
-               h.frames_captured, h.stalls, h.track_errors, stages, outputs, anchor);
+  std::string fallbacks;
+  if (tracker_ != nullptr && config_.sitepose.dynamic.mode != config::MaskingMode::kNone) {
+    const pipeline::TrackerFallbackCounters f = tracker_->fallback_counters();
+    fallbacks = fmt::format(" dynamic[detect_errors={} reused_boxes={} unmasked={} box_for_pixel_mask={}]",
+                            h.detect_errors, f.reused_detections, f.tracked_unmasked, f.box_mask_for_pixel_mask);
+  }
+  spdlog::info("health: {} captured={} stalls={} track_errors={} |{} |{}{}{}", pipeline::format_status(h),
+               h.frames_captured, h.stalls, h.track_errors, stages, outputs, anchor, fallbacks);
 }
 
 int Daemon::run(const sigset_t& stop_signals) {

@@ -18,6 +18,7 @@
 #include "outputs.hpp"
 #include "sitepose/output/lcm_gnss_subscriber.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
+#include "sitepose/pipeline/slam_tracker.hpp"
 #include "sitepose/pipeline/systemd_notify.hpp"
 
 namespace sitepose::daemon {
@@ -47,6 +48,7 @@ class Daemon {
   std::shared_ptr<lcm::LCM> lcm_;
   std::unique_ptr<output::LcmGnssSubscriber> gnss_;  // used by gnss_thread_ only
   std::unique_ptr<pipeline::Pipeline> pipeline_;     // owns source, tracker, outputs
+  const pipeline::SlamPoseTracker* tracker_ = nullptr;  // owned by pipeline_ (counters only)
   std::jthread gnss_thread_;                         // joined first (declared last)
 };
 

@@ -194,13 +194,9 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text,
     root.map("outputs").map("can").report(
         "enabled", "CAN frames carry WGS84 positions: needs geo.mode fixed or online");
   }
-  // The dynamic layer is not wired into the daemon yet (SlamSystem takes no
-  // masks in this build): only plain stereo SLAM runs.
-  if (c.sitepose.dynamic.mode != config::MaskingMode::kNone) {
-    root.map("dynamic").report(
-        "mode", std::string("\"") + config::to_string(c.sitepose.dynamic.mode) +
-                    "\": siteposed runs only mode none in this build (the detect stage passes "
-                    "frames through)");
+  if (c.sitepose.dynamic.mode != config::MaskingMode::kNone && c.sitepose.detector.name == "labels" &&
+      c.source_type != "replay") {
+    root.map("detector").report("name", "\"labels\" reads a recorded sequence's labels: needs source.type replay");
   }
   SITEPOSE_TRY_STATUS(reader.finish());
   if (auto st = pipeline::check_pipeline_options(c.pipeline); !st) {

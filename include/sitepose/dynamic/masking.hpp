@@ -40,6 +40,17 @@ double box_union_ratio(const std::vector<ObjectBox>& boxes, cv::Size image_size)
 // is usually the nearer object drawn in front).
 cv::Mat box_instance_labels(const std::vector<ObjectBox>& boxes, cv::Size image_size);
 
+// The boxes of a-priori dynamic classes with an instance id, clipped to the
+// image; empty ones dropped.
+std::vector<ObjectBox> dynamic_boxes(const std::vector<ObjectBox>& boxes, cv::Size image_size,
+                                     const config::DynamicConfig& config);
+
+// Algorithm 1's switch: does `mode` segment pixels when the dynamic boxes
+// cover `mar` of the image? (pixel: always; hierarchical, full: mar >=
+// tau_mar; none, bbox: never.) The daemon's detect stage asks this to
+// segment before the track stage needs it.
+bool wants_pixel_mask(config::MaskingMode mode, double mar, const config::DynamicConfig& config);
+
 // Algorithm 1 for one frame. Modes: none -> empty labels (mar still
 // reported); bbox -> box mask; pixel -> segmentation always; hierarchical
 // and full -> segmentation only when mar >= tau_mar. Pixels of the

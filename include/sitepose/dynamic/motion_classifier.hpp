@@ -18,6 +18,12 @@
 //    oldest kept frame when the camera stands still); per-instance
 //    hysteresis: one moving verdict re-masks at once, unmasking needs
 //    hysteresis_frames consecutive static verdicts over >= 0.4 s each.
+//    The noise model is calibrated per frame: pixel noise and pose
+//    covariance are scaled by the pose solve's a-posteriori variance factor
+//    (a static object then scores ~chi2 3 dof, not far below it).
+//    A failed point-fraction test with a passed object-level test (a few
+//    mismatched points on an object with few points) is unknown, not moving,
+//    and masks the object at once (doubt masks; only proof unmasks).
 // Objects with too few matched points (or not associated) are unknown and
 // stay masked.
 //
@@ -49,6 +55,10 @@ struct ObjectFeatures {
   std::int64_t t_ns = 0;
   SE3 T_world_cam;
   std::optional<Matrix6d> covariance;      // of T_world_cam; nullopt = unknown (treated as 0)
+  // A-posteriori variance factor of the pose solve (tracking::PassResult):
+  // how much noisier (> 1) or cleaner (< 1) this frame's keypoints were than
+  // the unit pixel model. Scales the pixel noise and `covariance` (clamped).
+  double variance_factor = 1.0;
   std::vector<Eigen::Vector2d> uv_px;      // left keypoints on objects with a stereo match
   std::vector<double> u_right_px;
   std::vector<int> octave;
@@ -61,7 +71,8 @@ struct ObjectFeatures {
 // prepared frame, with the given pose.
 ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
                                     const std::vector<ObjectBox>& boxes, const SE3& T_world_cam,
-                                    const std::optional<Matrix6d>& covariance, double max_depth_m);
+                                    const std::optional<Matrix6d>& covariance, double variance_factor,
+                                    double max_depth_m);
 
 // The paper's decision rule on a list of per-point statistics: static when
 // more than `fraction` of them are below `threshold` (paper: errors in m
@@ -119,8 +130,9 @@ class MotionClassifier {
   };
 
   const ObjectFeatures* select_reference(const ObjectFeatures& current) const;
-  MotionState smooth(std::uint16_t instance, std::int64_t seq, MotionState raw, bool static_evidence_counts);
-  double pixel_sigma_px(int octave) const;
+  MotionState smooth(std::uint16_t instance, std::int64_t seq, MotionState raw, bool static_evidence_counts,
+                     bool conflicting_evidence);
+  double pixel_sigma_px(int octave, double variance_factor) const;
 
   StereoCamera camera_;
   config::DynamicConfig config_;

@@ -27,6 +27,7 @@ struct StereoFeatures {
   cv::Mat descriptors;                  // N x 32 CV_8UC1, row i = keypoints[i]
   std::vector<double> u_right;          // right column of the match, kNoMatch (< 0) if none
   std::vector<double> depth_m;          // bf / disparity, kNoMatch (< 0) if none
+  std::vector<std::uint8_t> stereo_ambiguous;  // 1 = repeated texture (StereoMatches::ambiguous)
   // Right-image features (unmasked), for matchers that need both images.
   std::vector<cv::KeyPoint> right_keypoints;
   cv::Mat right_descriptors;

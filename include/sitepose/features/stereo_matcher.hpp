@@ -17,6 +17,8 @@
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
+#include <cstdint>
+
 #include "sitepose/core/expected.hpp"
 #include "sitepose/features/orb_extractor.hpp"
 
@@ -28,6 +30,14 @@ inline constexpr int kSadSearchRadiusPx = 5;
 // Outlier rule: reject SAD > kSadOutlierFactor * median (1.4826 ~ 1.4 turns
 // a median into a sigma; 1.5 sigma as in ORB-SLAM2's stereo matcher).
 inline constexpr double kSadOutlierFactor = 1.5 * 1.4;
+// A match is ambiguous when another right keypoint at least
+// kAmbiguityMinSeparationPx away along the row matched almost as well
+// (best >= kAmbiguityRatio * second best Hamming distance): repeated texture
+// such as a facade of equal windows. Ambiguous matches are kept (motion-only
+// BA rejects wrong ones by their residual) and flagged for callers that
+// cannot, e.g. the motion-state test of one object's few points.
+inline constexpr double kAmbiguityRatio = 0.8;
+inline constexpr double kAmbiguityMinSeparationPx = 3.0;
 // Value of u_right / depth_m for left keypoints without a stereo match.
 inline constexpr double kNoMatch = -1.0;
 
@@ -46,6 +56,7 @@ struct StereoMatchStats {
 struct StereoMatches {
   std::vector<double> u_right;  // per left keypoint; kNoMatch (< 0) if none
   std::vector<double> depth_m;  // per left keypoint; kNoMatch (< 0) if none
+  std::vector<std::uint8_t> ambiguous;  // per left keypoint; 1 = see kAmbiguityRatio
   StereoMatchStats stats;
 };
 

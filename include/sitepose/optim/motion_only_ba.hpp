@@ -58,6 +58,11 @@ struct MotionBaResult {
   int num_inliers_mono = 0;
   double chi2_inlier_sum = 0.0;    // sum of chi2 over the final inliers
   double chi2_inlier_max = 0.0;
+  // A-posteriori variance factor: chi2_inlier_sum / (inlier residuals - 6).
+  // ~1 when the observations are as noisy as sigma2_px2 says; the Hessian
+  // covariance below is NOT scaled by it (callers decide). 1 when there are
+  // too few residuals to tell.
+  double variance_factor = 1.0;
   int rounds_run = 0;              // rounds actually optimised (fewer when inliers ran short)
   int iterations = 0;              // LM iterations over all rounds
   // Left perturbation [translation; rotation] of T_world_cam (m^2, rad^2);

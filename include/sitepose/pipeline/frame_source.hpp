@@ -41,6 +41,9 @@ class FrameSource {
   // ring drops its oldest frame. A source that can wait (a replay as fast as
   // possible) is instead held back by the pipeline (lossless).
   virtual bool live() const = 0;
+  // Nominal frame rate (Hz) when known, else 0. The motion-state classifier
+  // sizes its look-back by it.
+  virtual double frame_rate_hz() const { return 0.0; }
 
   // Blocks until the next frame, the deadline (kTimeout), the end of the
   // stream (kEnd) or a stop request on `stop` (kEnd, promptly: no frame

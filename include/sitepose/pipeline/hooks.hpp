@@ -1,9 +1,9 @@
 #pragma once
 // The three points where the daemon plugs algorithms and I/O into the
 // pipeline (pipeline.hpp), each called on one stage thread only:
-//   DetectHook  - detect stage: annotates a frame (detector, instance
-//                 masks). Built in: PassThroughDetect, which does nothing;
-//                 the dynamic layer fills this hook (not in this build).
+//   DetectHook  - detect stage: annotates a frame (detector boxes, instance
+//                 masks). PassThroughDetect does nothing (dynamic.mode none);
+//                 DetectorStage (detect_stage.hpp) runs a detector plugin.
 //   PoseTracker - track stage: the positioning core (SlamPoseTracker in
 //                 slam_tracker.hpp).
 //   PoseOutput  - publish stage: LCM, CAN, trajectory file... (the daemon's
@@ -25,13 +25,13 @@ class DetectHook {
  public:
   virtual ~DetectHook() = default;
   virtual std::string name() const = 0;
-  // Every kFrame packet, in order. May fill packet.instance_mask; must not
-  // write into the frame's pixels. An error is counted and logged, and the
+  // Every kFrame packet, in order. May fill packet.detected, objects and
+  // instance_mask; must not write into the frame's pixels. An error is counted and logged, and the
   // frame goes on unannotated.
   virtual Status annotate(FramePacket& packet) = 0;
 };
 
-// The detect stage of this build: frames pass through unannotated.
+// Frames pass through unannotated (dynamic.mode none).
 class PassThroughDetect final : public DetectHook {
  public:
   std::string name() const override { return "pass-through"; }

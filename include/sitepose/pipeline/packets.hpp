@@ -12,6 +12,7 @@
 
 #include "sitepose/core/pose_estimate.hpp"
 #include "sitepose/core/stereo_frame.hpp"
+#include "sitepose/dynamic/object_types.hpp"
 
 namespace sitepose::pipeline {
 
@@ -30,9 +31,14 @@ struct FramePacket {
   // When the capture stage got the frame (kStall: when it gave up waiting);
   // frame-to-publish latency is measured from here.
   SteadyTime captured{};
-  // Filled by the detect hook (hooks.hpp): instance id per left-image pixel,
-  // CV_16UC1, 0 = background (FORMATS.md labels/masks); empty when the hook
-  // produced none (the pass-through hook never does).
+  // Filled by the detect hook (hooks.hpp). `detected`: the detector ran on
+  // this frame and `objects` are its boxes (possibly none); false after a
+  // detector error and with the pass-through hook.
+  bool detected = false;
+  std::vector<dynamic::ObjectBox> objects;
+  // Pixel instance masks of the dynamic objects (CV_16UC1, 0 = background,
+  // FORMATS.md labels/masks) when Algorithm 1 asked for them this frame
+  // (dynamic::wants_pixel_mask); empty otherwise.
   cv::Mat instance_mask;
 };
 

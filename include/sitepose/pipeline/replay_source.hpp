@@ -44,6 +44,8 @@ class ReplaySource final : public FrameSource {
   const StereoCamera& camera() const override { return sequence_->camera(); }
   std::string describe() const override;
   bool live() const override { return options_.rate == ReplayRate::kRecorded; }
+  // From the recorded time stamps (mean interval), whatever the replay rate.
+  double frame_rate_hz() const override { return frame_rate_hz_; }
   Expected<SourceEvent> next(std::stop_token stop, SteadyTime deadline) override;
 
   std::size_t frames_per_pass() const { return frames_per_pass_; }
@@ -55,6 +57,7 @@ class ReplaySource final : public FrameSource {
   std::unique_ptr<io::Sequence> sequence_;
   std::size_t frames_per_pass_ = 0;
   std::int64_t pass_period_ns_ = 0;  // t shift between passes
+  double frame_rate_hz_ = 0.0;
   std::size_t next_index_ = 0;       // over all passes
   bool started_ = false;
   SteadyTime start_{};

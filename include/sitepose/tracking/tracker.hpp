@@ -51,7 +51,8 @@ struct PassResult {
   bool valid = false;        // a pose was estimated
   bool needs_initialisation = false;  // the map is empty
   SE3 T_cam_world;
-  std::optional<Matrix6d> covariance_world_cam;
+  std::optional<Matrix6d> covariance_world_cam;  // Hessian covariance (unit pixel noise model)
+  double variance_factor = 1.0;  // a-posteriori, see optim::MotionBaResult
   std::vector<map::PointId> point_of_keypoint;  // inlier matches, kNoPoint otherwise
   std::vector<map::PointId> visible_points;     // in the frustum of the local map
   int n_inliers = 0;

@@ -160,6 +160,42 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
   EXPECT_FALSE(notify.with("STOPPING=1").empty());
 }
 
+// The dynamic layer in the daemon: on `parallel` machines drive beside the
+// roller and pull plain stereo SLAM along; siteposed in mode full (labels
+// detector in the detect stage, two-pass tracking in the track stage)
+// keeps the SLAM accuracy. Mode none on the same frames is the contrast.
+TEST(DaemonEndToEnd, FullModeKeepsThePoseWhereMachinesPullPlainSlamAlong) {
+  constexpr int kFrames = 90;
+  const std::string seq = simulated_sequence("parallel", kFrames);
+  ASSERT_FALSE(seq.empty()) << "could not simulate the test sequence";
+  TempDir dir("dynamic");
+  auto run_mode = [&](const std::string& mode) {
+    const std::string tum = dir / ("traj_" + mode + ".tum");
+    write_file(dir / (mode + ".yaml"),
+               "source:\n  replay: {sequence: \"" + seq + "\", rate: max}\n"
+               "outputs:\n  trajectory: {path: \"" + tum + "\", append: false}\n"
+               "  can: {enabled: false}\n  lcm: {enabled: false}\n"
+               "dynamic: {mode: " + mode + "}\ndetector: {name: labels}\n");
+    Child daemon({SITEPOSED_EXE, "--config", dir / (mode + ".yaml")}, {}, dir / (mode + ".txt"));
+    const int status = daemon.wait(120s);
+    std::string log;
+    for (auto& l : read_lines(dir / (mode + ".txt"))) log += l + "\n";
+    EXPECT_EQ(status, 0) << log;
+    const auto lines = read_lines(tum);
+    expect_complete_tum_lines(lines);
+    EXPECT_EQ(static_cast<int>(lines.size()), kFrames) << log;
+    return std::pair{ate_rmse_m(seq, tum), log};
+  };
+  const auto [full_ate_m, full_log] = run_mode("full");
+  const auto [none_ate_m, none_log] = run_mode("none");
+  std::printf("[figures] siteposed on parallel (%d frames): ATE full %.4f m, none %.4f m\n", kFrames, full_ate_m,
+              none_ate_m);
+  EXPECT_NE(full_log.find("detect stage: detector labels, dynamic.mode full"), std::string::npos) << full_log;
+  EXPECT_NE(full_log.find("dynamic[detect_errors=0 reused_boxes=0 unmasked=0"), std::string::npos) << full_log;
+  EXPECT_LE(full_ate_m, 0.02);
+  EXPECT_LE(full_ate_m, 0.5 * none_ate_m);
+}
+
 // Counts the pose/quality frames (PGN 65296 = 0xFF10) of a candump log and
 // those whose TrackingState (data byte 1, high nibble) is not LOST.
 std::pair<int, int> count_quality_frames(const std::string& path) {
@@ -220,7 +256,7 @@ TEST(DaemonConfig, BadConfigExitsTwoNamingEveryKey) {
              "source:\n  replay: {sequence: /nonexistent, rate: fastest}\n"
              "pipeline: {capture_ring_capacity: 6}\n"
              "outputs:\n  lcm: {urll: x}\n  can: {enabled: true, path: can.log}\n"
-             "dynamic: {mode: full}\n");
+             "dynamic: {mode: fullest}\n");
   auto [status, out] = run_siteposed({"--config", dir / "bad.yaml"}, dir);
   EXPECT_EQ(status, 2) << out;
   for (const char* key : {"source.replay.rate", "pipeline.capture_ring_capacity", "outputs.lcm.urll",

@@ -33,21 +33,26 @@ using Clock = std::chrono::steady_clock;
 
 inline constexpr int kSequenceFrames = 30;
 
-// static scenario, 30 frames at 6 fps, 960x540: generated once per build
-// tree (about 10 s), then reused; an atomic rename keeps parallel tests safe.
-inline std::string shared_sequence() {
-  const fs::path dir = fs::path(SITEPOSE_TEST_DATA_DIR) / "static30";
+// A simulated scenario (960x540) generated once per build tree under
+// SITEPOSE_TEST_DATA_DIR/<scenario><frames>, then reused; an atomic rename
+// keeps parallel tests safe. Empty when the simulator failed.
+inline std::string simulated_sequence(const std::string& scenario, int frames) {
+  const std::string name = scenario + std::to_string(frames);
+  const fs::path dir = fs::path(SITEPOSE_TEST_DATA_DIR) / name;
   if (fs::exists(dir / "times.txt")) return dir.string();
   fs::create_directories(dir.parent_path());
-  const fs::path tmp = dir.parent_path() / ("static30.tmp." + std::to_string(getpid()));
-  const std::string cmd = std::string(SITEPOSE_SITEPOSE_EXE) + " sim --scenario static --frames " +
-                          std::to_string(kSequenceFrames) + " --out " + tmp.string() + " > /dev/null 2>&1";
+  const fs::path tmp = dir.parent_path() / (name + ".tmp." + std::to_string(getpid()));
+  const std::string cmd = std::string(SITEPOSE_SITEPOSE_EXE) + " sim --scenario " + scenario + " --frames " +
+                          std::to_string(frames) + " --out " + tmp.string() + " > /dev/null 2>&1";
   if (std::system(cmd.c_str()) != 0) return "";
   std::error_code ec;
   fs::rename(tmp, dir, ec);
   if (ec) fs::remove_all(tmp);  // another test won the race
   return fs::exists(dir / "times.txt") ? dir.string() : "";
 }
+
+// static scenario, 30 frames at 6 fps (about 10 s to generate).
+inline std::string shared_sequence() { return simulated_sequence("static", kSequenceFrames); }
 
 class TempDir {
  public:
