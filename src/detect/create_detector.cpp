@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <string_view>
@@ -132,6 +133,19 @@ Expected<std::unique_ptr<Detector>> create_detector(const config::DetectorConfig
   options.min_score = config.score_threshold;
   options.name = config.name;
   return load_detector_plugin(path, yaml, options);
+}
+
+std::vector<std::string> add_inherent_dynamic_classes(const config::DetectorConfig& detector,
+                                                      config::DynamicConfig& dynamic) {
+  std::vector<std::string> added;
+  if (detector.name == "stereo-geometric") {
+    const auto& classes = dynamic.dynamic_classes;
+    if (std::find(classes.begin(), classes.end(), "object") == classes.end()) {
+      dynamic.dynamic_classes.push_back("object");
+      added.push_back("object");
+    }
+  }
+  return added;
 }
 
 }  // namespace sitepose::detect

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include "sitepose/features/hamming.hpp"
 #include "sitepose/optim/triangulation.hpp"
@@ -324,7 +322,6 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
         const optim::PointWithCovariance w_cf = optim::point_to_world(*p_cf, current.T_world_cam, cov_cf);
         const optim::PointWithCovariance w_rf = optim::point_to_world(*p_rf, ref->T_world_cam, cov_rf);
         const Eigen::Vector3d d = w_cf.p - w_rf.p;
-        if (std::getenv("SP_DBG")) std::fprintf(stderr, "DBG seq %lld cf(%.1f,%.1f,ur %.1f o%d) rf(%.1f,%.1f,ur %.1f o%d) zc %.2f zr %.2f d %.3f %.3f %.3f f %.2f\n", (long long)current.seq, current.uv_px[c].x(), current.uv_px[c].y(), current.u_right_px[c], current.octave[c], ref->uv_px[r].x(), ref->uv_px[r].y(), ref->u_right_px[r], ref->octave[r], p_cf->p.z(), p_rf->p.z(), d.x(), d.y(), d.z(), current.variance_factor);
         if (d.norm() > kMaxPointErrorM) continue;
         if (paper) {
           stats.push_back(d.norm());

@@ -5,6 +5,7 @@
 #include <limits>
 #include <map>
 
+#include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/slam_system.hpp"
 
 namespace sitepose::slam {
@@ -30,6 +31,10 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
   for (int i = 0; i < result.frames; ++i) {
     SITEPOSE_TRY(LabelledFrame frame, source.read(i));
     if (options.alter) options.alter(frame);
+    if (options.detector != nullptr) {
+      SITEPOSE_TRY(frame.objects, detect_objects(*options.detector, frame.frame));
+      frame.moving.clear();
+    }
     SITEPOSE_TRY(FrameReport report, system->process(frame.frame, frame.objects));
     result.recorder.add(report);
     result.max_masked_ratio = std::max(result.max_masked_ratio, report.masked_ratio);

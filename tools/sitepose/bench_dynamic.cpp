@@ -53,7 +53,7 @@ int run(Args args) {
   context.camera = (*sequence)->camera();
   auto detector = detect::create_detector(config.detector, context);
   if (!detector) return fail(kCommand, "--detector " + args.detector + ": " + detector.error().message, 2);
-  if (args.detector == "stereo-geometric") config.dynamic.dynamic_classes.push_back("object");
+  detect::add_inherent_dynamic_classes(config.detector, config.dynamic);
   slam::SlamOptions options;
   const std::size_t n = (*sequence)->size();
   if (n >= 2) options.fps = (n - 1) / (((*sequence)->time_ns(n - 1) - (*sequence)->time_ns(0)) * 1e-9);

@@ -89,11 +89,9 @@ int run(const RunArgs& args) {
                                 " cannot segment (for labels: the sequence has no labels/masks/); use --mode bbox",
                   2);
     }
-    if (config.detector.name == "stereo-geometric" &&
-        !dynamic::is_dynamic_class("object", config.dynamic.dynamic_classes)) {
-      // Its only class is "object": without it nothing would be masked.
-      config.dynamic.dynamic_classes.push_back("object");
-      std::fprintf(stderr, "sitepose run: detector stereo-geometric: class 'object' added to dynamic.dynamic_classes\n");
+    for (const std::string& added : detect::add_inherent_dynamic_classes(config.detector, config.dynamic)) {
+      std::fprintf(stderr, "sitepose run: detector %s: class '%s' added to dynamic.dynamic_classes\n",
+                   config.detector.name.c_str(), added.c_str());
     }
   }
   double fps = 6.0;

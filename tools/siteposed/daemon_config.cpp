@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "sitepose/config/config.hpp"
+#include "sitepose/detect/create_detector.hpp"
 #include "sitepose/config/yaml_reader.hpp"
 
 namespace sitepose::daemon {
@@ -199,6 +200,7 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text,
     root.map("detector").report("name", "\"labels\" reads a recorded sequence's labels: needs source.type replay");
   }
   SITEPOSE_TRY_STATUS(reader.finish());
+  detect::add_inherent_dynamic_classes(c.sitepose.detector, c.sitepose.dynamic);
   if (auto st = pipeline::check_pipeline_options(c.pipeline); !st) {
     return make_error(ErrorCode::kInvalidArgument, source_name + ": " + st.error().message);
   }

@@ -28,6 +28,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
@@ -51,5 +52,12 @@ Expected<std::string> plugin_config_yaml(const config::DetectorConfig& config,
 
 Expected<std::unique_ptr<Detector>> create_detector(const config::DetectorConfig& config,
                                                     const DetectorContext& context);
+
+// Adds to dynamic.dynamic_classes the classes the configured detector
+// reports that are dynamic by construction: stereo-geometric's only class,
+// "object" (anything standing above the ground); without it nothing would
+// be masked. Returns the classes added (empty when none were missing).
+std::vector<std::string> add_inherent_dynamic_classes(const config::DetectorConfig& detector,
+                                                      config::DynamicConfig& dynamic);
 
 }  // namespace sitepose::detect

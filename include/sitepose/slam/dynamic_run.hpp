@@ -12,6 +12,7 @@
 
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
+#include "sitepose/detect/detector.hpp"
 #include "sitepose/eval/evaluate.hpp"
 #include "sitepose/io/trajectory.hpp"
 #include "sitepose/slam/labelled_source.hpp"
@@ -28,6 +29,10 @@ struct DynamicRunOptions {
   // fake occluder and its box into it).
   std::function<void(LabelledFrame&)> alter;
   std::function<void(int, int, const FrameReport&)> on_frame;
+  // When set, its detections replace the source's labels (e.g. the
+  // weight-free stereo-geometric detector); motion-state samples then carry
+  // no ground truth (its instance ids are not the labels').
+  detect::Detector* detector = nullptr;
 };
 
 // A classified object with its ground truth, for ROC and latency figures.

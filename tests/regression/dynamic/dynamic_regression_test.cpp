@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 
+#include "sitepose/detect/create_detector.hpp"
 #include "sitepose/slam/dynamic_run.hpp"
 
 namespace sitepose::slam {
@@ -41,12 +42,24 @@ class Scenario {
   }
   const std::string& error() const { return error_; }
 
+  // detector: empty = the scenario's labels, else a detector by name.
   ModeFigures run(config::MaskingMode mode,
-                  config::ClassifierMode classifier = config::ClassifierMode::kSitepose) {
+                  config::ClassifierMode classifier = config::ClassifierMode::kSitepose,
+                  const std::string& detector = "") {
     config::SiteposeConfig config;
     config.dynamic.mode = mode;
     config.dynamic.classifier = classifier;
     DynamicRunOptions options;
+    std::unique_ptr<detect::Detector> made;
+    if (!detector.empty()) {
+      config.detector.name = detector;
+      detect::add_inherent_dynamic_classes(config.detector, config.dynamic);
+      auto created = detect::create_detector(config.detector, {"", source_->camera()});
+      EXPECT_TRUE(created.has_value()) << (created ? "" : created.error().message);
+      if (!created) return {};
+      made = std::move(*created);
+      options.detector = made.get();
+    }
     if (std::getenv("SITEPOSE_DYN_DUMP") != nullptr) {
       // Diagnostics on demand: one line per frame and per classified object.
       options.on_frame = [](int i, int, const FrameReport& r) {
@@ -69,9 +82,10 @@ class Scenario {
     f.ate_m = result->ate_m();
     f.coverage = result->coverage_ok();
     f.max_masked = result->max_masked_ratio;
-    std::printf("[figures] %-9s %-12s %-8s ATE %.4f m  max %.4f m  coverage %.1f %%  max masked %.2f  "
+    std::printf("[figures] %-9s %-12s %-8s %s ATE %.4f m  max %.4f m  coverage %.1f %%  max masked %.2f  "
                 "pixel-mask calls %d\n",
-                source_->name().c_str(), config::to_string(mode), config::to_string(classifier), f.ate_m,
+                source_->name().c_str(), config::to_string(mode), config::to_string(classifier),
+                detector.empty() ? "labels" : detector.c_str(), f.ate_m,
                 result->evaluation ? result->evaluation->ate_m.max : NAN, 100.0 * f.coverage, f.max_masked,
                 result->recorder.pixel_mask_calls());
     f.run = std::move(*result);
@@ -131,6 +145,21 @@ TEST(DynamicRegression, ParallelFullBeatsNone) { expect_full_beats_none("paralle
 // disabled, so it is run by hand with --gtest_also_run_disabled_tests.
 TEST(DynamicRegression, DISABLED_ParallelHierarchicalNotWorseThanBbox) {
   expect_full_beats_none("parallel", 150, true);
+}
+
+// The weight-free stereo-geometric detector (objects standing above the
+// fitted ground, from dense disparity) instead of the labels, where plain
+// SLAM is pulled along: the same requirement as with labels.
+TEST(DynamicRegression, ParallelFullWithStereoGeometricDetectorBeatsNone) {
+  Scenario s("parallel", frames_from_env(90));
+  ASSERT_TRUE(s.error().empty()) << s.error();
+  const ModeFigures none = s.run(config::MaskingMode::kNone);
+  const ModeFigures full =
+      s.run(config::MaskingMode::kFull, config::ClassifierMode::kSitepose, "stereo-geometric");
+  EXPECT_DOUBLE_EQ(full.coverage, 1.0);
+  EXPECT_LE(full.ate_m, 0.02);
+  EXPECT_TRUE(none.coverage < 1.0 || full.ate_m <= 0.5 * none.ate_m)
+      << "none: coverage " << none.coverage << ", ATE " << none.ate_m;
 }
 
 // Where plain SLAM copes, masking must not cost accuracy (issue 6: full
