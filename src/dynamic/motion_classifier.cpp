@@ -26,9 +26,7 @@ constexpr double kMaxPointErrorM = 10.0;
 // Level-0 keypoint noise (px) of u_l, v_l and of the refined u_r; grows with
 // the pyramid scale like ORB-SLAM2's information matrix.
 constexpr double kPixelSigmaPx = 1.0;
-// Bounds on the a-posteriori variance factor used to calibrate the noise
-// model: never more than ~4.5x more confident than the unit pixel model
-// (a lucky frame), never more than 2x less.
+// Bounds on the a-posteriori variance factor (clamped_variance_factor).
 constexpr double kMinVarianceFactor = 0.05;
 constexpr double kMaxVarianceFactor = 4.0;
 // Sitepose mode: a static verdict needs this much time between RF and CF;
@@ -114,6 +112,10 @@ ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
   return out;
 }
 
+double clamped_variance_factor(double variance_factor) {
+  return std::clamp(variance_factor, kMinVarianceFactor, kMaxVarianceFactor);
+}
+
 bool is_static_at(const std::vector<double>& statistics, double threshold, double fraction) {
   if (statistics.empty()) return false;
   const auto below = std::count_if(statistics.begin(), statistics.end(),
@@ -134,6 +136,15 @@ MotionClassifier::MotionClassifier(const StereoCamera& camera, const config::Dyn
   for (int l = 0; l < std::max(1, n_levels); ++l) {
     level_scale_.push_back(s);
     s *= scale_factor;
+  }
+}
+
+void MotionClassifier::doubt(const std::vector<std::uint16_t>& instances) {
+  for (std::uint16_t instance : instances) {
+    Track& t = tracks_[instance];
+    t.static_streak = 0;
+    t.unknown_streak = 0;
+    t.state = MotionState::kUnknown;
   }
 }
 
@@ -158,7 +169,7 @@ void MotionClassifier::remember(ObjectFeatures frame) {
 double MotionClassifier::pixel_sigma_px(int octave, double variance_factor) const {
   const int level = std::clamp(octave, 0, static_cast<int>(level_scale_.size()) - 1);
   return kPixelSigmaPx * level_scale_[level] *
-         std::sqrt(std::clamp(variance_factor, kMinVarianceFactor, kMaxVarianceFactor));
+         std::sqrt(clamped_variance_factor(variance_factor));
 }
 
 const ObjectFeatures* MotionClassifier::select_reference(const ObjectFeatures& current) const {
@@ -290,8 +301,7 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
   const bool paper = config_.classifier == config::ClassifierMode::kPaper;
   std::optional<Matrix6d> scaled_cov_cf;
   if (current.covariance) {
-    scaled_cov_cf = *current.covariance *
-                    std::clamp(current.variance_factor, kMinVarianceFactor, kMaxVarianceFactor);
+    scaled_cov_cf = *current.covariance * clamped_variance_factor(current.variance_factor);
   }
   const Matrix6d* cov_cf = scaled_cov_cf ? &*scaled_cov_cf : nullptr;
   // RF's pose error is left out: RF and CF are tracked against the same map

@@ -110,6 +110,27 @@ Expected<FrameReport> SlamSystem::process(const StereoFrame& frame, const dynami
   return process_masked(frame, objects);
 }
 
+namespace {
+
+// Pass 2 may refine pass 1 but not contradict it: the unmasked objects add
+// information, they must not move the pose beyond pass 1's own
+// uncertainty. (A machine that has only just started moving can pass as
+// static over a short time span; with more points than the background it
+// would pull the pose along.) Squared Mahalanobis distance of the pose
+// difference under pass 1's calibrated covariance, chi2 6 dof 99 %.
+bool pass2_agrees_with_pass1(const tracking::PassResult& pass1, const tracking::PassResult& pass2) {
+  constexpr double kPass2ConsistencyGate = 16.81;
+  if (!pass1.covariance_world_cam) return true;  // no covariance to test against
+  const SE3 T_world_cam1 = pass1.T_cam_world.inverse();
+  const SE3 T_world_cam2 = pass2.T_cam_world.inverse();
+  const Vector6d difference = (T_world_cam2 * T_world_cam1.inverse()).log();
+  const Matrix6d covariance =
+      *pass1.covariance_world_cam * dynamic::clamped_variance_factor(pass1.variance_factor);
+  return difference.dot(covariance.ldlt().solve(difference)) <= kPass2ConsistencyGate;
+}
+
+}  // namespace
+
 Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
                                                  const dynamic::FrameObjects& objects) {
   const auto start = Clock::now();
@@ -179,7 +200,22 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
         for (int k = 0; k < prepared.size(); ++k) usable2[k] |= is_static[prepared.instance[k]];
         pass2 = tracker_->estimate(prepared, usable2, pass1.T_cam_world);
         report.timings.pass2_ms = ms_since(t_pass2);
-        if (pass2.valid) final_result = &pass2;
+        if (pass2.valid) {
+          if (pass2_agrees_with_pass1(pass1, pass2)) {
+            final_result = &pass2;
+          } else {
+            // At least one unmasked object disagrees with the background:
+            // mask them all again (doubt masks, only proof unmasks).
+            report.pass2_rejected = true;
+            std::vector<std::uint16_t> doubted;
+            for (auto& o : report.objects) {
+              if (o.verdict.state != dynamic::MotionState::kStatic) continue;
+              o.verdict.state = dynamic::MotionState::kUnknown;
+              doubted.push_back(o.verdict.instance);
+            }
+            classifier_->doubt(doubted);
+          }
+        }
       }
     } else {
       for (const auto& b : mask.dynamic_boxes) {

@@ -55,7 +55,7 @@ bool wants_pixel_mask(config::MaskingMode mode, double mar, const config::Dynami
 // reported); bbox -> box mask; pixel -> segmentation always; hierarchical
 // and full -> segmentation only when mar >= tau_mar. Pixels of the
 // segmentation whose id is not one of the dynamic boxes are ignored; the
-// pixel mask is dilated by 8 px (silhouette corners move with the object).
+// pixel mask is dilated by 4 px (silhouette corners move with the object).
 // Errors: kUnsupported when a pixel mask is needed and `objects.segment` is
 // empty; the segmenter's own error; kInvalidArgument when it returns an
 // image of the wrong type or size.

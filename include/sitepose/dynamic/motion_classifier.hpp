@@ -74,6 +74,11 @@ ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
                                     const std::optional<Matrix6d>& covariance, double variance_factor,
                                     double max_depth_m);
 
+// The a-posteriori variance factor as the noise model uses it: clamped to
+// [0.05, 4] (never ~4.5x more confident than the unit pixel model, never
+// more than 2x less).
+double clamped_variance_factor(double variance_factor);
+
 // The paper's decision rule on a list of per-point statistics: static when
 // more than `fraction` of them are below `threshold` (paper: errors in m
 // and 3 sigma_bkg; sitepose: squared Mahalanobis distances and the chi2 gate).
@@ -106,6 +111,11 @@ class MotionClassifier {
   // Adds a frame with its final pose to the ring (call after commit; frames
   // without a pose are not added).
   void remember(ObjectFeatures frame);
+
+  // Evidence against "static" from outside the classifier (pass 2 with
+  // these objects unmasked contradicted pass 1): they are masked again at
+  // once and must prove themselves static anew (sitepose mode).
+  void doubt(const std::vector<std::uint16_t>& instances);
 
   // Clears the ring and the hysteresis.
   void reset();

@@ -64,6 +64,8 @@ class RunRecorder {
   const std::vector<StateRow>& state_rows() const { return state_rows_; }
   const std::vector<double>& masked_area_ratios() const { return masked_area_ratio_; }
   int pixel_mask_calls() const { return pixel_mask_calls_; }
+  // Frames whose pass 2 disagreed with pass 1 and was not used.
+  int pass2_rejections() const { return pass2_rejections_; }
   // Sum over frames of each stage (ms), for time shares.
   double stage_total_ms(const std::string& stage) const;
 
@@ -72,6 +74,7 @@ class RunRecorder {
   std::map<std::string, std::vector<double>> stage_ms_;
   std::vector<double> masked_area_ratio_;
   int pixel_mask_calls_ = 0;
+  int pass2_rejections_ = 0;
   std::vector<StateRow> state_rows_;
 };
 

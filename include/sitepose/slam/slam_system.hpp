@@ -10,7 +10,9 @@
 //                 Algorithm 1 mask; one pass on the unmasked keypoints.
 //   full          hierarchical mask; pass 1 on the background, motion states
 //                 of the objects (Algorithm 2, with pass 1's pose), pass 2
-//                 from pass 1's pose with static objects' keypoints added;
+//                 from pass 1's pose with static objects' keypoints added
+//                 (used only if it agrees with pass 1 within pass 1's
+//                 uncertainty);
 //                 new map points from the background and static objects.
 //                 When the background alone gives no pose, pass 1 is rerun
 //                 with the objects static up to the last frame (fallback).
@@ -75,6 +77,10 @@ struct FrameReport {
   // objects still static from earlier frames (a parked machine filling the
   // view); classification then uses that pose.
   bool pass1_with_known_static = false;
+  // Mode full: pass 2 (static objects unmasked) moved the pose beyond pass
+  // 1's uncertainty and was not used (the pose is pass 1's); those objects
+  // are masked again (their state in `objects` is unknown).
+  bool pass2_rejected = false;
   // Mode full: one entry per dynamic-class box of the frame, in box order
   // (states unknown when pass 1 found no pose). Empty in other modes.
   std::vector<dynamic::ClassifiedObject> objects;

@@ -174,6 +174,38 @@ TEST(MotionClassifier, SiteposeHysteresisUnmasksAfterTwoVerdictsAndRemasksAtOnce
   EXPECT_EQ(v.state, MotionState::kMoving);
 }
 
+// Outside evidence (pass 2 contradicting pass 1) masks a static object at
+// once; it must then collect its static verdicts anew.
+TEST(MotionClassifier, DoubtMasksAStaticObjectUntilItProvesItselfAgain) {
+  std::mt19937 rng(9);
+  const std::vector<Object> objects{make_object(4, 80, 0.0, rng)};
+  MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+  int seq = 0;
+  auto step = [&](double camera_x) {
+    const ObjectFeatures f = observe(objects, {Eigen::Vector3d::Zero()}, at_x(camera_x), seq++, 0.2, rng);
+    auto out = classifier.classify(f);
+    classifier.remember(f);
+    return out[0].verdict;
+  };
+  ObjectVerdict v;
+  for (int k = 0; k < 6; ++k) v = step(0.2 * k);
+  ASSERT_EQ(v.state, MotionState::kStatic);
+  ASSERT_EQ(classifier.static_instances(), std::vector<std::uint16_t>{4});
+  classifier.doubt({4});
+  EXPECT_TRUE(classifier.static_instances().empty());
+  v = step(1.2);
+  EXPECT_EQ(v.raw, MotionState::kStatic);
+  EXPECT_EQ(v.state, MotionState::kUnknown);  // one static verdict is not enough again
+  v = step(1.4);
+  EXPECT_EQ(v.state, MotionState::kStatic);
+}
+
+TEST(MotionClassifier, ClampedVarianceFactorBoundsTheNoiseModel) {
+  EXPECT_DOUBLE_EQ(clamped_variance_factor(1e-6), 0.05);
+  EXPECT_DOUBLE_EQ(clamped_variance_factor(0.7), 0.7);
+  EXPECT_DOUBLE_EQ(clamped_variance_factor(100.0), 4.0);
+}
+
 TEST(MotionClassifier, IsStaticAtNeedsMoreThanTheFraction) {
   EXPECT_TRUE(is_static_at({0.1, 0.1, 0.1, 0.1, 5.0}, 1.0, 0.7));   // 80 %
   EXPECT_FALSE(is_static_at({0.1, 0.1, 0.1, 5.0, 5.0}, 1.0, 0.7));  // 60 %
