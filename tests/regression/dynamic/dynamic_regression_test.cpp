@@ -168,7 +168,11 @@ TEST(DynamicRegression, StaticFullNotWorseThanNone) { expect_full_not_worse("sta
 // The truck arrives at about frame 140.
 TEST(DynamicRegression, PassingFullNotWorseThanNone) { expect_full_not_worse("passing", 180); }
 TEST(DynamicRegression, StopgoFullNotWorseThanNone) { expect_full_not_worse("stopgo", 120); }
-// Known unmet requirement (issue 6): full was 18 % worse than none on fast.
+// Known unmet requirement (issue 6): on fast (seed 7) full is 35 % worse
+// than none (0.0077 vs 0.0057 m). Over seeds 7, 1, 2, 3, 4 the ratio
+// full/none was 1.35, 0.88, 0.81, 0.83, 1.25 (means 0.0081 vs 0.0082 m): a
+// single run's ATE varies by about +-30 % with any change in the frames
+// used, so this 10 % bound on one seed is not met reliably.
 TEST(DynamicRegression, DISABLED_FastFullNotWorseThanNone) { expect_full_not_worse("fast", 120); }
 
 // parked: every machine is static; full unmasks them (pass 2) and beats
