@@ -27,6 +27,23 @@ void copy_stage_timings(const tracking::PreparedFrame& prepared, const tracking:
   timings.local_map_ms = pass.timings.local_map_ms;
   timings.motion_ba_ms = pass.timings.motion_ba_ms;
 }
+
+// Pass 2 may refine pass 1 but not contradict it: the unmasked objects add
+// information, they must not move the pose beyond pass 1's own
+// uncertainty. (A machine that has only just started moving can pass as
+// static over a short time span; with more points than the background it
+// would pull the pose along.) Squared Mahalanobis distance of the pose
+// difference under pass 1's calibrated covariance, chi2 6 dof 99 %.
+bool pass2_agrees_with_pass1(const tracking::PassResult& pass1, const tracking::PassResult& pass2) {
+  constexpr double kPass2ConsistencyGate = 16.81;
+  if (!pass1.covariance_world_cam) return true;  // no covariance to test against
+  const SE3 T_world_cam1 = pass1.T_cam_world.inverse();
+  const SE3 T_world_cam2 = pass2.T_cam_world.inverse();
+  const Vector6d difference = (T_world_cam2 * T_world_cam1.inverse()).log();
+  const Matrix6d covariance =
+      *pass1.covariance_world_cam * dynamic::clamped_variance_factor(pass1.variance_factor);
+  return difference.dot(covariance.ldlt().solve(difference)) <= kPass2ConsistencyGate;
+}
 }  // namespace
 
 Expected<std::unique_ptr<SlamSystem>> SlamSystem::create(const StereoCamera& camera,
@@ -109,27 +126,6 @@ Expected<FrameReport> SlamSystem::process(const StereoFrame& frame, const dynami
   }
   return process_masked(frame, objects);
 }
-
-namespace {
-
-// Pass 2 may refine pass 1 but not contradict it: the unmasked objects add
-// information, they must not move the pose beyond pass 1's own
-// uncertainty. (A machine that has only just started moving can pass as
-// static over a short time span; with more points than the background it
-// would pull the pose along.) Squared Mahalanobis distance of the pose
-// difference under pass 1's calibrated covariance, chi2 6 dof 99 %.
-bool pass2_agrees_with_pass1(const tracking::PassResult& pass1, const tracking::PassResult& pass2) {
-  constexpr double kPass2ConsistencyGate = 16.81;
-  if (!pass1.covariance_world_cam) return true;  // no covariance to test against
-  const SE3 T_world_cam1 = pass1.T_cam_world.inverse();
-  const SE3 T_world_cam2 = pass2.T_cam_world.inverse();
-  const Vector6d difference = (T_world_cam2 * T_world_cam1.inverse()).log();
-  const Matrix6d covariance =
-      *pass1.covariance_world_cam * dynamic::clamped_variance_factor(pass1.variance_factor);
-  return difference.dot(covariance.ldlt().solve(difference)) <= kPass2ConsistencyGate;
-}
-
-}  // namespace
 
 Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
                                                  const dynamic::FrameObjects& objects) {
