@@ -33,4 +33,18 @@ Status DetectorStage::annotate(FramePacket& packet) {
   return ok_status();
 }
 
+Expected<std::unique_ptr<DetectHook>> make_detect_hook(const config::SiteposeConfig& config,
+                                                       const detect::DetectorContext& context) {
+  if (config.dynamic.mode == config::MaskingMode::kNone) {
+    return std::unique_ptr<DetectHook>(std::make_unique<PassThroughDetect>());
+  }
+  SITEPOSE_TRY(auto detector, detect::create_detector(config.detector, context));
+  if (config.dynamic.mode == config::MaskingMode::kPixel && !detector->capabilities().has_segmentation) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "dynamic.mode pixel: detector \"" + config.detector.name +
+                          "\" gives no pixel masks (choose bbox, hierarchical or full)");
+  }
+  return std::unique_ptr<DetectHook>(std::make_unique<DetectorStage>(std::move(detector), config.dynamic));
+}
+
 }  // namespace sitepose::pipeline

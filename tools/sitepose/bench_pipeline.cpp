@@ -14,14 +14,15 @@
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
-#include <opencv2/core/utility.hpp>
 #include <string>
 #include <vector>
 
+#include <opencv2/core/utility.hpp>
+
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/io/sequence.hpp"
 #include "sitepose/detect/create_detector.hpp"
+#include "sitepose/io/sequence.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"
@@ -102,24 +103,12 @@ struct RunResult {
   pipeline::PipelineHealth health;
 };
 
-// The daemon's detect hook for this config (daemon.cpp does the same).
-Expected<std::unique_ptr<pipeline::DetectHook>> make_detect_hook(const config::SiteposeConfig& config,
-                                                                const std::string& sequence_dir,
-                                                                const StereoCamera& camera) {
-  if (config.dynamic.mode == config::MaskingMode::kNone) {
-    return std::unique_ptr<pipeline::DetectHook>(std::make_unique<pipeline::PassThroughDetect>());
-  }
-  SITEPOSE_TRY(auto detector, detect::create_detector(config.detector, {sequence_dir, camera}));
-  return std::unique_ptr<pipeline::DetectHook>(
-      std::make_unique<pipeline::DetectorStage>(std::move(detector), config.dynamic));
-}
-
 Expected<RunResult> run_once(const std::vector<StereoFrame>& frames, const StereoCamera& camera,
                              const config::SiteposeConfig& config, const std::string& sequence_dir,
                              double recorded_fps, double fps) {
   RunResult r;
   SITEPOSE_TRY(auto tracker, pipeline::SlamPoseTracker::create(camera, config, recorded_fps));
-  SITEPOSE_TRY(auto detect_hook, make_detect_hook(config, sequence_dir, camera));
+  SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config, {sequence_dir, camera}));
   std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
   outputs.push_back(std::make_unique<LatencyOutput>(r.latencies_ms, r.ok));
   SITEPOSE_TRY(auto p, pipeline::Pipeline::create(pipeline::PipelineOptions{},

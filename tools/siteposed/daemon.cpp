@@ -9,7 +9,6 @@
 #include "sitepose/config/config.hpp"
 #include "sitepose/core/log.hpp"
 #include "sitepose/geo/nmea.hpp"
-#include "sitepose/detect/create_detector.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
 #include "sitepose/pipeline/replay_source.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"
@@ -28,21 +27,10 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
   if (config.sitepose.camera.stereo) camera = *config.sitepose.camera.stereo;
   SITEPOSE_TRY(auto tracker, pipeline::SlamPoseTracker::create(camera, config.sitepose, source->frame_rate_hz()));
   d->tracker_ = tracker.get();
-  std::unique_ptr<pipeline::DetectHook> detect_hook;
-  if (config.sitepose.dynamic.mode == config::MaskingMode::kNone) {
-    detect_hook = std::make_unique<pipeline::PassThroughDetect>();
-  } else {
-    detect::DetectorContext context;
-    if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
-    context.camera = camera;
-    SITEPOSE_TRY(auto detector, detect::create_detector(config.sitepose.detector, context));
-    if (config.sitepose.dynamic.mode == config::MaskingMode::kPixel && !detector->capabilities().has_segmentation) {
-      return make_error(ErrorCode::kInvalidArgument,
-                        "dynamic.mode pixel: detector \"" + config.sitepose.detector.name +
-                            "\" gives no pixel masks (choose bbox, hierarchical or full)");
-    }
-    detect_hook = std::make_unique<pipeline::DetectorStage>(std::move(detector), config.sitepose.dynamic);
-  }
+  detect::DetectorContext context;
+  if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
+  context.camera = camera;
+  SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config.sitepose, context));
   spdlog::info("detect stage: {}, dynamic.mode {}", detect_hook->name(),
                config::to_string(config.sitepose.dynamic.mode));
 

@@ -18,6 +18,8 @@
 #include <string>
 
 #include "sitepose/config/sitepose_config.hpp"
+#include "sitepose/core/expected.hpp"
+#include "sitepose/detect/create_detector.hpp"
 #include "sitepose/detect/detector.hpp"
 #include "sitepose/pipeline/hooks.hpp"
 
@@ -33,5 +35,13 @@ class DetectorStage final : public DetectHook {
   std::unique_ptr<detect::Detector> detector_;
   config::DynamicConfig dynamic_;
 };
+
+// The detect hook for `config` (siteposed and `sitepose bench pipeline`):
+// PassThroughDetect in dynamic.mode none, else a DetectorStage over
+// detect::create_detector(config.detector, context). Errors: the
+// detector's; kInvalidArgument for mode pixel with a detector that cannot
+// segment (the other modes fall back to box masks).
+Expected<std::unique_ptr<DetectHook>> make_detect_hook(const config::SiteposeConfig& config,
+                                                       const detect::DetectorContext& context);
 
 }  // namespace sitepose::pipeline

@@ -123,5 +123,19 @@ TEST(DetectorStage, FailingDetectorIsAnErrorAndTheFrameIsUndetected) {
   EXPECT_TRUE(r.packet.objects.empty());
 }
 
+TEST(MakeDetectHook, ModeNonePassesThroughAndDetectorErrorsComeBack) {
+  config::SiteposeConfig config;
+  config.dynamic.mode = config::MaskingMode::kNone;
+  auto hook = make_detect_hook(config, {});
+  ASSERT_TRUE(hook) << hook.error().message;
+  EXPECT_EQ((*hook)->name(), "pass-through");
+  // labels without a sequence to read: create_detector's error, unchanged.
+  config.dynamic.mode = config::MaskingMode::kFull;
+  config.detector.name = "labels";
+  auto failed = make_detect_hook(config, {});
+  ASSERT_FALSE(failed);
+  EXPECT_NE(failed.error().message.find("sequence"), std::string::npos) << failed.error().message;
+}
+
 }  // namespace
 }  // namespace sitepose::pipeline
