@@ -159,6 +159,9 @@ Expected<StereoMatches> StereoMatcher::match(const OrbFeatures& left, const OrbF
   std::vector<std::pair<double, int>> sad_of_match;
   sad_of_match.reserve(n_left);
   std::array<double, 2 * kL + 1> costs{};
+  // Right column and Hamming distance of each candidate of the current left
+  // keypoint (reused; the ambiguity check needs them after the best is known).
+  std::vector<std::pair<float, int>> candidates;
 
   for (int i = 0; i < n_left; ++i) {
     const cv::KeyPoint& kl = left.keypoints[i];
@@ -170,12 +173,14 @@ Expected<StereoMatches> StereoMatcher::match(const OrbFeatures& left, const OrbF
     int best_distance = kDescriptorBits + 1;
     int best_j = -1;
     const std::uint8_t* dl = left.descriptors.ptr<std::uint8_t>(i);
+    candidates.clear();
     for (int k = index.begin[row]; k < index.begin[row + 1]; ++k) {
       const int j = index.ids[k];
       const cv::KeyPoint& kr = right.keypoints[j];
       if (kr.octave < level - 1 || kr.octave > level + 1) continue;
       if (kr.pt.x < min_u || kr.pt.x > max_u) continue;
       const int distance = hamming_distance(dl, right.descriptors.ptr<std::uint8_t>(j));
+      candidates.push_back({kr.pt.x, distance});
       if (distance < best_distance) {
         best_distance = distance;
         best_j = j;
@@ -186,13 +191,8 @@ Expected<StereoMatches> StereoMatcher::match(const OrbFeatures& left, const OrbF
       // corner is often detected twice, a pixel apart).
       const double best_u = right.keypoints[best_j].pt.x;
       int second_distance = kDescriptorBits + 1;
-      for (int k = index.begin[row]; k < index.begin[row + 1]; ++k) {
-        const int j = index.ids[k];
-        const cv::KeyPoint& kr = right.keypoints[j];
-        if (kr.octave < level - 1 || kr.octave > level + 1) continue;
-        if (kr.pt.x < min_u || kr.pt.x > max_u) continue;
-        if (std::abs(kr.pt.x - best_u) < kAmbiguityMinSeparationPx) continue;
-        second_distance = std::min(second_distance, hamming_distance(dl, right.descriptors.ptr<std::uint8_t>(j)));
+      for (const auto& [u, distance] : candidates) {
+        if (std::abs(u - best_u) >= kAmbiguityMinSeparationPx) second_distance = std::min(second_distance, distance);
       }
       out.ambiguous[i] = best_distance >= kAmbiguityRatio * second_distance ? 1 : 0;
     }

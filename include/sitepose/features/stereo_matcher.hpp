@@ -14,11 +14,10 @@
 // Units: u_right in level-0 right-image pixels, depth_m = bf / disparity.
 // Thread-safe: match() is const and keeps no state.
 
+#include <cstdint>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
-#include <cstdint>
-
 #include "sitepose/core/expected.hpp"
 #include "sitepose/features/orb_extractor.hpp"
 

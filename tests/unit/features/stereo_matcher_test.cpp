@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "sitepose/features/stereo_extractor.hpp"
 #include "test_images.hpp"
@@ -154,6 +155,42 @@ TEST(StereoMatcher, NoMatchOutsideTheDisparityRange) {
   }
   EXPECT_GT(band0, 200);
   EXPECT_GT(band1_matched, 120);
+}
+
+// A texture that repeats every 16 px along the rows (a facade of equal
+// windows) gives every left keypoint several equally good right
+// candidates inside the disparity range: its matches are flagged
+// ambiguous. A random texture's are not.
+TEST(StereoMatcher, RepeatedTextureFlagsMatchesAmbiguous) {
+  StereoExtractor extractor(config::OrbConfig{}, stereo_config(), camera());
+  auto ambiguous_fraction = [](const StereoFeatures& f) {
+    int candidates = 0, ambiguous = 0;
+    for (int i = 0; i < f.size(); ++i) {
+      if (!f.has_depth(i) && !f.stereo_ambiguous[i]) continue;
+      ++candidates;
+      ambiguous += f.stereo_ambiguous[i];
+    }
+    return candidates > 0 ? static_cast<double>(ambiguous) / candidates : 0.0;
+  };
+  const StereoFeatures random = extract_ok(extractor, make_pair(31));
+  ASSERT_EQ(random.stereo_ambiguous.size(), static_cast<std::size_t>(random.size()));
+
+  constexpr int kPeriodPx = 16;
+  cv::Mat tile(kSize.height, kPeriodPx, CV_8UC1);
+  cv::RNG(7).fill(tile, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(tile, tile, cv::Size(3, 3), 0.8);
+  Pair periodic;
+  cv::repeat(tile, 1, kSize.width / kPeriodPx, periodic.left);
+  periodic.right = cv::Mat::zeros(kSize, CV_8UC1);
+  constexpr int kDisparityPx = 12;  // right = left shifted left
+  periodic.left.colRange(kDisparityPx, kSize.width).copyTo(periodic.right.colRange(0, kSize.width - kDisparityPx));
+  const StereoFeatures repeated = extract_ok(extractor, periodic);
+
+  const double random_fraction = ambiguous_fraction(random);
+  const double repeated_fraction = ambiguous_fraction(repeated);
+  std::printf("ambiguous: random texture %.3f, repeated texture %.3f\n", random_fraction, repeated_fraction);
+  EXPECT_LT(random_fraction, 0.15);
+  EXPECT_GT(repeated_fraction, 0.5);
 }
 
 TEST(StereoMatcher, InconsistentMatchesAreRejectedBySad) {
