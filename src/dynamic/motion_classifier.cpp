@@ -139,13 +139,14 @@ MotionClassifier::MotionClassifier(const StereoCamera& camera, const config::Dyn
   }
 }
 
+void MotionClassifier::Track::mask_until_proven_static() {
+  static_streak = 0;
+  unknown_streak = 0;
+  state = MotionState::kUnknown;
+}
+
 void MotionClassifier::doubt(const std::vector<std::uint16_t>& instances) {
-  for (std::uint16_t instance : instances) {
-    Track& t = tracks_[instance];
-    t.static_streak = 0;
-    t.unknown_streak = 0;
-    t.state = MotionState::kUnknown;
-  }
+  for (std::uint16_t instance : instances) tracks_[instance].mask_until_proven_static();
 }
 
 void MotionClassifier::reset() {
@@ -214,8 +215,7 @@ MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, M
       if (conflicting_evidence) {
         // The points disagree with "static": mask again now (unmasking
         // needs proof, masking only doubt).
-        t.unknown_streak = 0;
-        t.state = MotionState::kUnknown;
+        t.mask_until_proven_static();
         break;
       }
       ++t.unknown_streak;

@@ -137,6 +137,8 @@ class MotionClassifier {
     int static_streak = 0;
     int unknown_streak = 0;
     std::int64_t last_seq = -1;
+    // Doubt: masked now, and static verdicts are counted from zero again.
+    void mask_until_proven_static();
   };
 
   const ObjectFeatures* select_reference(const ObjectFeatures& current) const;

@@ -26,8 +26,8 @@ class DetectHook {
   virtual ~DetectHook() = default;
   virtual std::string name() const = 0;
   // Every kFrame packet, in order. May fill packet.detected, objects and
-  // instance_mask; must not write into the frame's pixels. An error is counted and logged, and the
-  // frame goes on unannotated.
+  // instance_mask; must not write into the frame's pixels. An error is
+  // counted and logged, and the frame goes on unannotated.
   virtual Status annotate(FramePacket& packet) = 0;
 };
 
