@@ -15,6 +15,13 @@ const char* to_string(SequenceLayout layout) {
   return "unknown";
 }
 
+double mean_frame_rate_hz(const Sequence& sequence, std::size_t frames) {
+  const std::size_t n = frames > 0 ? std::min(frames, sequence.size()) : sequence.size();
+  if (n < 2) return 0.0;
+  const double span_s = static_cast<double>(sequence.time_ns(n - 1) - sequence.time_ns(0)) * 1e-9;
+  return span_s > 0.0 ? static_cast<double>(n - 1) / span_s : 0.0;
+}
+
 bool Sequence::has_gt() const {
   const auto& gt = gt_poses();
   return std::any_of(gt.begin(), gt.end(), [](const std::optional<SE3>& p) { return p.has_value(); });

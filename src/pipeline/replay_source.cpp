@@ -38,7 +38,7 @@ ReplaySource::ReplaySource(const ReplayOptions& options, std::unique_ptr<io::Seq
   const std::int64_t mean_interval =
       frames_per_pass_ > 1 ? duration / static_cast<std::int64_t>(frames_per_pass_ - 1) : 100'000'000;
   pass_period_ns_ = duration + std::max<std::int64_t>(mean_interval, 1);
-  if (frames_per_pass_ > 1 && duration > 0) frame_rate_hz_ = 1e9 / static_cast<double>(mean_interval);
+  frame_rate_hz_ = io::mean_frame_rate_hz(*sequence_, frames_per_pass_);
 }
 
 std::string ReplaySource::describe() const {

@@ -5,6 +5,7 @@
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/sim/scenario.hpp"
 #include "sitepose/sim/simulator.hpp"
+#include "sitepose/slam/slam_system.hpp"
 
 namespace sitepose::slam {
 namespace {
@@ -124,12 +125,8 @@ Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::stri
     return make_error(ErrorCode::kInvalidArgument,
                       directory + ": no labels/boxes.csv; the dynamic layer's ablations need object labels");
   }
-  double fps = 6.0;
-  if (sequence->size() >= 2) {
-    const double dt_s = static_cast<double>(sequence->time_ns(sequence->size() - 1) - sequence->time_ns(0)) *
-                        1e-9 / static_cast<double>(sequence->size() - 1);
-    if (dt_s > 0.0) fps = 1.0 / dt_s;
-  }
+  double fps = io::mean_frame_rate_hz(*sequence);
+  if (!(fps > 0.0)) fps = SlamOptions{}.fps;
   return std::unique_ptr<LabelledSource>(new SequenceSource(std::move(sequence), fps));
 }
 

@@ -55,8 +55,8 @@ int run(Args args) {
   if (!detector) return fail(kCommand, "--detector " + args.detector + ": " + detector.error().message, 2);
   detect::add_inherent_dynamic_classes(config.detector, config.dynamic);
   slam::SlamOptions options;
+  if (const double hz = io::mean_frame_rate_hz(**sequence); hz > 0.0) options.fps = hz;
   const std::size_t n = (*sequence)->size();
-  if (n >= 2) options.fps = (n - 1) / (((*sequence)->time_ns(n - 1) - (*sequence)->time_ns(0)) * 1e-9);
   auto system = slam::SlamSystem::create((*sequence)->camera(), config, options);
   if (!system) return fail(kCommand, system.error().message, 2);
   const int frames = args.source.sequence.empty() || args.source.frames <= 0

@@ -148,9 +148,7 @@ int run_bench_pipeline(const BenchPipelineArgs& a) {
     frames.push_back(std::move(*f));
   }
   const StereoCamera camera = config.camera.stereo ? *config.camera.stereo : (*sequence)->camera();
-  const double recorded_fps =
-      n > 1 ? 1e9 * static_cast<double>(n - 1) / static_cast<double>(frames.back().t_ns() - frames.front().t_ns())
-            : 0.0;
+  const double recorded_fps = io::mean_frame_rate_hz(**sequence, n);
   std::printf("sequence %s: %zu frames %dx%d, %u hardware threads, dynamic.mode %s%s\n", a.sequence.c_str(), n,
               camera.width, camera.height, std::thread::hardware_concurrency(), config::to_string(config.dynamic.mode),
               config.dynamic.mode == config::MaskingMode::kNone ? "" : (", detector " + config.detector.name).c_str());

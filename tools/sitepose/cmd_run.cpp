@@ -94,16 +94,9 @@ int run(const RunArgs& args) {
                    config.detector.name.c_str(), added.c_str());
     }
   }
-  double fps = 6.0;
-  if ((*sequence)->size() >= 2) {
-    const double span_s =
-        static_cast<double>((*sequence)->time_ns((*sequence)->size() - 1) - (*sequence)->time_ns(0)) * 1e-9;
-    if (span_s > 0.0) fps = static_cast<double>((*sequence)->size() - 1) / span_s;
-  }
-
   slam::SlamOptions slam_options;
   slam_options.mapper_thread = args.mapper_thread;
-  slam_options.fps = fps;
+  if (const double hz = io::mean_frame_rate_hz(**sequence); hz > 0.0) slam_options.fps = hz;
   auto system = slam::SlamSystem::create(camera, config, slam_options);
   if (!system) return fail(kCommand, system.error().message, 2);
 

@@ -145,6 +145,16 @@ TEST(SiteposeSequence, OpensAndReadsFrames) {
   EXPECT_EQ(out_of_range.error().code, ErrorCode::kInvalidArgument);
 }
 
+TEST(SiteposeSequence, MeanFrameRateFromTimeStamps) {
+  TempDir dir;
+  auto seq = open_sequence(write_sequence(dir));  // frames at 0, 0.1, 0.2 s
+  ASSERT_TRUE(seq) << seq.error().message;
+  EXPECT_NEAR(mean_frame_rate_hz(**seq), 10.0, 1e-9);
+  EXPECT_NEAR(mean_frame_rate_hz(**seq, 2), 10.0, 1e-9);
+  EXPECT_NEAR(mean_frame_rate_hz(**seq, 99), 10.0, 1e-9);  // capped at size()
+  EXPECT_EQ(mean_frame_rate_hz(**seq, 1), 0.0);            // one frame: unknown
+}
+
 TEST(SiteposeSequence, BgrImagesConvertedToGray) {
   TempDir dir;
   const std::string root = write_sequence(dir, 2, /*bgr=*/true);
