@@ -98,7 +98,7 @@ std::vector<RemaskEvent> remask_latencies(const std::vector<ObjectSample>& sampl
   return out;
 }
 
-int static_flips(const std::vector<ObjectSample>& samples) {
+int static_flips(const std::vector<ObjectSample>& samples, int min_points) {
   std::map<std::uint16_t, std::vector<const ObjectSample*>> by_instance;
   std::map<std::uint16_t, bool> ever_moving;
   for (const auto& s : samples) {
@@ -112,7 +112,8 @@ int static_flips(const std::vector<ObjectSample>& samples) {
     dynamic::MotionState last = dynamic::MotionState::kUnknown;
     for (const ObjectSample* s : list) {
       const dynamic::MotionState state = s->object.verdict.state;
-      if (seen_static && state != last) ++flips;
+      const bool evidence_gone = state == dynamic::MotionState::kUnknown && s->object.verdict.points < min_points;
+      if (seen_static && state != last && !evidence_gone) ++flips;
       if (state == dynamic::MotionState::kStatic) seen_static = true;
       last = state;
     }

@@ -8,8 +8,12 @@
 //    camera and moved to the world with that frame's pose (T_world_cam;
 //    not the authors' frame bug); errors above the median dropped; static
 //    when more than 70 % of the kept errors are below 3 sigma_bkg.
-//  * sitepose (METHOD.md "Where sitepose goes further"): the same matching,
-//    but every point pair is tested with its squared Mahalanobis distance
+//  * sitepose (METHOD.md "Where sitepose goes further"): the same matching;
+//    instead of the paper's median cut, mismatches are the points whose
+//    displacement disagrees with the object's common (median) one beyond
+//    their pixel noise, and an object whose points have no common
+//    displacement (at most half agree) is unknown; the agreeing points are
+//    tested with their squared Mahalanobis distance
 //    under the propagated stereo covariance of both points and CF's pose
 //    (chi2, 3 dof; static when > 70 % pass), plus an object-level test of
 //    the mean displacement (pixel noise averages out, pose noise does not;

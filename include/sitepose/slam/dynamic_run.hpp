@@ -76,8 +76,11 @@ struct RemaskEvent {
 std::vector<RemaskEvent> remask_latencies(const std::vector<ObjectSample>& samples);
 
 // State changes of objects that are static in the ground truth for the
-// whole run, after their first static verdict (flicker).
-int static_flips(const std::vector<ObjectSample>& samples);
+// whole run, after their first static verdict (flicker). A change to
+// unknown in a frame where the object has fewer than `min_points` matched
+// points is not counted: the machine left the view or is hidden, and there
+// is nothing left to test (it is counted again if it turns static anew).
+int static_flips(const std::vector<ObjectSample>& samples, int min_points);
 
 // ROC of "static" as positive over thresholds applied to the per-point
 // statistics (is_static_at), for samples with ground truth; points with

@@ -174,6 +174,37 @@ TEST(MotionClassifier, SiteposeHysteresisUnmasksAfterTwoVerdictsAndRemasksAtOnce
   EXPECT_EQ(v.state, MotionState::kMoving);
 }
 
+// Points matched to the wrong place (here: a wrong stereo partner, 20 px
+// off) do not share the object's displacement. A minority of them is left
+// out of the test, whichever way the object moves; a majority leaves no
+// common displacement to test (unknown).
+TEST(MotionClassifier, SiteposeTestsOnlyThePointsThatShareTheObjectsDisplacement) {
+  const auto raw_verdict = [](double mismatched_fraction, const Eigen::Vector3d& motion) {
+    std::mt19937 rng(13);
+    const std::vector<Object> objects{make_object(1, 60, 0.0, rng)};
+    MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+    const ObjectFeatures reference = observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.0), 0, 0.2, rng);
+    classifier.classify(reference);
+    classifier.remember(reference);
+    ObjectFeatures current = observe(objects, {motion}, at_x(0.5), 3, 0.2, rng);
+    const int mismatched = static_cast<int>(mismatched_fraction * 60);
+    for (int i = 0; i < mismatched; ++i) current.u_right_px[i] -= 20.0;  // points lie at random
+    return classifier.classify(current)[0].verdict;
+  };
+  const Eigen::Vector3d parked = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d driving(0.3, 0.0, 0.0);
+  ObjectVerdict v = raw_verdict(0.0, parked);
+  EXPECT_EQ(v.raw, MotionState::kStatic);
+  EXPECT_EQ(v.points, 60);
+  v = raw_verdict(0.35, parked);
+  EXPECT_EQ(v.raw, MotionState::kStatic);  // the paper's 70 % rule over all points would say otherwise
+  EXPECT_EQ(v.points, 60 - 21);
+  EXPECT_EQ(raw_verdict(0.35, driving).raw, MotionState::kMoving);
+  v = raw_verdict(0.6, parked);
+  EXPECT_EQ(v.raw, MotionState::kUnknown);
+  EXPECT_EQ(v.points, 60);
+}
+
 // Outside evidence (pass 2 contradicting pass 1) masks a static object at
 // once; it must then collect its static verdicts anew.
 TEST(MotionClassifier, DoubtMasksAStaticObjectUntilItProvesItselfAgain) {

@@ -11,8 +11,9 @@ namespace sitepose::slam {
 namespace {
 
 ObjectSample make_sample(std::int64_t frame, std::uint16_t instance, bool moving, dynamic::MotionState state,
-                    std::vector<double> statistics = {}) {
+                         std::vector<double> statistics = {}, int points = 20) {
   ObjectSample s;
+  s.object.verdict.points = points;
   s.frame = frame;
   s.moving_gt = moving;
   s.object.verdict.instance = instance;
@@ -42,7 +43,18 @@ TEST(DynamicRun, StaticFlipsIgnoreTheInitialUnknownFrames) {
       make_sample(0, 1, false, MotionState::kUnknown), make_sample(1, 1, false, MotionState::kStatic),
       make_sample(2, 1, false, MotionState::kMoving),  make_sample(3, 1, false, MotionState::kStatic),
       make_sample(0, 2, false, MotionState::kUnknown), make_sample(1, 2, false, MotionState::kStatic)};
-  EXPECT_EQ(static_flips(samples), 2);
+  EXPECT_EQ(static_flips(samples, 8), 2);
+}
+
+TEST(DynamicRun, StaticFlipsIgnoreLosingTheEvidenceButCountItsReturn) {
+  using dynamic::MotionState;
+  std::vector<ObjectSample> samples{
+      make_sample(0, 1, false, MotionState::kStatic),
+      // Leaves the view: unknown with 3 points is no flicker...
+      make_sample(1, 1, false, MotionState::kUnknown, {}, 3),
+      // ...turning static again is one, and being masked with points another.
+      make_sample(2, 1, false, MotionState::kStatic), make_sample(3, 1, false, MotionState::kUnknown, {}, 20)};
+  EXPECT_EQ(static_flips(samples, 8), 2);
 }
 
 TEST(DynamicRun, RocOfAPerfectSeparatorHasAreaOne) {
