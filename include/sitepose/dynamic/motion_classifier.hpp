@@ -8,26 +8,29 @@
 //    camera and moved to the world with that frame's pose (T_world_cam;
 //    not the authors' frame bug); errors above the median dropped; static
 //    when more than 70 % of the kept errors are below 3 sigma_bkg.
-//  * sitepose (METHOD.md "Where sitepose goes further"): the same matching;
-//    instead of the paper's median cut, mismatches are the points whose
-//    displacement disagrees with the object's common (median) one beyond
-//    their pixel noise, and an object whose points have no common
-//    displacement (at most half agree) is unknown; the agreeing points are
-//    tested with their squared Mahalanobis distance
-//    under the propagated stereo covariance of both points and CF's pose
-//    (chi2, 3 dof; static when > 70 % pass), plus an object-level test of
-//    the mean displacement (pixel noise averages out, pose noise does not;
-//    chi2 3 dof 99.9 %) so a machine that starts moving is caught early; RF = newest kept frame whose camera centre is at least
-//    min_reference_parallax_m from CF's and at least 0.4 s older (the
-//    oldest kept frame when the camera stands still); per-instance
-//    hysteresis: one moving verdict re-masks at once, unmasking needs
-//    hysteresis_frames consecutive static verdicts over >= 0.4 s each.
-//    The noise model is calibrated per frame: pixel noise and pose
-//    covariance are scaled by the pose solve's a-posteriori variance factor
-//    (a static object then scores ~chi2 3 dof, not far below it).
-//    A failed point-fraction test with a passed object-level test (a few
-//    mismatched points on an object with few points) is unknown, not moving,
-//    and masks the object at once (doubt masks; only proof unmasks).
+//  * sitepose (METHOD.md "Where sitepose goes further"):
+//    - RF = newest kept frame whose camera centre is at least
+//      min_reference_parallax_m from CF's and at least 0.4 s older (the
+//      oldest kept frame when the camera stands still);
+//    - the same matching; instead of the paper's median cut, mismatches
+//      are the points whose displacement disagrees with the object's common
+//      (median) one beyond their pixel noise; an object whose points have
+//      no common displacement (at most half agree) is unknown;
+//    - the agreeing points are tested with their squared Mahalanobis
+//      distance under the propagated stereo covariance of both points and
+//      CF's pose (chi2 3 dof; static when > 70 % pass), plus an
+//      object-level test of their mean displacement (pixel noise averages
+//      out, pose noise does not; chi2 3 dof 99.9 %), so a machine that
+//      starts moving is caught early;
+//    - noise calibrated per frame: pixel noise and pose covariance scaled
+//      by the pose solve's a-posteriori variance factor (a static object
+//      then scores ~chi2 3 dof, not far below it);
+//    - per-instance hysteresis: one moving verdict re-masks at once,
+//      unmasking needs hysteresis_frames consecutive static verdicts over
+//      >= 0.4 s each; evidence against "static" without a moving verdict
+//      (failed point test with a passed object-level test, or no common
+//      displacement) is unknown and masks the object at once (doubt masks;
+//      only proof unmasks).
 // Objects with too few matched points (or not associated) are unknown and
 // stay masked.
 //
