@@ -170,9 +170,10 @@ void MotionClassifier::Track::mask_until_proven_static() {
   state = MotionState::kUnknown;
 }
 
-void MotionClassifier::doubt(const std::vector<std::uint16_t>& instances) {
-  for (std::uint16_t instance : instances) tracks_[instance].mask_until_proven_static();
+void MotionClassifier::suspect(const std::vector<std::uint16_t>& instances) {
+  for (std::uint16_t instance : instances) tracks_[instance].suspect = true;
 }
+
 
 void MotionClassifier::reset() {
   ring_.clear();
@@ -416,8 +417,10 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
           v.score = quantile(stats, config_.static_inlier_fraction);
           v.pooled_statistic = pooled_statistic(kept_displacements, kept_pixel, kept_full);
           const bool points_agree = is_static_at(stats, config_.chi2_static_3dof, config_.static_inlier_fraction);
+          const auto track = tracks_.find(v.instance);
+          const bool suspected = track != tracks_.end() && track->second.suspect;
           const bool object_still =
-              v.pooled_statistic <= (points_agree ? kPooledGate : kPooledGateWithPoints);
+              v.pooled_statistic <= (points_agree && !suspected ? kPooledGate : kPooledGateWithPoints);
           // The object as a whole has not moved but its points do not agree
           // with "static" either: no verdict, masked at once.
           v.raw = !object_still   ? MotionState::kMoving
@@ -433,6 +436,7 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
     const bool long_enough =
         ref != nullptr && static_cast<double>(current.t_ns - ref->t_ns) * 1e-9 >= kMinStaticEvidenceS;
     v.state = paper ? v.raw : smooth(v.instance, current.seq, v.raw, long_enough, conflicting);
+    if (!paper) tracks_[v.instance].suspect = false;  // suspicion lasts one verdict
   }
   // Forget instances not seen for a ring's length.
   for (auto it = tracks_.begin(); it != tracks_.end();) {

@@ -30,7 +30,8 @@
 //      >= 0.4 s each; evidence against "static" without a moving verdict
 //      (failed point test with a passed object-level test, or no common
 //      displacement) is unknown and masks the object at once (doubt masks;
-//      only proof unmasks).
+//      only proof unmasks); suspicion from outside (suspect()) holds the
+//      next verdict to a stricter object-level gate.
 // Objects with too few matched points (or not associated) are unknown and
 // stay masked.
 //
@@ -119,10 +120,13 @@ class MotionClassifier {
   // without a pose are not added).
   void remember(ObjectFeatures frame);
 
-  // Evidence against "static" from outside the classifier (pass 2 with
-  // these objects unmasked contradicted pass 1): they are masked again at
-  // once and must prove themselves static anew (sitepose mode).
-  void doubt(const std::vector<std::uint16_t>& instances);
+  // Weak evidence against "static" from outside the classifier (pass 2
+  // with these objects unmasked disagreed with pass 1, which static objects
+  // also do now and then): their state is kept, but their next verdict must
+  // pass the stricter object-level gate (chi2 3 dof 97.5 % instead of
+  // 99.9 %), so a machine that has started moving is masked one frame
+  // later at the latest (sitepose mode).
+  void suspect(const std::vector<std::uint16_t>& instances);
 
   // Clears the ring and the hysteresis.
   void reset();
@@ -144,6 +148,7 @@ class MotionClassifier {
     int static_streak = 0;
     int unknown_streak = 0;
     std::int64_t last_seq = -1;
+    bool suspect = false;  // next verdict against the stricter object-level gate
     // Doubt: masked now, and static verdicts are counted from zero again.
     void mask_until_proven_static();
   };

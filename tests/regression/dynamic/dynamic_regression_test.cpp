@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "sitepose/detect/create_detector.hpp"
@@ -32,8 +33,9 @@ struct ModeFigures {
 
 class Scenario {
  public:
-  Scenario(const std::string& name, int frames) {
-    auto source = open_simulated(name, frames);
+  // seed: the rendering's (textures, layout, exposure, noise); default the scenario's.
+  Scenario(const std::string& name, int frames, std::optional<int> seed = std::nullopt) {
+    auto source = open_simulated(name, frames, seed);
     if (!source) {
       error_ = source.error().message;
       return;
@@ -170,10 +172,29 @@ TEST(DynamicRegression, PassingFullNotWorseThanNone) { expect_full_not_worse("pa
 TEST(DynamicRegression, StopgoFullNotWorseThanNone) { expect_full_not_worse("stopgo", 120); }
 // Known unmet requirement (issue 6): on fast (seed 7) full is 35 % worse
 // than none (0.0077 vs 0.0057 m). Over seeds 7, 1, 2, 3, 4 the ratio
-// full/none was 1.35, 0.85, 0.81, 0.83, 1.21 (means 0.0080 vs 0.0082 m): a
+// full/none was 1.35, 0.90, 0.81, 0.83, 1.23 (means 0.0081 vs 0.0082 m): a
 // single run's ATE varies by about +-30 % with any change in the frames
 // used, so this 10 % bound on one seed is not met reliably.
 TEST(DynamicRegression, DISABLED_FastFullNotWorseThanNone) { expect_full_not_worse("fast", 120); }
+
+// The same 10 % bound on fast over five renderings (seeds), on the mean ATE:
+// a systematic cost of masking shows here, one rendering's +-30 % does not.
+// This does not replace the single-seed test above, which stays unmet.
+TEST(DynamicRegression, FastFullNotWorseThanNoneOnAverageOverFiveSeeds) {
+  double none_sum_m = 0.0, full_sum_m = 0.0;
+  for (const int seed : {7, 1, 2, 3, 4}) {
+    Scenario s("fast", frames_from_env(120), seed);
+    ASSERT_TRUE(s.error().empty()) << s.error();
+    const ModeFigures none = s.run(config::MaskingMode::kNone);
+    const ModeFigures full = s.run(config::MaskingMode::kFull);
+    EXPECT_GE(full.coverage, none.coverage) << "seed " << seed;
+    std::printf("[figures] fast seed %d: none %.4f m, full %.4f m\n", seed, none.ate_m, full.ate_m);
+    none_sum_m += none.ate_m;
+    full_sum_m += full.ate_m;
+  }
+  std::printf("[figures] fast over 5 seeds: mean none %.4f m, mean full %.4f m\n", none_sum_m / 5, full_sum_m / 5);
+  EXPECT_LE(full_sum_m, 1.1 * none_sum_m);
+}
 
 // parked: every machine is static; full unmasks them (pass 2) and beats
 // box masking, which throws their features away. Counted over the frames in
@@ -222,13 +243,12 @@ TEST(DynamicRegression, ParkedFullUnmasksTheMachinesAndBeatsBbox) {
   EXPECT_LE(f.full.ate_m, 1.1 * f.none.ate_m);
 }
 
-// Known unmet (issue 6, METHOD.md "a static one must not flicker"): the
-// classifier itself no longer flips parked machines (mismatched points are
-// left out of its test), but the pass-2 consistency gate rejects pass 2 in
-// 5 of 150 frames, and each rejection masks the machines until they prove
-// themselves static again: 10 state changes when measured. Without that
-// gate there were none, but the re-mask latency grew from 1 to 2 frames and
-// full lost to bbox on parked (0.0058 vs 0.0048 m).
+// Known unmet (issue 6, METHOD.md "a static one must not flicker"): 2 state
+// changes in 150 frames when measured. A parked roller drew "moving"
+// verdicts in frames 80 and 81, where pass 1 alone on the reduced
+// background was off by ~1 cm (pass 1's covariance leaves out map-point
+// error). Mismatched points (13 changes before) and pass-2 rejections (now
+// suspicion, not masking) no longer cause flicker.
 TEST(DynamicRegression, DISABLED_ParkedMachinesNeverFlicker) { EXPECT_EQ(run_parked().flips, 0); }
 
 // A parked roller starts moving at t = 4 s (frame 24) in front of the
