@@ -35,7 +35,7 @@ void copy_stage_timings(const tracking::PreparedFrame& prepared, const tracking:
 // would pull the pose along.) Squared Mahalanobis distance of the pose
 // difference under pass 1's calibrated covariance, chi2 6 dof 99 %.
 // Not a sharp test: pass 1 on a reduced background is noisier than its
-// covariance says (measured: truly static machines tripped it in 4-9 % of
+// covariance says (measured: truly static machines tripped it in 5-12 % of
 // frames, up to 52 against 16.81), hence only suspicion, not a verdict.
 bool pass2_agrees_with_pass1(const tracking::PassResult& pass1, const tracking::PassResult& pass2) {
   constexpr double kPass2ConsistencyGate = 16.81;
