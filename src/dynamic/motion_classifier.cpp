@@ -55,43 +55,57 @@ constexpr double kMinConsistentFraction = 0.5;
 
 double quantile(std::vector<double> values, double q);
 
-double pooled_statistic(const std::vector<Eigen::Vector3d>& d, const std::vector<Eigen::Matrix3d>& pixel_cov,
-                        const std::vector<Eigen::Matrix3d>& full_cov) {
-  if (d.empty()) return 0.0;
+// Sitepose mode: one matched point pair of an object, RF -> CF in world
+// coordinates.
+struct PointDisplacement {
+  Eigen::Vector3d d;                 // CF position - RF position (m)
+  Eigen::Matrix3d pixel_covariance;  // of d from pixel noise alone (independent per point)
+  Eigen::Matrix3d covariance;        // of d, pixel noise and CF's pose
+  double mahalanobis2 = 0.0;         // d' covariance^-1 d
+};
+
+double pooled_statistic(const std::vector<PointDisplacement>& points) {
+  if (points.empty()) return 0.0;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   Eigen::Matrix3d pixel_sum = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d pose_sum = Eigen::Matrix3d::Zero();
-  for (std::size_t i = 0; i < d.size(); ++i) {
-    mean += d[i];
-    pixel_sum += pixel_cov[i];
-    pose_sum += full_cov[i] - pixel_cov[i];
+  for (const PointDisplacement& p : points) {
+    mean += p.d;
+    pixel_sum += p.pixel_covariance;
+    pose_sum += p.covariance - p.pixel_covariance;
   }
-  const double n = static_cast<double>(d.size());
+  const double n = static_cast<double>(points.size());
   mean /= n;
   const Eigen::Matrix3d sigma = pixel_sum / (n * n) + pose_sum / n;
   return mean.dot(sigma.ldlt().solve(mean));
 }
 
-// Indices of the points whose displacement agrees with the object's common
-// one (component-wise median) within their own pixel noise. A rigid object,
+std::vector<double> mahalanobis2_of(const std::vector<PointDisplacement>& points) {
+  std::vector<double> out;
+  out.reserve(points.size());
+  for (const PointDisplacement& p : points) out.push_back(p.mahalanobis2);
+  return out;
+}
+
+// The points whose displacement agrees with the object's common one
+// (component-wise median) within their own pixel noise. A rigid object,
 // moving or not, displaces all its points alike; a keypoint matched to the
 // wrong place in RF (repeated texture: windows, tracks, grilles) does not.
 // The tests then run on these points only, free of the mismatches and
 // without favouring "static" (measured on parked: 6 of 16 points of a
 // parked excavator were such mismatches, 0.4-9.6 m "displacements", and drew
 // "moving" verdicts).
-std::vector<std::size_t> consistent_points(const std::vector<Eigen::Vector3d>& d,
-                                           const std::vector<Eigen::Matrix3d>& pixel_cov) {
+std::vector<PointDisplacement> consistent_points(const std::vector<PointDisplacement>& points) {
   Eigen::Vector3d common;
   for (int axis = 0; axis < 3; ++axis) {
     std::vector<double> component;
-    for (const auto& di : d) component.push_back(di[axis]);
+    for (const PointDisplacement& p : points) component.push_back(p.d[axis]);
     common[axis] = quantile(component, 0.5);
   }
-  std::vector<std::size_t> out;
-  for (std::size_t i = 0; i < d.size(); ++i) {
-    const Eigen::Vector3d e = d[i] - common;
-    if (e.dot(pixel_cov[i].ldlt().solve(e)) <= kConsistencyGate) out.push_back(i);
+  std::vector<PointDisplacement> out;
+  for (const PointDisplacement& p : points) {
+    const Eigen::Vector3d e = p.d - common;
+    if (e.dot(p.pixel_covariance.ldlt().solve(e)) <= kConsistencyGate) out.push_back(p);
   }
   return out;
 }
@@ -164,16 +178,9 @@ MotionClassifier::MotionClassifier(const StereoCamera& camera, const config::Dyn
   }
 }
 
-void MotionClassifier::Track::mask_until_proven_static() {
-  static_streak = 0;
-  unknown_streak = 0;
-  state = MotionState::kUnknown;
-}
-
 void MotionClassifier::suspect(const std::vector<std::uint16_t>& instances) {
   for (std::uint16_t instance : instances) tracks_[instance].suspect = true;
 }
-
 
 void MotionClassifier::reset() {
   ring_.clear();
@@ -222,6 +229,7 @@ MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, M
                                      bool static_evidence_counts, bool conflicting_evidence) {
   Track& t = tracks_[instance];
   t.last_seq = seq;
+  t.suspect = false;  // suspicion lasts one verdict
   const int n = config_.hysteresis_frames;
   switch (raw) {
     case MotionState::kMoving:
@@ -239,9 +247,11 @@ MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, M
     case MotionState::kUnknown:
       t.static_streak = 0;
       if (conflicting_evidence) {
-        // The points disagree with "static": mask again now (unmasking
-        // needs proof, masking only doubt).
-        t.mask_until_proven_static();
+        // The points disagree with "static": mask again now and count
+        // static verdicts from zero (unmasking needs proof, masking only
+        // doubt).
+        t.unknown_streak = 0;
+        t.state = MotionState::kUnknown;
         break;
       }
       ++t.unknown_streak;
@@ -342,9 +352,8 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
     if (it != ref_of_current.end()) {
       v.reference_instance = it->second;
       v.reference_seq = ref->seq;
-      std::vector<double> stats;
-      std::vector<Eigen::Vector3d> displacements;
-      std::vector<Eigen::Matrix3d> pixel_covariances, full_covariances;
+      std::vector<double> stats;                // paper mode: errors (m)
+      std::vector<PointDisplacement> points;    // sitepose mode
       for (std::size_t c = 0; c < match.size(); ++c) {
         if (match[c] < 0 || current.instance[c] != v.instance) continue;
         const int r = match[c];
@@ -363,15 +372,15 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
         if (paper) {
           stats.push_back(d.norm());
         } else {
-          const Eigen::Matrix3d sigma = w_cf.covariance + w_rf.covariance;
-          stats.push_back(d.dot(sigma.ldlt().solve(d)));
-          displacements.push_back(d);
-          // Pixel-noise part alone (independent per point, averages out).
-          pixel_covariances.push_back(current.T_world_cam.rotation_matrix() * p_cf->covariance *
-                                          current.T_world_cam.rotation_matrix().transpose() +
-                                      ref->T_world_cam.rotation_matrix() * p_rf->covariance *
-                                          ref->T_world_cam.rotation_matrix().transpose());
-          full_covariances.push_back(sigma);
+          PointDisplacement p;
+          p.d = d;
+          p.covariance = w_cf.covariance + w_rf.covariance;
+          p.mahalanobis2 = d.dot(p.covariance.ldlt().solve(d));
+          p.pixel_covariance = current.T_world_cam.rotation_matrix() * p_cf->covariance *
+                                   current.T_world_cam.rotation_matrix().transpose() +
+                               ref->T_world_cam.rotation_matrix() * p_rf->covariance *
+                                   ref->T_world_cam.rotation_matrix().transpose();
+          points.push_back(p);
         }
       }
       if (paper && !stats.empty()) {
@@ -393,50 +402,42 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
           v.raw = is_static_at(stats, gate, config_.static_inlier_fraction) ? MotionState::kStatic
                                                                             : MotionState::kMoving;
         }
-      } else if (static_cast<int>(stats.size()) >= config_.min_object_points) {
-        const std::vector<std::size_t> keep = consistent_points(displacements, pixel_covariances);
-        if (static_cast<double>(keep.size()) <= kMinConsistentFraction * static_cast<double>(stats.size())) {
-          // No common displacement: the points contradict each other.
-          v.points = static_cast<int>(stats.size());
-          v.raw = MotionState::kUnknown;
-          conflicting = true;
-        } else if (static_cast<int>(keep.size()) < config_.min_object_points) {
-          v.points = static_cast<int>(keep.size());  // too few to tell: unknown
-        } else {
-          std::vector<double> kept_stats;
-          std::vector<Eigen::Vector3d> kept_displacements;
-          std::vector<Eigen::Matrix3d> kept_pixel, kept_full;
-          for (std::size_t i : keep) {
-            kept_stats.push_back(stats[i]);
-            kept_displacements.push_back(displacements[i]);
-            kept_pixel.push_back(pixel_covariances[i]);
-            kept_full.push_back(full_covariances[i]);
-          }
-          stats = std::move(kept_stats);
-          v.points = static_cast<int>(stats.size());
-          v.score = quantile(stats, config_.static_inlier_fraction);
-          v.pooled_statistic = pooled_statistic(kept_displacements, kept_pixel, kept_full);
-          const bool points_agree = is_static_at(stats, config_.chi2_static_3dof, config_.static_inlier_fraction);
-          const auto track = tracks_.find(v.instance);
-          const bool suspected = track != tracks_.end() && track->second.suspect;
-          const bool object_still =
-              v.pooled_statistic <= (points_agree && !suspected ? kPooledGate : kPooledGateWithPoints);
-          // The object as a whole has not moved but its points do not agree
-          // with "static" either: no verdict, masked at once.
-          v.raw = !object_still   ? MotionState::kMoving
-                  : points_agree ? MotionState::kStatic
-                                 : MotionState::kUnknown;
-          conflicting = v.raw == MotionState::kUnknown;
-        }
       } else {
-        v.points = static_cast<int>(stats.size());
+        v.points = static_cast<int>(points.size());
+        stats = mahalanobis2_of(points);
+        if (v.points >= config_.min_object_points) {
+          const std::vector<PointDisplacement> kept = consistent_points(points);
+          if (static_cast<double>(kept.size()) <= kMinConsistentFraction * static_cast<double>(points.size())) {
+            // No common displacement: the points contradict each other.
+            v.raw = MotionState::kUnknown;
+            conflicting = true;
+          } else if (static_cast<int>(kept.size()) < config_.min_object_points) {
+            v.points = static_cast<int>(kept.size());  // too few agreeing points to tell: unknown
+          } else {
+            v.points = static_cast<int>(kept.size());
+            stats = mahalanobis2_of(kept);
+            v.score = quantile(stats, config_.static_inlier_fraction);
+            v.pooled_statistic = pooled_statistic(kept);
+            const bool points_agree =
+                is_static_at(stats, config_.chi2_static_3dof, config_.static_inlier_fraction);
+            const auto track = tracks_.find(v.instance);
+            const bool suspected = track != tracks_.end() && track->second.suspect;
+            const bool object_still =
+                v.pooled_statistic <= (points_agree && !suspected ? kPooledGate : kPooledGateWithPoints);
+            // The object as a whole has not moved but its points do not
+            // agree with "static" either: no verdict, masked at once.
+            v.raw = !object_still   ? MotionState::kMoving
+                    : points_agree ? MotionState::kStatic
+                                   : MotionState::kUnknown;
+            conflicting = v.raw == MotionState::kUnknown;
+          }
+        }
       }
       object.statistics = std::move(stats);
     }
     const bool long_enough =
         ref != nullptr && static_cast<double>(current.t_ns - ref->t_ns) * 1e-9 >= kMinStaticEvidenceS;
     v.state = paper ? v.raw : smooth(v.instance, current.seq, v.raw, long_enough, conflicting);
-    if (!paper) tracks_[v.instance].suspect = false;  // suspicion lasts one verdict
   }
   // Forget instances not seen for a ring's length.
   for (auto it = tracks_.begin(); it != tracks_.end();) {

@@ -187,12 +187,14 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
       report.objects = classifier_->classify(*current);
       report.timings.classify_ms = ms_since(t_classify);
       std::vector<std::uint8_t> is_static(65536, 0);
+      std::vector<std::uint16_t> static_instances;
       for (const auto& o : report.objects) {
         if (o.verdict.state == dynamic::MotionState::kStatic) {
           is_static[o.verdict.instance] = 1;
-          ++static_objects;
+          static_instances.push_back(o.verdict.instance);
         }
       }
+      static_objects = static_cast<int>(static_instances.size());
       if (static_objects > 0) {
         const auto t_pass2 = Clock::now();
         usable2 = usable;
@@ -207,11 +209,7 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
             // (a static machine trips this gate now and then) but are
             // suspected: their next verdict is held to a stricter gate.
             report.pass2_rejected = true;
-            std::vector<std::uint16_t> suspected;
-            for (const auto& o : report.objects) {
-              if (o.verdict.state == dynamic::MotionState::kStatic) suspected.push_back(o.verdict.instance);
-            }
-            classifier_->suspect(suspected);
+            classifier_->suspect(static_instances);
           }
         }
       }

@@ -149,8 +149,6 @@ class MotionClassifier {
     int unknown_streak = 0;
     std::int64_t last_seq = -1;
     bool suspect = false;  // next verdict against the stricter object-level gate
-    // Doubt: masked now, and static verdicts are counted from zero again.
-    void mask_until_proven_static();
   };
 
   const ObjectFeatures* select_reference(const ObjectFeatures& current) const;

@@ -79,7 +79,8 @@ struct FrameReport {
   bool pass1_with_known_static = false;
   // Mode full: pass 2 (static objects unmasked) moved the pose beyond pass
   // 1's uncertainty and was not used (the pose is pass 1's); those objects
-  // are masked again (their state in `objects` is unknown).
+  // keep their state, their next verdict meets a stricter gate
+  // (MotionClassifier::suspect).
   bool pass2_rejected = false;
   // Mode full: one entry per dynamic-class box of the frame, in box order
   // (states unknown when pass 1 found no pose). Empty in other modes.

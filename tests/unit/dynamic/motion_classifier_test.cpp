@@ -237,7 +237,9 @@ TEST(MotionClassifier, SuspicionHoldsTheNextVerdictToTheStricterGate) {
     const auto held = verdicts(mm * 1e-3, true);
     const ObjectVerdict& v_plain = plain[plain.size() - 2];
     const ObjectVerdict& v_held = held[held.size() - 2];
-    if (v_plain.raw == MotionState::kMoving) EXPECT_EQ(v_held.raw, MotionState::kMoving) << mm << " mm";
+    if (v_plain.raw == MotionState::kMoving) {
+      EXPECT_EQ(v_held.raw, MotionState::kMoving) << mm << " mm";
+    }
     if (v_held.raw == MotionState::kMoving && v_plain.raw != MotionState::kMoving) ++caught_only_when_suspected;
     if (mm == 0) {
       EXPECT_EQ(v_held.state, MotionState::kStatic);  // a static object is not masked by suspicion
