@@ -8,8 +8,8 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <cstring>
 #include <chrono>
+#include <cstring>
 #include <set>
 #include <unordered_set>
 
@@ -27,11 +27,11 @@ constexpr int kRecentCullAfterKeyframes = 2;  // cull weak points once 2 KFs hav
 constexpr int kRecentKeepKeyframes = 3;       // then leave the recent list
 constexpr int kTriangulationNeighbours = 10;  // CreateNewMapPoints nn (stereo)
 constexpr int kFuseNeighbours = 10;           // SearchInNeighbors nn (stereo)
+constexpr int kFuseSecondNeighbours = 5;      // ... and 5 of each of those
+constexpr int kMaxFixedKeyframes = 20;        // cap of the fixed ring in local BA
 // Nice value of the mapper thread (0 = the tracking threads'): weight 335
 // against 1024, so a contended core gives tracking ~3/4 of its time.
 constexpr int kMapperThreadNice = 5;
-constexpr int kFuseSecondNeighbours = 5;      // ... and 5 of each of those
-constexpr int kMaxFixedKeyframes = 20;        // cap of the fixed ring in local BA
 
 double elapsed_ms(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();

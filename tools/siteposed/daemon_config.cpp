@@ -10,8 +10,8 @@
 #include <fmt/format.h>
 
 #include "sitepose/config/config.hpp"
-#include "sitepose/detect/create_detector.hpp"
 #include "sitepose/config/yaml_reader.hpp"
+#include "sitepose/detect/create_detector.hpp"
 
 namespace sitepose::daemon {
 namespace {

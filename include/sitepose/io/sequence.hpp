@@ -91,16 +91,16 @@ class Sequence {
   virtual std::size_t unpaired_images() const { return 0; }
 };
 
+// Mean frame rate (Hz) of the first `frames` frames (0 = all) from their
+// time stamps; 0 when there are fewer than 2 or time does not advance.
+double mean_frame_rate_hz(const Sequence& sequence, std::size_t frames = 0);
+
 // Detects the layout of `dir` and opens it:
 //   <dir>/image_0/            -> sitepose / KITTI odometry layout
 //   <dir>/mav0/cam0/ or <dir>/cam0/data.csv -> EuRoC (dir = dataset or mav0)
 // Everything cheap is checked here so a run fails before its first frame:
 // calibration, frame counts, presence of every image, image size of frame 0,
 // GT and labels. Errors name the file, the line and what was expected.
-// Mean frame rate (Hz) of the first `frames` frames (0 = all) from their
-// time stamps; 0 when there are fewer than 2 or time does not advance.
-double mean_frame_rate_hz(const Sequence& sequence, std::size_t frames = 0);
-
 Expected<std::unique_ptr<Sequence>> open_sequence(const std::string& dir,
                                                   const SequenceOptions& options = {});
 

@@ -19,6 +19,10 @@
 namespace sitepose::slam {
 namespace {
 
+// Objects with fewer matched points are not tested (unknown); flicker and
+// "testable" counts use the same bound.
+const int kMinObjectPoints = config::DynamicConfig{}.min_object_points;
+
 int frames_from_env(int fallback) {
   if (const char* env = std::getenv("SITEPOSE_DYN_FRAMES"); env && *env) return std::atoi(env);
   return fallback;
@@ -105,10 +109,10 @@ void print_states(const DynamicRunResult& run) {
     std::printf("[figures] %s instance %u starts moving at frame %lld: re-masked after %d frames\n",
                 run.name.c_str(), e.instance, static_cast<long long>(e.start_frame), e.latency_frames);
   }
-  std::printf("[figures] %s static flips %d\n", run.name.c_str(), static_flips(run.samples, config::DynamicConfig{}.min_object_points));
+  std::printf("[figures] %s static flips %d\n", run.name.c_str(), static_flips(run.samples, kMinObjectPoints));
   std::vector<double> thresholds;
   for (double t = 0.0; t <= 200.0; t += 0.25) thresholds.push_back(t);
-  const double auc = roc_auc(roc_curve(run.samples, thresholds, 0.7, 8));
+  const double auc = roc_auc(roc_curve(run.samples, thresholds, 0.7, kMinObjectPoints));
   std::printf("[figures] %s ROC AUC (sitepose statistic) %.3f over %zu samples\n", run.name.c_str(), auc,
               run.samples.size());
 }
@@ -217,10 +221,9 @@ ParkedFigures run_parked() {
   f.bbox = s.run(config::MaskingMode::kBbox);
   f.full = s.run(config::MaskingMode::kFull);
   print_states(f.full.run);
-  const int min_points = config::DynamicConfig{}.min_object_points;
   std::map<std::int64_t, bool> testable, unmasked;
   for (const ObjectSample& smp : f.full.run.samples) {
-    testable[smp.frame] = testable[smp.frame] || smp.object.verdict.points >= min_points;
+    testable[smp.frame] = testable[smp.frame] || smp.object.verdict.points >= kMinObjectPoints;
     unmasked[smp.frame] = unmasked[smp.frame] || smp.object.verdict.state == dynamic::MotionState::kStatic;
   }
   for (const auto& [frame, is_testable] : testable) {
@@ -228,7 +231,7 @@ ParkedFigures run_parked() {
     ++f.testable_frames;
     f.unmasked_frames += unmasked[frame] ? 1 : 0;
   }
-  f.flips = static_flips(f.full.run.samples, min_points);
+  f.flips = static_flips(f.full.run.samples, kMinObjectPoints);
   std::printf("[figures] parked: a machine unmasked in %d of %d frames with a testable machine; "
               "none %.4f m, bbox %.4f m, full %.4f m\n",
               f.unmasked_frames, f.testable_frames, f.none.ate_m, f.bbox.ate_m, f.full.ate_m);
@@ -299,7 +302,7 @@ int remask_latency_frames() {
     if (smp.frame < 24 && smp.object.verdict.state == dynamic::MotionState::kStatic) ++static_before;
   }
   EXPECT_GE(static_before, 10);
-  EXPECT_EQ(static_flips(full.run.samples, config::DynamicConfig{}.min_object_points), 0);
+  EXPECT_EQ(static_flips(full.run.samples, kMinObjectPoints), 0);
   EXPECT_DOUBLE_EQ(full.coverage, 1.0);
   std::printf("[figures] re-masked %d frames after the start\n", events[0].latency_frames);
   return events[0].latency_frames;
@@ -319,8 +322,8 @@ TEST(DynamicRegression, MotionStateRocOnCrowded) {
   std::vector<double> gates, paper_thresholds;
   for (int i = 0; i <= 140; ++i) gates.push_back(std::pow(10.0, -2.0 + 0.05 * i));
   for (int i = 0; i <= 120; ++i) paper_thresholds.push_back(3.0 * 0.005 * i);
-  const double auc_sitepose = roc_auc(roc_curve(sitepose.run.samples, gates, 0.7, 8));
-  const double auc_paper = roc_auc(roc_curve(paper.run.samples, paper_thresholds, 0.7, 8));
+  const double auc_sitepose = roc_auc(roc_curve(sitepose.run.samples, gates, 0.7, kMinObjectPoints));
+  const double auc_paper = roc_auc(roc_curve(paper.run.samples, paper_thresholds, 0.7, kMinObjectPoints));
   int positives = 0, negatives = 0;
   for (const auto& smp : sitepose.run.samples) {
     if (smp.moving_gt) (*smp.moving_gt ? negatives : positives)++;
