@@ -406,15 +406,27 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   const int queued = mapper_.queue_size ? mapper_.queue_size() : 0;
   const bool mapper_idle = mapper_.is_idle ? mapper_.is_idle() : true;
   int reference_matches = 0;
+  int reference_background_matches = 0;
   map_.read([&](const map::MapData& map) {
     const map::KeyFrame* ref = map.keyframe(reference_keyframe_);
     if (ref == nullptr) return;
     const int min_observations = map.keyframe_count() <= 2 ? 2 : 3;
-    for (map::PointId pid : ref->point_of_keypoint) {
+    for (std::size_t k = 0; k < ref->point_of_keypoint.size(); ++k) {
+      const map::PointId pid = ref->point_of_keypoint[k];
       const map::MapPoint* p = map.good_point(pid);
-      if (p != nullptr && map.observation_weight(pid) >= min_observations) ++reference_matches;
+      if (p != nullptr && map.observation_weight(pid) >= min_observations) {
+        ++reference_matches;
+        if (ref->keypoints[k].instance == 0) ++reference_background_matches;
+      }
     }
   });
+  // Background (no detected object) inliers: the dynamic layer's pass 1
+  // tracks on them alone, so the map must renew them even while unmasked
+  // static objects keep the total high. Without objects this is the total.
+  int background_inliers = 0;
+  for (int k = 0; k < frame.size(); ++k) {
+    if (frame.instance[k] == 0 && result.point_of_keypoint[k] != map::kNoPoint) ++background_inliers;
+  }
   // Close points (reliable stereo depth): tracked vs could-be-created. Only
   // usable keypoints count: masked ones can never become map points.
   const double close_depth_m = config_.tracking.close_depth_baselines * camera_.baseline_m;
@@ -441,7 +453,9 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   const double ratio = config_.tracking.keyframe_tracked_ratio;
   const bool c1 = long_since_keyframe || mapper_idle ||
                   result.n_inliers < 0.25 * reference_matches || need_close;
-  const bool c2 = (result.n_inliers < ratio * reference_matches || need_close) && result.n_inliers > 15;
+  const bool background_thinning = background_inliers < ratio * reference_background_matches;
+  const bool c2 = (result.n_inliers < ratio * reference_matches || background_thinning || need_close) &&
+                  result.n_inliers > 15;
   if (!(c1 && c2)) return false;
   if (mapper_idle) return true;
   // Stereo: insert while the mapper is busy only if its queue is short.

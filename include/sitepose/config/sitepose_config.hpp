@@ -55,7 +55,7 @@ struct TrackingConfig {
   int min_inliers_ok = 30;              // fewer inliers -> RECOVERING
   int min_inliers_recovering = 12;      // fewer -> LOST
   int keyframe_max_interval_frames = 0; // 0 = one second of frames
-  double keyframe_tracked_ratio = 0.75; // new keyframe if tracked/ref < ratio
+  double keyframe_tracked_ratio = 0.75; // new keyframe if tracked/ref < ratio (all, or background alone)
   int keyframe_min_close_points = 100;  // need close points: add when fewer tracked
   int keyframe_new_close_points = 70;   // ... and more than this many could be created
 

@@ -2,8 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <opencv2/imgproc.hpp>
 
+#include "sitepose/mapping/local_mapper.hpp"
 #include "sitepose/sim/simulator.hpp"
 
 namespace sitepose::tracking {
@@ -81,6 +84,61 @@ TEST(Tracker, EstimateLeavesNoTrace) {
   for (int k = 1; k < prepared->size(); k += 2) EXPECT_EQ(restricted.point_of_keypoint[k], map::kNoPoint);
   const PassResult from_first = tracker.estimate(*prepared, all, first.T_cam_world);
   EXPECT_LT((from_first.T_cam_world.translation() - first.T_cam_world.translation()).norm(), 0.005);
+}
+
+// The dynamic layer's pass 1 tracks on the background (instance 0) alone.
+// An unmasked static object keeps the total inlier count high while the
+// background shrinks; the keyframe rule must still renew the background.
+TEST(Tracker, RenewsTheBackgroundWhileStaticObjectsKeepTheTotalHigh) {
+  constexpr int kFrames = 36;
+  const SmallSite site = SmallSite::make("static", kFrames);
+  struct Run {
+    int keyframes = 0;
+    int last_background_inliers = 0;
+  };
+  // shrinking_background: the image right of a boundary that moves from 70 %
+  // to 15 % of the width is a static object, used like the background.
+  const auto run = [&](bool shrinking_background) {
+    map::SharedMap map;
+    const config::SiteposeConfig config = small_config();
+    mapping::LocalMapper mapper(site.simulator.camera(), config.mapping, config.tracking, map);
+    MapperLink link;
+    link.enqueue = [&](map::KeyFrameId id) { mapper.enqueue(id); };
+    link.queue_size = [&] { return static_cast<int>(mapper.queue_size()); };
+    link.is_idle = [&] { return mapper.is_idle(); };
+    Tracker tracker(site.simulator.camera(), config, map, std::move(link));
+    Run out;
+    for (int i = 0; i < kFrames; ++i) {
+      const StereoFrame frame = site.frame(i);
+      cv::Mat labels(frame.left.size(), CV_16UC1, cv::Scalar(0));
+      if (shrinking_background) {
+        const double share = 0.7 - 0.55 * i / (kFrames - 1);
+        labels.colRange(static_cast<int>(share * labels.cols), labels.cols).setTo(1);
+      }
+      auto prepared = tracker.prepare(frame, labels);
+      EXPECT_TRUE(prepared.has_value());
+      if (!prepared) return out;
+      const std::vector<std::uint8_t> all(prepared->size(), 1);
+      const PassResult result = tracker.estimate(*prepared, all);
+      EXPECT_EQ(tracker.commit(*prepared, result, all).state, TrackingState::kOk) << "frame " << i;
+      EXPECT_TRUE(mapper.process_pending().has_value());
+      out.last_background_inliers = 0;
+      for (int k = 0; k < prepared->size(); ++k) {
+        if (prepared->instance[k] == 0 && result.point_of_keypoint[k] != map::kNoPoint) {
+          ++out.last_background_inliers;
+        }
+      }
+    }
+    out.keyframes = tracker.counters().keyframes_created;
+    return out;
+  };
+  const Run plain = run(false);
+  const Run shrinking = run(true);
+  std::printf("[figures] keyframes: plain %d, shrinking background %d (%d background inliers at the end)\n",
+              plain.keyframes, shrinking.keyframes, shrinking.last_background_inliers);
+  // The background fell to about a fifth of its width: a keyframe for each
+  // quarter lost, beyond those the plain run needs.
+  EXPECT_GE(shrinking.keyframes, plain.keyframes + 3);
 }
 
 TEST(Tracker, PrepareTagsInstancesAndMovesTheBudget) {
