@@ -115,15 +115,10 @@ Expected<FrameReport> SlamSystem::process(const StereoFrame& frame, const dynami
   if (config_.dynamic.mode == config::MaskingMode::kNone) {
     SITEPOSE_TRY(FrameReport report, process(frame));
     report.dynamic_layer = true;
-    report.mar = dynamic::box_union_ratio(
-        [&] {
-          std::vector<dynamic::ObjectBox> boxes;
-          for (const auto& b : objects.boxes) {
-            if (dynamic::is_dynamic_class(b.class_name, config_.dynamic.dynamic_classes)) boxes.push_back(b);
-          }
-          return boxes;
-        }(),
-        frame.left.size());
+    // Nothing is masked, but mar is reported as in the other modes.
+    SITEPOSE_TRY(const dynamic::MaskResult mask, dynamic::build_mask(config::MaskingMode::kNone, objects,
+                                                                     frame.left.size(), config_.dynamic));
+    report.mar = mask.mar;
     report.pose.counters.masked_area_ratio = report.mar;
     return report;
   }

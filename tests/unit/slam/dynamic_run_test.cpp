@@ -127,6 +127,33 @@ TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
   EXPECT_EQ(report.error().code, ErrorCode::kUnsupported);
 }
 
+// Mode none masks nothing but reports mar like the masking modes: the
+// dynamic-class boxes only, clipped to the image.
+TEST(SlamSystem, ModeNoneReportsTheMarOfDynamicClassBoxes) {
+  StereoCamera camera;
+  camera.fx = camera.fy = 100.0;
+  camera.cx = 32.0;
+  camera.cy = 24.0;
+  camera.baseline_m = 0.5;
+  camera.width = 64;
+  camera.height = 48;
+  config::SiteposeConfig config;
+  config.dynamic.mode = config::MaskingMode::kNone;
+  auto system = SlamSystem::create(camera, config);
+  ASSERT_TRUE(system) << system.error().message;
+  StereoFrame frame;
+  frame.left = cv::Mat(48, 64, CV_8UC1, cv::Scalar(100));
+  frame.right = frame.left.clone();
+  dynamic::FrameObjects objects;
+  objects.boxes.push_back({1, "truck", 1.0, cv::Rect(-8, 0, 24, 12)});  // 16 x 12 inside
+  objects.boxes.push_back({2, "cone", 1.0, cv::Rect(30, 30, 10, 10)});  // not a dynamic class
+  auto report = (*system)->process(frame, objects);
+  ASSERT_TRUE(report) << report.error().message;
+  EXPECT_TRUE(report->dynamic_layer);
+  EXPECT_DOUBLE_EQ(report->mar, 16.0 * 12.0 / (64.0 * 48.0));
+  EXPECT_DOUBLE_EQ(report->pose.counters.masked_area_ratio, report->mar);
+}
+
 TEST(SlamSystem, RejectsNonPositiveFps) {
   StereoCamera camera;
   camera.fx = camera.fy = 100.0;
