@@ -10,6 +10,26 @@
 namespace sitepose::slam {
 namespace {
 
+// A 64 x 48 camera and a textureless frame of it: enough for SlamSystem to
+// run (the map never initialises) where a test looks at the dynamic layer.
+StereoCamera tiny_camera() {
+  StereoCamera camera;
+  camera.fx = camera.fy = 100.0;
+  camera.cx = 32.0;
+  camera.cy = 24.0;
+  camera.baseline_m = 0.5;
+  camera.width = 64;
+  camera.height = 48;
+  return camera;
+}
+
+StereoFrame blank_frame() {
+  StereoFrame frame;
+  frame.left = cv::Mat(48, 64, CV_8UC1, cv::Scalar(100));
+  frame.right = frame.left.clone();
+  return frame;
+}
+
 ObjectSample make_sample(std::int64_t frame, std::uint16_t instance, bool moving, dynamic::MotionState state,
                          std::vector<double> statistics = {}, int points = 20) {
   ObjectSample s;
@@ -106,20 +126,12 @@ TEST(RunRecorder, WritesStatesCsvOfDynamicReports) {
 }
 
 TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
-  StereoCamera camera;
-  camera.fx = camera.fy = 100.0;
-  camera.cx = 32.0;
-  camera.cy = 24.0;
-  camera.baseline_m = 0.5;
-  camera.width = 64;
-  camera.height = 48;
+  const StereoCamera camera = tiny_camera();
   config::SiteposeConfig config;
   config.dynamic.mode = config::MaskingMode::kPixel;
   auto system = SlamSystem::create(camera, config);
   ASSERT_TRUE(system) << system.error().message;
-  StereoFrame frame;
-  frame.left = cv::Mat(48, 64, CV_8UC1, cv::Scalar(100));
-  frame.right = frame.left.clone();
+  const StereoFrame frame = blank_frame();
   dynamic::FrameObjects objects;
   objects.boxes.push_back({1, "truck", 1.0, cv::Rect(0, 0, 10, 10)});
   auto report = (*system)->process(frame, objects);
@@ -130,20 +142,12 @@ TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
 // Mode none masks nothing but reports mar like the masking modes: the
 // dynamic-class boxes only, clipped to the image.
 TEST(SlamSystem, ModeNoneReportsTheMarOfDynamicClassBoxes) {
-  StereoCamera camera;
-  camera.fx = camera.fy = 100.0;
-  camera.cx = 32.0;
-  camera.cy = 24.0;
-  camera.baseline_m = 0.5;
-  camera.width = 64;
-  camera.height = 48;
+  const StereoCamera camera = tiny_camera();
   config::SiteposeConfig config;
   config.dynamic.mode = config::MaskingMode::kNone;
   auto system = SlamSystem::create(camera, config);
   ASSERT_TRUE(system) << system.error().message;
-  StereoFrame frame;
-  frame.left = cv::Mat(48, 64, CV_8UC1, cv::Scalar(100));
-  frame.right = frame.left.clone();
+  const StereoFrame frame = blank_frame();
   dynamic::FrameObjects objects;
   objects.boxes.push_back({1, "truck", 1.0, cv::Rect(-8, 0, 24, 12)});  // 16 x 12 inside
   objects.boxes.push_back({2, "cone", 1.0, cv::Rect(30, 30, 10, 10)});  // not a dynamic class
@@ -155,13 +159,7 @@ TEST(SlamSystem, ModeNoneReportsTheMarOfDynamicClassBoxes) {
 }
 
 TEST(SlamSystem, RejectsNonPositiveFps) {
-  StereoCamera camera;
-  camera.fx = camera.fy = 100.0;
-  camera.cx = 32.0;
-  camera.cy = 24.0;
-  camera.baseline_m = 0.5;
-  camera.width = 64;
-  camera.height = 48;
+  const StereoCamera camera = tiny_camera();
   SlamOptions options;
   options.fps = 0.0;
   auto system = SlamSystem::create(camera, config::SiteposeConfig{}, options);
