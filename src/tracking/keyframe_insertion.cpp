@@ -1,0 +1,146 @@
+#include "sitepose/tracking/tracker.hpp"
+
+#include <algorithm>
+#include <utility>
+
+// Tracker, continued: the map's first keyframe and the keyframe decision
+// and insertion (part of commit(); estimation is in tracker.cpp).
+
+namespace sitepose::tracking {
+namespace {
+
+// ORB-SLAM2 thresholds, named (METHOD.md "Core tracker").
+constexpr int kMinInitialisationPoints = 100;  // stereo points to start a map
+constexpr int kMinNewClosePoints = 100;        // new keyframe: create at least this many
+
+}  // namespace
+
+bool Tracker::initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable) {
+  int n_stereo = 0;
+  for (int k = 0; k < frame.size(); ++k) n_stereo += (usable[k] && frame.features.has_depth(k)) ? 1 : 0;
+  if (n_stereo < kMinInitialisationPoints) return false;
+  // The world frame is the first keyframe's left camera.
+  PassResult origin;
+  origin.valid = true;
+  origin.T_cam_world = SE3();
+  origin.point_of_keypoint.assign(frame.size(), map::kNoPoint);
+  create_keyframe(frame, origin, usable);
+  last_T_cam_world_ = SE3();
+  has_last_ = true;
+  has_velocity_ = false;
+  return true;
+}
+
+bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result,
+                            const std::vector<std::uint8_t>& usable) const {
+  const int queued = mapper_.queue_size ? mapper_.queue_size() : 0;
+  const bool mapper_idle = mapper_.is_idle ? mapper_.is_idle() : true;
+  int reference_matches = 0;
+  int reference_background_matches = 0;
+  map_.read([&](const map::MapData& map) {
+    const map::KeyFrame* ref = map.keyframe(reference_keyframe_);
+    if (ref == nullptr) return;
+    const int min_observations = map.keyframe_count() <= 2 ? 2 : 3;
+    for (std::size_t k = 0; k < ref->point_of_keypoint.size(); ++k) {
+      const map::PointId pid = ref->point_of_keypoint[k];
+      const map::MapPoint* p = map.good_point(pid);
+      if (p != nullptr && map.observation_weight(pid) >= min_observations) {
+        ++reference_matches;
+        if (ref->keypoints[k].instance == 0) ++reference_background_matches;
+      }
+    }
+  });
+  // Background (no detected object) inliers: the dynamic layer's pass 1
+  // tracks on them alone, so the map must renew them even while unmasked
+  // static objects keep the total high. Without objects this is the total.
+  int background_inliers = 0;
+  for (int k = 0; k < frame.size(); ++k) {
+    if (frame.instance[k] == 0 && result.point_of_keypoint[k] != map::kNoPoint) ++background_inliers;
+  }
+  // Close points (reliable stereo depth): tracked vs could-be-created. Only
+  // usable keypoints count: masked ones can never become map points.
+  const double close_depth_m = config_.tracking.close_depth_baselines * camera_.baseline_m;
+  int tracked_close = 0;
+  int untracked_close = 0;
+  for (int k = 0; k < frame.size(); ++k) {
+    if (!usable[k]) continue;
+    const double depth = frame.features.depth_m[k];
+    if (depth <= 0.0 || depth >= close_depth_m) continue;
+    if (result.point_of_keypoint[k] != map::kNoPoint) {
+      ++tracked_close;
+    } else {
+      ++untracked_close;
+    }
+  }
+  const bool need_close = tracked_close < config_.tracking.keyframe_min_close_points &&
+                          untracked_close > config_.tracking.keyframe_new_close_points;
+  const std::int64_t interval_ns =
+      config_.tracking.keyframe_max_interval_frames > 0 ? 0 : static_cast<std::int64_t>(1e9);
+  const bool long_since_keyframe =
+      config_.tracking.keyframe_max_interval_frames > 0
+          ? frame.seq - last_keyframe_seq_ >= config_.tracking.keyframe_max_interval_frames
+          : frame.t_ns - last_keyframe_t_ns_ >= interval_ns;
+  const double ratio = config_.tracking.keyframe_tracked_ratio;
+  const bool c1 = long_since_keyframe || mapper_idle ||
+                  result.n_inliers < 0.25 * reference_matches || need_close;
+  const bool background_thinning = background_inliers < ratio * reference_background_matches;
+  const bool c2 = (result.n_inliers < ratio * reference_matches || background_thinning || need_close) &&
+                  result.n_inliers > 15;
+  if (!(c1 && c2)) return false;
+  if (mapper_idle) return true;
+  // Stereo: insert while the mapper is busy only if its queue is short.
+  if (mapper_.interrupt) mapper_.interrupt();
+  return queued < 3;
+}
+
+void Tracker::create_keyframe(const PreparedFrame& frame, const PassResult& result,
+                              const std::vector<std::uint8_t>& usable) {
+  map::KeyFrame kf;
+  kf.frame_seq = frame.seq;
+  kf.t_ns = frame.t_ns;
+  kf.T_world_cam = result.T_cam_world.inverse();
+  kf.keypoints.resize(frame.size());
+  for (int k = 0; k < frame.size(); ++k) {
+    map::KeyPointData& kp = kf.keypoints[k];
+    kp.uv_px = frame.uv_px[k];
+    kp.octave = frame.octave[k];
+    kp.u_right_px = frame.features.u_right[k];
+    kp.depth_m = frame.features.depth_m[k];
+    kp.descriptor = map::descriptor_from_row(frame.features.descriptors, k);
+    kp.instance = frame.instance[k];
+  }
+  kf.point_of_keypoint = result.point_of_keypoint;
+  // New stereo points, nearest first: all close ones, at least 100
+  // (ORB-SLAM2 Tracking::CreateNewKeyFrame).
+  std::vector<std::pair<double, int>> by_depth;
+  for (int k = 0; k < frame.size(); ++k) {
+    if (usable[k] && frame.features.has_depth(k)) by_depth.emplace_back(frame.features.depth_m[k], k);
+  }
+  std::sort(by_depth.begin(), by_depth.end());
+  const double close_depth_m = config_.tracking.close_depth_baselines * camera_.baseline_m;
+  const SE3 T_world_cam = kf.T_world_cam;
+  const map::KeyFrameId id = map_.write([&](map::MapData& map) {
+    const map::KeyFrameId kf_id = map.add_keyframe(std::move(kf));
+    int created = 0;
+    int considered = 0;
+    for (const auto& [depth, k] : by_depth) {
+      const map::KeyFrame* key = map.keyframe(kf_id);
+      if (key->point_of_keypoint[k] == map::kNoPoint) {
+        const Eigen::Vector3d p_cam = camera_.unproject(frame.uv_px[k], depth);
+        map.add_point(T_world_cam * p_cam, kf_id, k);
+        ++created;
+      }
+      ++considered;
+      if (depth > close_depth_m && considered > kMinNewClosePoints) break;
+    }
+    (void)created;
+    return kf_id;
+  });
+  reference_keyframe_ = id;
+  last_keyframe_seq_ = frame.seq;
+  last_keyframe_t_ns_ = frame.t_ns;
+  ++counters_.keyframes_created;
+  if (mapper_.enqueue) mapper_.enqueue(id);
+}
+
+}  // namespace sitepose::tracking
