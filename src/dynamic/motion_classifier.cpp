@@ -118,6 +118,60 @@ double quantile(std::vector<double> values, double q) {
   return values[index];
 }
 
+// Paper mode (Algorithm 2) on one object's point errors (m): the errors
+// below the median are kept (outliers); static when more than
+// static_inlier_fraction of them are below 3 sigma_bkg. Fills v.points,
+// v.score and v.raw (with enough points); returns the kept errors.
+std::vector<double> judge_paper(std::vector<double> errors_m, const config::DynamicConfig& config,
+                                ObjectVerdict& v) {
+  if (!errors_m.empty()) {
+    const double median = quantile(errors_m, 0.5);
+    std::vector<double> kept;
+    for (double e : errors_m) {
+      if (e < median) kept.push_back(e);
+    }
+    if (kept.empty()) kept.push_back(median);
+    errors_m = std::move(kept);
+  }
+  v.points = static_cast<int>(errors_m.size());
+  if (v.points >= config.min_object_points) {
+    const double gate = 3.0 * config.sigma_bkg_m;
+    const auto below = std::count_if(errors_m.begin(), errors_m.end(), [&](double e) { return e < gate; });
+    v.score = static_cast<double>(below) / errors_m.size();
+    v.raw = is_static_at(errors_m, gate, config.static_inlier_fraction) ? MotionState::kStatic
+                                                                       : MotionState::kMoving;
+  }
+  return errors_m;
+}
+
+// Sitepose mode on one object's matched points (see the header). Fills
+// v.points, v.score, v.pooled_statistic and v.raw, and `statistics` with the
+// tested points' squared Mahalanobis distances. suspected: the object-level
+// test uses the stricter gate. Returns true for evidence against "static"
+// without a moving verdict (no common displacement, or the points disagree
+// with "static" while the object as a whole has not moved): masked at once.
+bool judge_sitepose(const std::vector<PointDisplacement>& points, const config::DynamicConfig& config,
+                    bool suspected, ObjectVerdict& v, std::vector<double>& statistics) {
+  v.points = static_cast<int>(points.size());
+  statistics = mahalanobis2_of(points);
+  if (v.points < config.min_object_points) return false;
+  const std::vector<PointDisplacement> kept = consistent_points(points);
+  if (static_cast<double>(kept.size()) <= kMinConsistentFraction * static_cast<double>(points.size())) {
+    v.raw = MotionState::kUnknown;  // no common displacement: the points contradict each other
+    return true;
+  }
+  v.points = static_cast<int>(kept.size());
+  if (v.points < config.min_object_points) return false;  // too few agreeing points to tell: unknown
+  statistics = mahalanobis2_of(kept);
+  v.score = quantile(statistics, config.static_inlier_fraction);
+  v.pooled_statistic = pooled_statistic(kept);
+  const bool points_agree = is_static_at(statistics, config.chi2_static_3dof, config.static_inlier_fraction);
+  const bool object_still =
+      v.pooled_statistic <= (points_agree && !suspected ? kPooledGate : kPooledGateWithPoints);
+  v.raw = !object_still ? MotionState::kMoving : points_agree ? MotionState::kStatic : MotionState::kUnknown;
+  return v.raw == MotionState::kUnknown;
+}
+
 }  // namespace
 
 ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
@@ -383,55 +437,12 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
           points.push_back(p);
         }
       }
-      if (paper && !stats.empty()) {
-        // Keep only the errors below the median (Algorithm 2, outliers).
-        const double median = quantile(stats, 0.5);
-        std::vector<double> kept;
-        for (double e : stats) {
-          if (e < median) kept.push_back(e);
-        }
-        if (kept.empty()) kept.push_back(median);
-        stats = std::move(kept);
-      }
       if (paper) {
-        v.points = static_cast<int>(stats.size());
-        if (v.points >= config_.min_object_points) {
-          const double gate = 3.0 * config_.sigma_bkg_m;
-          const auto below = std::count_if(stats.begin(), stats.end(), [&](double e) { return e < gate; });
-          v.score = static_cast<double>(below) / stats.size();
-          v.raw = is_static_at(stats, gate, config_.static_inlier_fraction) ? MotionState::kStatic
-                                                                            : MotionState::kMoving;
-        }
+        stats = judge_paper(std::move(stats), config_, v);
       } else {
-        v.points = static_cast<int>(points.size());
-        stats = mahalanobis2_of(points);
-        if (v.points >= config_.min_object_points) {
-          const std::vector<PointDisplacement> kept = consistent_points(points);
-          if (static_cast<double>(kept.size()) <= kMinConsistentFraction * static_cast<double>(points.size())) {
-            // No common displacement: the points contradict each other.
-            v.raw = MotionState::kUnknown;
-            conflicting = true;
-          } else if (static_cast<int>(kept.size()) < config_.min_object_points) {
-            v.points = static_cast<int>(kept.size());  // too few agreeing points to tell: unknown
-          } else {
-            v.points = static_cast<int>(kept.size());
-            stats = mahalanobis2_of(kept);
-            v.score = quantile(stats, config_.static_inlier_fraction);
-            v.pooled_statistic = pooled_statistic(kept);
-            const bool points_agree =
-                is_static_at(stats, config_.chi2_static_3dof, config_.static_inlier_fraction);
-            const auto track = tracks_.find(v.instance);
-            const bool suspected = track != tracks_.end() && track->second.suspect;
-            const bool object_still =
-                v.pooled_statistic <= (points_agree && !suspected ? kPooledGate : kPooledGateWithPoints);
-            // The object as a whole has not moved but its points do not
-            // agree with "static" either: no verdict, masked at once.
-            v.raw = !object_still   ? MotionState::kMoving
-                    : points_agree ? MotionState::kStatic
-                                   : MotionState::kUnknown;
-            conflicting = v.raw == MotionState::kUnknown;
-          }
-        }
+        const auto track = tracks_.find(v.instance);
+        const bool suspected = track != tracks_.end() && track->second.suspect;
+        conflicting = judge_sitepose(points, config_, suspected, v, stats);
       }
       object.statistics = std::move(stats);
     }
