@@ -10,8 +10,8 @@
 namespace sitepose::slam {
 namespace {
 
-// A 64 x 48 camera and a textureless frame of it: enough for SlamSystem to
-// run (the map never initialises) where a test looks at the dynamic layer.
+// A 64 x 48 camera: enough for SlamSystem to run where a test looks at the
+// dynamic layer.
 StereoCamera tiny_camera() {
   StereoCamera camera;
   camera.fx = camera.fy = 100.0;
@@ -23,11 +23,18 @@ StereoCamera tiny_camera() {
   return camera;
 }
 
-StereoFrame blank_frame() {
+// One textureless frame (the map never initialises) with `boxes` through a
+// fresh SlamSystem in `mode`.
+Expected<FrameReport> process_blank_frame(config::MaskingMode mode, std::vector<dynamic::ObjectBox> boxes) {
+  config::SiteposeConfig config;
+  config.dynamic.mode = mode;
+  SITEPOSE_TRY(std::unique_ptr<SlamSystem> system, SlamSystem::create(tiny_camera(), config));
   StereoFrame frame;
   frame.left = cv::Mat(48, 64, CV_8UC1, cv::Scalar(100));
   frame.right = frame.left.clone();
-  return frame;
+  dynamic::FrameObjects objects;
+  objects.boxes = std::move(boxes);
+  return system->process(frame, objects);
 }
 
 ObjectSample make_sample(std::int64_t frame, std::uint16_t instance, bool moving, dynamic::MotionState state,
@@ -126,15 +133,8 @@ TEST(RunRecorder, WritesStatesCsvOfDynamicReports) {
 }
 
 TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
-  const StereoCamera camera = tiny_camera();
-  config::SiteposeConfig config;
-  config.dynamic.mode = config::MaskingMode::kPixel;
-  auto system = SlamSystem::create(camera, config);
-  ASSERT_TRUE(system) << system.error().message;
-  const StereoFrame frame = blank_frame();
-  dynamic::FrameObjects objects;
-  objects.boxes.push_back({1, "truck", 1.0, cv::Rect(0, 0, 10, 10)});
-  auto report = (*system)->process(frame, objects);
+  const auto report =
+      process_blank_frame(config::MaskingMode::kPixel, {{1, "truck", 1.0, cv::Rect(0, 0, 10, 10)}});
   ASSERT_FALSE(report);
   EXPECT_EQ(report.error().code, ErrorCode::kUnsupported);
 }
@@ -142,16 +142,9 @@ TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
 // Mode none masks nothing but reports mar like the masking modes: the
 // dynamic-class boxes only, clipped to the image.
 TEST(SlamSystem, ModeNoneReportsTheMarOfDynamicClassBoxes) {
-  const StereoCamera camera = tiny_camera();
-  config::SiteposeConfig config;
-  config.dynamic.mode = config::MaskingMode::kNone;
-  auto system = SlamSystem::create(camera, config);
-  ASSERT_TRUE(system) << system.error().message;
-  const StereoFrame frame = blank_frame();
-  dynamic::FrameObjects objects;
-  objects.boxes.push_back({1, "truck", 1.0, cv::Rect(-8, 0, 24, 12)});  // 16 x 12 inside
-  objects.boxes.push_back({2, "cone", 1.0, cv::Rect(30, 30, 10, 10)});  // not a dynamic class
-  auto report = (*system)->process(frame, objects);
+  const auto report = process_blank_frame(config::MaskingMode::kNone,
+                                          {{1, "truck", 1.0, cv::Rect(-8, 0, 24, 12)},    // 16 x 12 inside
+                                           {2, "cone", 1.0, cv::Rect(30, 30, 10, 10)}});  // not a dynamic class
   ASSERT_TRUE(report) << report.error().message;
   EXPECT_TRUE(report->dynamic_layer);
   EXPECT_DOUBLE_EQ(report->mar, 16.0 * 12.0 / (64.0 * 48.0));
@@ -159,10 +152,9 @@ TEST(SlamSystem, ModeNoneReportsTheMarOfDynamicClassBoxes) {
 }
 
 TEST(SlamSystem, RejectsNonPositiveFps) {
-  const StereoCamera camera = tiny_camera();
   SlamOptions options;
   options.fps = 0.0;
-  auto system = SlamSystem::create(camera, config::SiteposeConfig{}, options);
+  auto system = SlamSystem::create(tiny_camera(), config::SiteposeConfig{}, options);
   ASSERT_FALSE(system);
   EXPECT_EQ(system.error().code, ErrorCode::kInvalidArgument);
 }
