@@ -6,6 +6,7 @@
 
 #include "sitepose/features/hamming.hpp"
 #include "sitepose/optim/triangulation.hpp"
+#include "detail/point_displacement.hpp"
 
 namespace sitepose::dynamic {
 namespace {
@@ -46,76 +47,21 @@ constexpr double kPooledGate = 16.27;
 // and a lower object-level gate (chi2 3 dof, 97.5 %) suffices: a slowly
 // starting machine is caught about a frame earlier.
 constexpr double kPooledGateWithPoints = 9.35;
-// A point agrees with its object's common displacement within chi2 3 dof
-// 99 % of its pixel noise; the object is tested only when most of its
-// matched points agree (else unknown and masked: points that disagree with
-// each other prove nothing).
-constexpr double kConsistencyGate = 11.34;
+// The object is tested only when most of its matched points agree with
+// their common displacement (else unknown and masked: points that disagree
+// with each other prove nothing).
 constexpr double kMinConsistentFraction = 0.5;
 
-double quantile(std::vector<double> values, double q);
-
-// Sitepose mode: one matched point pair of an object, RF -> CF in world
-// coordinates.
-struct PointDisplacement {
-  Eigen::Vector3d d;                 // CF position - RF position (m)
-  Eigen::Matrix3d pixel_covariance;  // of d from pixel noise alone (independent per point)
-  Eigen::Matrix3d covariance;        // of d, pixel noise and CF's pose
-  double mahalanobis2 = 0.0;         // d' covariance^-1 d
-};
-
-double pooled_statistic(const std::vector<PointDisplacement>& points) {
-  if (points.empty()) return 0.0;
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d pixel_sum = Eigen::Matrix3d::Zero();
-  Eigen::Matrix3d pose_sum = Eigen::Matrix3d::Zero();
-  for (const PointDisplacement& p : points) {
-    mean += p.d;
-    pixel_sum += p.pixel_covariance;
-    pose_sum += p.covariance - p.pixel_covariance;
-  }
-  const double n = static_cast<double>(points.size());
-  mean /= n;
-  const Eigen::Matrix3d sigma = pixel_sum / (n * n) + pose_sum / n;
-  return mean.dot(sigma.ldlt().solve(mean));
-}
+using detail::consistent_points;
+using detail::PointDisplacement;
+using detail::pooled_statistic;
+using detail::quantile;
 
 std::vector<double> mahalanobis2_of(const std::vector<PointDisplacement>& points) {
   std::vector<double> out;
   out.reserve(points.size());
   for (const PointDisplacement& p : points) out.push_back(p.mahalanobis2);
   return out;
-}
-
-// The points whose displacement agrees with the object's common one
-// (component-wise median) within their own pixel noise. A rigid object,
-// moving or not, displaces all its points alike; a keypoint matched to the
-// wrong place in RF (repeated texture: windows, tracks, grilles) does not.
-// The tests then run on these points only, free of the mismatches and
-// without favouring "static" (measured on parked: 6 of 16 points of a
-// parked excavator were such mismatches, 0.4-9.6 m "displacements", and drew
-// "moving" verdicts).
-std::vector<PointDisplacement> consistent_points(const std::vector<PointDisplacement>& points) {
-  Eigen::Vector3d common;
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double> component;
-    for (const PointDisplacement& p : points) component.push_back(p.d[axis]);
-    common[axis] = quantile(component, 0.5);
-  }
-  std::vector<PointDisplacement> out;
-  for (const PointDisplacement& p : points) {
-    const Eigen::Vector3d e = p.d - common;
-    if (e.dot(p.pixel_covariance.ldlt().solve(e)) <= kConsistencyGate) out.push_back(p);
-  }
-  return out;
-}
-
-double quantile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const std::size_t index =
-      std::min(values.size() - 1, static_cast<std::size_t>(std::ceil(q * values.size())) - (q > 0 ? 1 : 0));
-  return values[index];
 }
 
 // Paper mode (Algorithm 2) on one object's point errors (m): the errors
@@ -146,12 +92,11 @@ std::vector<double> judge_paper(std::vector<double> errors_m, const config::Dyna
 
 // Sitepose mode on one object's matched points (see the header). Fills
 // v.points, v.score, v.pooled_statistic and v.raw, and `statistics` with the
-// tested points' squared Mahalanobis distances. suspected: the object-level
-// test uses the stricter gate. Returns true for evidence against "static"
+// tested points' squared Mahalanobis distances. Returns true for evidence against "static"
 // without a moving verdict (no common displacement, or the points disagree
 // with "static" while the object as a whole has not moved): masked at once.
 bool judge_sitepose(const std::vector<PointDisplacement>& points, const config::DynamicConfig& config,
-                    bool suspected, ObjectVerdict& v, std::vector<double>& statistics) {
+                    ObjectVerdict& v, std::vector<double>& statistics) {
   v.points = static_cast<int>(points.size());
   statistics = mahalanobis2_of(points);
   if (v.points < config.min_object_points) return false;
@@ -167,7 +112,7 @@ bool judge_sitepose(const std::vector<PointDisplacement>& points, const config::
   v.pooled_statistic = pooled_statistic(kept);
   const bool points_agree = is_static_at(statistics, config.chi2_static_3dof, config.static_inlier_fraction);
   const bool object_still =
-      v.pooled_statistic <= (points_agree && !suspected ? kPooledGate : kPooledGateWithPoints);
+      v.pooled_statistic <= (points_agree ? kPooledGate : kPooledGateWithPoints);
   v.raw = !object_still ? MotionState::kMoving : points_agree ? MotionState::kStatic : MotionState::kUnknown;
   return v.raw == MotionState::kUnknown;
 }
@@ -232,10 +177,6 @@ MotionClassifier::MotionClassifier(const StereoCamera& camera, const config::Dyn
   }
 }
 
-void MotionClassifier::suspect(const std::vector<std::uint16_t>& instances) {
-  for (std::uint16_t instance : instances) tracks_[instance].suspect = true;
-}
-
 void MotionClassifier::reset() {
   ring_.clear();
   tracks_.clear();
@@ -283,14 +224,10 @@ MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, M
                                      bool static_evidence_counts, bool conflicting_evidence) {
   Track& t = tracks_[instance];
   t.last_seq = seq;
-  t.suspect = false;  // suspicion lasts one verdict
   const int n = config_.hysteresis_frames;
   switch (raw) {
     case MotionState::kMoving:
-      // Safety first: one moving verdict masks the object again at once.
-      t.static_streak = 0;
-      t.unknown_streak = 0;
-      t.state = MotionState::kMoving;
+      t.mask_as_moving();
       break;
     case MotionState::kStatic:
       t.unknown_streak = 0;
@@ -440,9 +377,7 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
       if (paper) {
         stats = judge_paper(std::move(stats), config_, v);
       } else {
-        const auto track = tracks_.find(v.instance);
-        const bool suspected = track != tracks_.end() && track->second.suspect;
-        conflicting = judge_sitepose(points, config_, suspected, v, stats);
+        conflicting = judge_sitepose(points, config_, v, stats);
       }
       object.statistics = std::move(stats);
     }

@@ -59,6 +59,7 @@ void RunRecorder::add(const FrameReport& report) {
   stage_ms_["whole_frame"].push_back(t.total_ms);
   if (!report.dynamic_layer) return;
   pass2_rejections_ += report.pass2_rejected ? 1 : 0;
+  map_check_remasks_ += report.remasked_by_map_check;
   stage_ms_["detect"].push_back(t.detect_ms);
   stage_ms_["mask"].push_back(t.mask_ms);
   stage_ms_["classify"].push_back(t.classify_ms);
@@ -150,6 +151,7 @@ Status RunRecorder::write_stats_json(const std::string& path, const std::string&
     json << (i ? "," : "") << masked_area_ratio_[i];
   }
   json << "],\n  \"pixel_mask_calls\": " << pixel_mask_calls_ << ",\n  \"pass2_rejected\": " << pass2_rejections_
+       << ",\n  \"remasked_by_map_check\": " << map_check_remasks_
        << ",\n  \"peak_rss_bytes\": " << peak_rss_bytes();
   if (!extra_json_fields.empty()) json << ",\n" << extra_json_fields;
   json << "\n}\n";

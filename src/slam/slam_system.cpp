@@ -180,7 +180,6 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
                                               pass1.covariance_world_cam, pass1.variance_factor,
                                               classifier_->max_depth_m());
       report.objects = classifier_->classify(*current);
-      report.timings.classify_ms = ms_since(t_classify);
       std::vector<std::uint8_t> is_static(65536, 0);
       std::vector<std::uint16_t> static_instances;
       for (const auto& o : report.objects) {
@@ -189,6 +188,22 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
           static_instances.push_back(o.verdict.instance);
         }
       }
+      if (!static_instances.empty()) {
+        // Before pass 2 may use them: each static object against its own
+        // map points (catches a machine that has just started moving).
+        for (const dynamic::MapCheck& check : check_against_map(prepared, pass1, *current, static_instances)) {
+          for (auto& o : report.objects) {
+            if (o.verdict.instance != check.instance) continue;
+            o.verdict.map_statistic = check.statistic;
+            if (check.moving) o.verdict.state = dynamic::MotionState::kMoving;
+          }
+          if (!check.moving) continue;
+          ++report.remasked_by_map_check;
+          is_static[check.instance] = 0;
+          std::erase(static_instances, check.instance);
+        }
+      }
+      report.timings.classify_ms = ms_since(t_classify);
       static_objects = static_cast<int>(static_instances.size());
       if (static_objects > 0) {
         const auto t_pass2 = Clock::now();
@@ -200,11 +215,10 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
           if (pass2_agrees_with_pass1(pass1, pass2)) {
             final_result = &pass2;
           } else {
-            // Pass 1's pose stands. The unmasked objects keep their state
-            // (a static machine trips this gate now and then) but are
-            // suspected: their next verdict is held to a stricter gate.
+            // Pass 1's pose stands. The unmasked objects keep their state:
+            // static machines trip this gate now and then (the map check
+            // above is the test for motion).
             report.pass2_rejected = true;
-            classifier_->suspect(static_instances);
           }
         }
       }
@@ -242,6 +256,31 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
   report.timings.total_ms = ms_since(start);
   SITEPOSE_TRY_STATUS(run_inline_mapping(report));
   return report;
+}
+
+std::vector<dynamic::MapCheck> SlamSystem::check_against_map(const tracking::PreparedFrame& prepared,
+                                                             const tracking::PassResult& pass1,
+                                                             const dynamic::ObjectFeatures& current,
+                                                             const std::vector<std::uint16_t>& instances) {
+  // A machine that has started moving is pixels off its map points, more
+  // than the local map search allows (1 px): 7 px, times 2.5 for points
+  // seen head-on (the local map search's scaling), 17.5 px at level 0.
+  constexpr double kSearchRadiusPx = 7.0;
+  std::vector<std::uint8_t> on_objects(prepared.size(), 0);
+  for (int k = 0; k < prepared.size(); ++k) {
+    on_objects[k] = std::find(instances.begin(), instances.end(), prepared.instance[k]) != instances.end() ? 1 : 0;
+  }
+  const std::vector<map::PointId> point_of_keypoint =
+      tracker_->search_local_map(prepared, on_objects, pass1, kSearchRadiusPx);
+  std::vector<std::optional<Eigen::Vector3d>> map_point_of_keypoint(prepared.size());
+  map_.read([&](const map::MapData& map) {
+    for (int k = 0; k < prepared.size(); ++k) {
+      if (const map::MapPoint* p = map.good_point(point_of_keypoint[k]); p != nullptr) {
+        map_point_of_keypoint[k] = p->p_world;
+      }
+    }
+  });
+  return classifier_->check_against_map(prepared, map_point_of_keypoint, current, instances);
 }
 
 std::size_t SlamSystem::keyframe_count() const {

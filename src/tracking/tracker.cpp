@@ -290,13 +290,12 @@ bool Tracker::relocalise(const PreparedFrame& frame, const std::vector<std::uint
   return false;
 }
 
-void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                              PassResult& result) const {
-  const auto start = Clock::now();
+std::vector<PointView> Tracker::local_points(const PreparedFrame& frame, const PassResult& result,
+                                             std::vector<int>& match) const {
   // Local keyframes: those sharing the tracked points, plus their best
   // covisible ones; local points: all their points.
   std::vector<PointView> points;
-  std::vector<int> match(frame.size(), -1);
+  match.assign(frame.size(), -1);
   map_.read([&](const map::MapData& map) {
     std::map<map::KeyFrameId, int> votes;
     for (int k = 0; k < frame.size(); ++k) {
@@ -335,6 +334,31 @@ void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std:
       }
     }
   });
+  return points;
+}
+
+std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
+                                                    const std::vector<std::uint8_t>& usable,
+                                                    const PassResult& anchor, double radius_px) const {
+  std::vector<int> match;
+  const std::vector<PointView> points = local_points(frame, anchor, match);
+  SearchParams params;
+  params.radius_px = radius_px;
+  params.ratio = kLocalMapRatio;
+  params.check_view_angle = true;
+  search_by_projection(frame, camera_, pyramid_, anchor.T_cam_world, points, usable, params, match, nullptr);
+  std::vector<map::PointId> out(frame.size(), map::kNoPoint);
+  for (int k = 0; k < frame.size(); ++k) {
+    if (match[k] >= 0 && usable[k]) out[k] = points[match[k]].id;
+  }
+  return out;
+}
+
+void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                              PassResult& result) const {
+  const auto start = Clock::now();
+  std::vector<int> match;
+  const std::vector<PointView> points = local_points(frame, result, match);
   SearchParams params;
   params.radius_px = kLocalMapRadiusPx;
   params.ratio = kLocalMapRatio;

@@ -30,8 +30,13 @@
 //      >= 0.4 s each; evidence against "static" without a moving verdict
 //      (failed point test with a passed object-level test, or no common
 //      displacement) is unknown and masks the object at once (doubt masks;
-//      only proof unmasks); suspicion from outside (suspect()) holds the
-//      next verdict to a stricter object-level gate.
+//      only proof unmasks);
+//    - a second test for the objects called static (check_against_map()):
+//      their keypoints against their own map points, seen from pass 1's
+//      pose. A map point averages many sightings and the weighted mean
+//      over all of an object's points leaves ~1 mm of noise at 7.5 m, so a
+//      parked machine that starts moving is caught within 1-2 frames of
+//      its start, before pass 2 can use it.
 // Objects with too few matched points (or not associated) are unknown and
 // stay masked.
 //
@@ -99,6 +104,15 @@ struct ClassifiedObject {
   std::vector<double> statistics;  // paper: kept errors (m); sitepose: squared Mahalanobis distances
 };
 
+// The map test of one object (check_against_map()).
+struct MapCheck {
+  std::uint16_t instance = 0;
+  int points = 0;  // matched points that agree with the common displacement
+  Eigen::Vector3d displacement_m = Eigen::Vector3d::Zero();  // weighted mean, keypoint - map point, world
+  double statistic = 0.0;  // squared Mahalanobis distance of displacement_m
+  bool moving = false;     // statistic above the gate
+};
+
 struct ClassifierTimings {
   double match_ms = 0.0;
   double test_ms = 0.0;
@@ -120,13 +134,17 @@ class MotionClassifier {
   // without a pose are not added).
   void remember(ObjectFeatures frame);
 
-  // Weak evidence against "static" from outside the classifier (pass 2
-  // with these objects unmasked disagreed with pass 1, which static objects
-  // also do now and then): their state is kept, but their next verdict must
-  // pass the stricter object-level gate (chi2 3 dof 97.5 % instead of
-  // 99.9 %), so a machine that has started moving is masked one frame
-  // later at the latest (sitepose mode).
-  void suspect(const std::vector<std::uint16_t>& instances);
+  // Tests each of `instances` (objects whose state is static) against the
+  // map: map_point_of_keypoint (one entry per keypoint of `frame`, the
+  // world position of the map point it matched, if any) vs the keypoint's
+  // stereo point moved to the world with `current`'s pose (pass 1's,
+  // background only). An object whose common displacement fails the gate
+  // (chi2 3 dof 99.9 %) is moving from now on, like after a moving verdict.
+  // One result per instance tested (enough matched points), in order.
+  std::vector<MapCheck> check_against_map(const tracking::PreparedFrame& frame,
+                                          const std::vector<std::optional<Eigen::Vector3d>>& map_point_of_keypoint,
+                                          const ObjectFeatures& current,
+                                          const std::vector<std::uint16_t>& instances);
 
   // Clears the ring and the hysteresis.
   void reset();
@@ -148,7 +166,12 @@ class MotionClassifier {
     int static_streak = 0;
     int unknown_streak = 0;
     std::int64_t last_seq = -1;
-    bool suspect = false;  // next verdict against the stricter object-level gate
+    // Safety first: evidence of motion masks the object again at once.
+    void mask_as_moving() {
+      state = MotionState::kMoving;
+      static_streak = 0;
+      unknown_streak = 0;
+    }
   };
 
   const ObjectFeatures* select_reference(const ObjectFeatures& current) const;

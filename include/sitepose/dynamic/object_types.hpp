@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,9 @@ struct ObjectVerdict {
   // sitepose mode: squared Mahalanobis distance of the object's mean
   // displacement (inlier points), a second test with gate chi2 3 dof 99.9 %.
   double pooled_statistic = 0.0;
+  // sitepose mode, objects that were static: the map check's statistic
+  // (MotionClassifier::check_against_map); empty when not run.
+  std::optional<double> map_statistic;
   int points = 0;                     // 3D point pairs the decision used
   std::uint16_t reference_instance = 0;  // associated object in the reference frame, 0 = none
   std::int64_t reference_seq = -1;       // the reference frame, -1 = none

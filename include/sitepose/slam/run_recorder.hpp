@@ -66,6 +66,7 @@ class RunRecorder {
   int pixel_mask_calls() const { return pixel_mask_calls_; }
   // Frames whose pass 2 disagreed with pass 1 and was not used.
   int pass2_rejections() const { return pass2_rejections_; }
+  int map_check_remasks() const { return map_check_remasks_; }
   // Sum over frames of each stage (ms), for time shares.
   double stage_total_ms(const std::string& stage) const;
 
@@ -75,6 +76,7 @@ class RunRecorder {
   std::vector<double> masked_area_ratio_;
   int pixel_mask_calls_ = 0;
   int pass2_rejections_ = 0;
+  int map_check_remasks_ = 0;
   std::vector<StateRow> state_rows_;
 };
 

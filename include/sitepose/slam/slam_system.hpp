@@ -9,7 +9,9 @@
 //   bbox | pixel | hierarchical
 //                 Algorithm 1 mask; one pass on the unmasked keypoints.
 //   full          hierarchical mask; pass 1 on the background, motion states
-//                 of the objects (Algorithm 2, with pass 1's pose), pass 2
+//                 of the objects (Algorithm 2, with pass 1's pose), the
+//                 static ones checked against their map points (sitepose
+//                 mode; a failed check masks the object again), pass 2
 //                 from pass 1's pose with static objects' keypoints added
 //                 (used only if it agrees with pass 1 within pass 1's
 //                 uncertainty);
@@ -61,7 +63,7 @@ struct FrameTimings {
   // only if the caller adds it.
   double detect_ms = 0.0;
   double mask_ms = 0.0;      // Algorithm 1 incl. pixel segmentation
-  double classify_ms = 0.0;  // Algorithm 2 (matching + tests)
+  double classify_ms = 0.0;  // Algorithm 2 (matching + tests) and the map check
   double pass2_ms = 0.0;     // the second pose estimate
   double total_ms = 0.0;     // the whole frame, excluding inline mapping
 };
@@ -79,9 +81,11 @@ struct FrameReport {
   bool pass1_with_known_static = false;
   // Mode full: pass 2 (static objects unmasked) moved the pose beyond pass
   // 1's uncertainty and was not used (the pose is pass 1's); those objects
-  // keep their state, their next verdict meets a stricter gate
-  // (MotionClassifier::suspect).
+  // keep their state.
   bool pass2_rejected = false;
+  // Mode full: objects called static that failed the map check
+  // (MotionClassifier::check_against_map) and were masked again.
+  int remasked_by_map_check = 0;
   // Mode full: one entry per dynamic-class box of the frame, in box order
   // (states unknown when pass 1 found no pose). Empty in other modes.
   std::vector<dynamic::ClassifiedObject> objects;
@@ -124,6 +128,12 @@ class SlamSystem {
 
   Expected<FrameReport> process_masked(const StereoFrame& frame, const dynamic::FrameObjects& objects);
   Status run_inline_mapping(FrameReport& report);
+  // The map check of `instances` (static objects) with pass 1's pose:
+  // their keypoints matched to the local map, then the classifier's test.
+  std::vector<dynamic::MapCheck> check_against_map(const tracking::PreparedFrame& prepared,
+                                                   const tracking::PassResult& pass1,
+                                                   const dynamic::ObjectFeatures& current,
+                                                   const std::vector<std::uint16_t>& instances);
 
   config::SiteposeConfig config_;
   SlamOptions options_;

@@ -93,6 +93,12 @@ class Tracker {
   PoseEstimate commit(const PreparedFrame& frame, const PassResult& result,
                       const std::vector<std::uint8_t>& usable);
 
+  // Matches the usable keypoints to the local map of `anchor` (its matched
+  // points' keyframes) seen from anchor's pose, searching radius_px; no
+  // pose is estimated. Per keypoint the point id, or kNoPoint.
+  std::vector<map::PointId> search_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                                             const PassResult& anchor, double radius_px) const;
+
   // prepare + estimate(all keypoints) + commit: plain stereo SLAM (mode none).
   Expected<PoseEstimate> track(const StereoFrame& frame);
 
@@ -109,6 +115,9 @@ class Tracker {
                   PassResult& result) const;
   void track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                        PassResult& result) const;
+  // The local map of `result`'s matches; `match` gets their indices.
+  std::vector<PointView> local_points(const PreparedFrame& frame, const PassResult& result,
+                                      std::vector<int>& match) const;
   // Motion-only BA over the matches in result.point_of_keypoint; drops
   // outliers and fills pose, covariance and inlier count.
   void optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,

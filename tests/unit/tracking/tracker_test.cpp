@@ -86,6 +86,54 @@ TEST(Tracker, EstimateLeavesNoTrace) {
   EXPECT_LT((from_first.T_cam_world.translation() - first.T_cam_world.translation()).norm(), 0.005);
 }
 
+// The map check's matching: only the usable keypoints are matched, to the
+// same points a full estimate finds; a pose guess 8 px off needs the wider
+// radius (radii scale by 2.5 for points seen head-on, as in the local map
+// search: 1 -> 2.5 px, 7 -> 17.5 px).
+TEST(Tracker, SearchLocalMapMatchesOnlyTheUsableKeypoints) {
+  const SmallSite site = SmallSite::make("static", 12);
+  map::SharedMap map;
+  Tracker tracker(site.simulator.camera(), small_config(), map);
+  for (int i = 0; i < 10; ++i) ASSERT_TRUE(tracker.track(site.frame(i)).has_value());
+  auto prepared = tracker.prepare(site.frame(10));
+  ASSERT_TRUE(prepared.has_value());
+  const std::vector<std::uint8_t> all(prepared->size(), 1);
+  const PassResult full = tracker.estimate(*prepared, all);
+  ASSERT_TRUE(full.valid);
+  std::vector<std::uint8_t> even(prepared->size(), 0), odd(prepared->size(), 0);
+  for (int k = 0; k < prepared->size(); ++k) (k % 2 == 0 ? even : odd)[k] = 1;
+  const PassResult anchor = tracker.estimate(*prepared, even);
+  ASSERT_TRUE(anchor.valid);
+
+  const std::vector<map::PointId> found = tracker.search_local_map(*prepared, odd, anchor, 7.0);
+  int matched = 0, same_as_full = 0, full_odd = 0;
+  for (int k = 0; k < prepared->size(); ++k) {
+    if (!odd[k]) {
+      EXPECT_EQ(found[k], map::kNoPoint);
+      continue;
+    }
+    full_odd += full.point_of_keypoint[k] != map::kNoPoint ? 1 : 0;
+    if (found[k] == map::kNoPoint) continue;
+    ++matched;
+    same_as_full += found[k] == full.point_of_keypoint[k] ? 1 : 0;
+  }
+  EXPECT_GE(matched, full_odd * 8 / 10);
+  EXPECT_GE(same_as_full, matched * 8 / 10);  // a duplicate point (not fused yet) may win
+
+  // Turned by 8 px (yaw): the local map's radius loses most matches.
+  PassResult turned = anchor;
+  const double yaw = 8.0 / site.simulator.camera().fx;
+  turned.T_cam_world = SE3(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero()) *
+                       anchor.T_cam_world;
+  const auto count = [](const std::vector<map::PointId>& ids) {
+    return std::count_if(ids.begin(), ids.end(), [](map::PointId id) { return id != map::kNoPoint; });
+  };
+  const auto wide = count(tracker.search_local_map(*prepared, odd, turned, 7.0));
+  const auto narrow = count(tracker.search_local_map(*prepared, odd, turned, 1.0));
+  EXPECT_GE(wide, matched * 8 / 10);
+  EXPECT_LT(narrow, wide / 2) << "wide " << wide << ", narrow " << narrow << ", matched " << matched << ", same " << same_as_full;
+}
+
 // The dynamic layer's pass 1 tracks on the background (instance 0) alone.
 // An unmasked static object keeps the total inlier count high while the
 // background shrinks; the keyframe rule must still renew the background.
