@@ -25,6 +25,16 @@ constexpr int kMaxLocalKeyframes = 80;
 constexpr int kRelocalisationKeyframes = 6;
 constexpr int kRelocalisationMinMatches = 15;
 
+// ORB-SLAM2's local map search: ratio test, viewing angle and scale checks,
+// radius times 2.5 (head-on) or 4.
+SearchParams local_map_search(double radius_px) {
+  SearchParams params;
+  params.radius_px = radius_px;
+  params.ratio = kLocalMapRatio;
+  params.check_view_angle = true;
+  return params;
+}
+
 // The object share of the feature budget: enough for pass 2 to use static
 // machines, small enough not to starve the background.
 constexpr double kObjectBudgetFraction = 0.4;
@@ -342,11 +352,8 @@ std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
                                                     const PassResult& anchor, double radius_px) const {
   std::vector<int> match;
   const std::vector<PointView> points = local_points(frame, anchor, match);
-  SearchParams params;
-  params.radius_px = radius_px;
-  params.ratio = kLocalMapRatio;
-  params.check_view_angle = true;
-  search_by_projection(frame, camera_, pyramid_, anchor.T_cam_world, points, usable, params, match, nullptr);
+  search_by_projection(frame, camera_, pyramid_, anchor.T_cam_world, points, usable, local_map_search(radius_px),
+                       match, nullptr);
   std::vector<map::PointId> out(frame.size(), map::kNoPoint);
   for (int k = 0; k < frame.size(); ++k) {
     if (match[k] >= 0 && usable[k]) out[k] = points[match[k]].id;
@@ -359,12 +366,9 @@ void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std:
   const auto start = Clock::now();
   std::vector<int> match;
   const std::vector<PointView> points = local_points(frame, result, match);
-  SearchParams params;
-  params.radius_px = kLocalMapRadiusPx;
-  params.ratio = kLocalMapRatio;
-  params.check_view_angle = true;
   std::vector<int> visible;
-  search_by_projection(frame, camera_, pyramid_, result.T_cam_world, points, usable, params, match, &visible);
+  search_by_projection(frame, camera_, pyramid_, result.T_cam_world, points, usable,
+                       local_map_search(kLocalMapRadiusPx), match, &visible);
   result.visible_points.clear();
   for (int i : visible) result.visible_points.push_back(points[i].id);
   result.timings.local_map_ms += ms_since(start);  // BA time is counted in motion_ba_ms

@@ -58,18 +58,28 @@ TEST(Tracker, TracksASmallStaticSite) {
   EXPECT_GE(tracker.counters().keyframes_created, 1);
 }
 
-TEST(Tracker, EstimateLeavesNoTrace) {
+// A tracker that has tracked frames 0-9 of the static scenario, and frame 10
+// prepared (not tracked).
+class TrackerAtFrame10 : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    for (int i = 0; i < 10; ++i) ASSERT_TRUE(tracker.track(site.frame(i)).has_value());
+    auto frame = tracker.prepare(site.frame(10));
+    ASSERT_TRUE(frame.has_value());
+    prepared = std::move(*frame);
+  }
   const SmallSite site = SmallSite::make("static", 12);
   map::SharedMap map;
-  Tracker tracker(site.simulator.camera(), small_config(), map);
-  for (int i = 0; i < 10; ++i) ASSERT_TRUE(tracker.track(site.frame(i)).has_value());
-  auto prepared = tracker.prepare(site.frame(10));
-  ASSERT_TRUE(prepared.has_value());
-  const std::vector<std::uint8_t> all(prepared->size(), 1);
+  Tracker tracker{site.simulator.camera(), small_config(), map};
+  PreparedFrame prepared;
+};
+
+TEST_F(TrackerAtFrame10, EstimateLeavesNoTrace) {
+  const std::vector<std::uint8_t> all(prepared.size(), 1);
   const auto keyframes_before = map.read([](const map::MapData& m) { return m.keyframe_count(); });
   const auto last_before = tracker.last_T_world_cam();
-  const PassResult first = tracker.estimate(*prepared, all);
-  const PassResult second = tracker.estimate(*prepared, all);
+  const PassResult first = tracker.estimate(prepared, all);
+  const PassResult second = tracker.estimate(prepared, all);
   ASSERT_TRUE(first.valid);
   EXPECT_EQ(first.point_of_keypoint, second.point_of_keypoint);
   EXPECT_LT((first.T_cam_world.matrix() - second.T_cam_world.matrix()).norm(), 1e-12);
@@ -77,12 +87,12 @@ TEST(Tracker, EstimateLeavesNoTrace) {
   EXPECT_LT((tracker.last_T_world_cam()->matrix() - last_before->matrix()).norm(), 1e-15);
   // A pass that may use only half of the keypoints gives fewer inliers and
   // starting from the first pass's pose converges to the same place.
-  std::vector<std::uint8_t> half(prepared->size(), 0);
-  for (int k = 0; k < prepared->size(); k += 2) half[k] = 1;
-  const PassResult restricted = tracker.estimate(*prepared, half);
+  std::vector<std::uint8_t> half(prepared.size(), 0);
+  for (int k = 0; k < prepared.size(); k += 2) half[k] = 1;
+  const PassResult restricted = tracker.estimate(prepared, half);
   EXPECT_LT(restricted.n_inliers, first.n_inliers);
-  for (int k = 1; k < prepared->size(); k += 2) EXPECT_EQ(restricted.point_of_keypoint[k], map::kNoPoint);
-  const PassResult from_first = tracker.estimate(*prepared, all, first.T_cam_world);
+  for (int k = 1; k < prepared.size(); k += 2) EXPECT_EQ(restricted.point_of_keypoint[k], map::kNoPoint);
+  const PassResult from_first = tracker.estimate(prepared, all, first.T_cam_world);
   EXPECT_LT((from_first.T_cam_world.translation() - first.T_cam_world.translation()).norm(), 0.005);
 }
 
@@ -90,24 +100,18 @@ TEST(Tracker, EstimateLeavesNoTrace) {
 // same points a full estimate finds; a pose guess 8 px off needs the wider
 // radius (radii scale by 2.5 for points seen head-on, as in the local map
 // search: 1 -> 2.5 px, 7 -> 17.5 px).
-TEST(Tracker, SearchLocalMapMatchesOnlyTheUsableKeypoints) {
-  const SmallSite site = SmallSite::make("static", 12);
-  map::SharedMap map;
-  Tracker tracker(site.simulator.camera(), small_config(), map);
-  for (int i = 0; i < 10; ++i) ASSERT_TRUE(tracker.track(site.frame(i)).has_value());
-  auto prepared = tracker.prepare(site.frame(10));
-  ASSERT_TRUE(prepared.has_value());
-  const std::vector<std::uint8_t> all(prepared->size(), 1);
-  const PassResult full = tracker.estimate(*prepared, all);
+TEST_F(TrackerAtFrame10, SearchLocalMapMatchesOnlyTheUsableKeypoints) {
+  const std::vector<std::uint8_t> all(prepared.size(), 1);
+  const PassResult full = tracker.estimate(prepared, all);
   ASSERT_TRUE(full.valid);
-  std::vector<std::uint8_t> even(prepared->size(), 0), odd(prepared->size(), 0);
-  for (int k = 0; k < prepared->size(); ++k) (k % 2 == 0 ? even : odd)[k] = 1;
-  const PassResult anchor = tracker.estimate(*prepared, even);
+  std::vector<std::uint8_t> even(prepared.size(), 0), odd(prepared.size(), 0);
+  for (int k = 0; k < prepared.size(); ++k) (k % 2 == 0 ? even : odd)[k] = 1;
+  const PassResult anchor = tracker.estimate(prepared, even);
   ASSERT_TRUE(anchor.valid);
 
-  const std::vector<map::PointId> found = tracker.search_local_map(*prepared, odd, anchor, 7.0);
+  const std::vector<map::PointId> found = tracker.search_local_map(prepared, odd, anchor, 7.0);
   int matched = 0, same_as_full = 0, full_odd = 0;
-  for (int k = 0; k < prepared->size(); ++k) {
+  for (int k = 0; k < prepared.size(); ++k) {
     if (!odd[k]) {
       EXPECT_EQ(found[k], map::kNoPoint);
       continue;
@@ -128,8 +132,8 @@ TEST(Tracker, SearchLocalMapMatchesOnlyTheUsableKeypoints) {
   const auto count = [](const std::vector<map::PointId>& ids) {
     return std::count_if(ids.begin(), ids.end(), [](map::PointId id) { return id != map::kNoPoint; });
   };
-  const auto wide = count(tracker.search_local_map(*prepared, odd, turned, 7.0));
-  const auto narrow = count(tracker.search_local_map(*prepared, odd, turned, 1.0));
+  const auto wide = count(tracker.search_local_map(prepared, odd, turned, 7.0));
+  const auto narrow = count(tracker.search_local_map(prepared, odd, turned, 1.0));
   EXPECT_GE(wide, matched * 8 / 10);
   EXPECT_LT(narrow, wide / 2) << "wide " << wide << ", narrow " << narrow << ", matched " << matched << ", same " << same_as_full;
 }
