@@ -140,7 +140,7 @@ class MotionClassifier {
   // stereo point moved to the world with `current`'s pose (pass 1's,
   // background only). An object whose common displacement fails the gate
   // (chi2 3 dof 99.9 %) is moving from now on, like after a moving verdict.
-  // One result per instance tested (enough matched points), in order.
+  // One result per instance tested (at least 30 matched points), in order.
   std::vector<MapCheck> check_against_map(const tracking::PreparedFrame& frame,
                                           const std::vector<std::optional<Eigen::Vector3d>>& map_point_of_keypoint,
                                           const ObjectFeatures& current,

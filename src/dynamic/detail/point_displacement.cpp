@@ -68,7 +68,6 @@ CommonDisplacement weighted_common_displacement(const std::vector<PointDisplacem
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
   Eigen::Vector3d weighted_sum = Eigen::Vector3d::Zero();
   Eigen::Matrix3d pose_term = Eigen::Matrix3d::Zero();
-  Eigen::Matrix3d pixel_sum = Eigen::Matrix3d::Zero();
   double pose_weight = 0.0;
   for (const PointDisplacement& p : points) {
     const Eigen::Matrix3d W = p.pixel_covariance.inverse();
@@ -79,13 +78,14 @@ CommonDisplacement weighted_common_displacement(const std::vector<PointDisplacem
     const double w = 1.0 / p.pixel_covariance.trace();
     pose_term += w * (p.covariance - p.pixel_covariance);
     pose_weight += w;
-    pixel_sum += p.pixel_covariance;
   }
   const Eigen::Matrix3d mean_covariance = information.inverse();
   const double n = static_cast<double>(points.size());
   out.mean_m = mean_covariance * weighted_sum;
+  // n * mean_covariance: one point's pixel covariance as the weighting sees
+  // it (the near points'; a plain average would be ruled by the far ones).
   out.covariance = mean_covariance + pose_term / pose_weight +
-                   common_error_fraction * common_error_fraction * pixel_sum / n;
+                   common_error_fraction * common_error_fraction * n * mean_covariance;
   out.statistic = out.mean_m.dot(out.covariance.ldlt().solve(out.mean_m));
   return out;
 }

@@ -32,9 +32,10 @@ double pooled_statistic(const std::vector<PointDisplacement>& points);
 // The object's common displacement as the inverse-pixel-covariance weighted
 // mean (a far point with a metre of depth noise must not weigh like a near
 // one), with its covariance: the weighted mean's pixel noise, the pose term
-// (weighted like the points), and common_error_fraction^2 times the mean
-// single-point pixel covariance for an error all points share (their map
-// points' common error, which does not average out).
+// (weighted like the points), and common_error_fraction^2 times one
+// point's pixel covariance under the weighting (n times the mean's) for an
+// error all points share (their map points' common error, which does not
+// average out).
 struct CommonDisplacement {
   Eigen::Vector3d mean_m = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();

@@ -263,12 +263,22 @@ TEST(DynamicRegression, ParkedMachinesNeverFlicker) { EXPECT_EQ(run_parked(false
 
 // A parked roller starts moving at t = 4 s (frame 24) in front of the
 // slowly driving ego: sitepose mode re-masks it within 2 frames, and never
-// flickers while it is parked.
-constexpr const char* kStartScenario = R"(name: remask
+// flickers while it is parked. The default: sideways (along the ego lane),
+// 0.4 m/s^2, rendering seed 11; the variants change one of them.
+struct StartingMachine {
+  const char* name;
+  const char* waypoints;  // site frame; the camera looks towards -y
+  int seed;
+  double accel_mps2;
+};
+
+std::string start_scenario_yaml(const StartingMachine& m) {
+  char yaml[1024];
+  std::snprintf(yaml, sizeof yaml, R"(name: remask_%s
 description: "A parked roller starts moving at 4 s in front of the slowly driving ego"
 fps: 6
 duration_s: 10
-seed: 11
+seed: %d
 ego:
   segments:
     - {speed_mps: 0.3, duration_s: 10}
@@ -276,24 +286,29 @@ machines:
   - class: roller
     paint: yellow
     label: "HR 70"
-    waypoints: [[2, -7.5], [60, -7.5]]
+    waypoints: %s
     speed_mps: 1.0
+    accel_mps2: %g
     start_s: 4
-)";
+)",
+                m.name, m.seed, m.waypoints, m.accel_mps2);
+  return yaml;
+}
 
-// Runs kStartScenario in mode full and checks that the
-// machine is unmasked while parked, never flickers, is masked again once it
-// moves, and tracking never degrades. Returns the re-mask latency (frames),
-// or -1 when an assertion failed.
-int remask_latency_frames() {
-  const std::string path = ::testing::TempDir() + "/sitepose_remask_scenario_" +
+// Runs the scenario in mode full and checks that the machine is unmasked
+// while parked, never flickers, is masked again once it moves, and
+// tracking never degrades. Returns the re-mask latency (frames), or -1
+// when an assertion failed.
+int remask_latency_frames(const StartingMachine& machine) {
+  const std::string path = ::testing::TempDir() + "/sitepose_remask_" + machine.name + "_" +
                            std::to_string(::getpid()) + ".yaml";
   std::FILE* f = std::fopen(path.c_str(), "w");
   EXPECT_NE(f, nullptr);
   if (f == nullptr) return -1;
-  std::fputs(kStartScenario, f);
+  std::fputs(start_scenario_yaml(machine).c_str(), f);
   std::fclose(f);
   Scenario s(path, 0);
+  std::remove(path.c_str());
   EXPECT_TRUE(s.error().empty()) << s.error();
   if (!s.error().empty()) return -1;
   const ModeFigures full = s.run(config::MaskingMode::kFull);
@@ -311,12 +326,30 @@ int remask_latency_frames() {
   EXPECT_GE(static_before, 10);
   EXPECT_EQ(static_flips(full.run.samples, kMinObjectPoints), 0);
   EXPECT_DOUBLE_EQ(full.coverage, 1.0);
-  std::printf("[figures] re-masked %d frames after the start\n", events[0].latency_frames);
+  std::printf("[figures] %s: re-masked %d frames after the start\n", machine.name, events[0].latency_frames);
   return events[0].latency_frames;
 }
 
+constexpr const char* kSideways = "[[2, -7.5], [60, -7.5]]";
+
 TEST(DynamicRegression, StartingMachineIsRemaskedWithinTwoFramesWithoutFlicker) {
-  EXPECT_LE(remask_latency_frames(), 2);
+  EXPECT_LE(remask_latency_frames({"sideways", kSideways, 11, 0.4}), 2);
+}
+
+// Other renderings of the same start, and a start away from the camera
+// (measured before the map check: seed 13 took 3 frames).
+TEST(DynamicRegression, StartingMachineIsRemaskedWithinTwoFramesInOtherRenderingsAndMovingAway) {
+  EXPECT_LE(remask_latency_frames({"sideways_seed12", kSideways, 12, 0.4}), 2);
+  EXPECT_LE(remask_latency_frames({"sideways_seed13", kSideways, 13, 0.4}), 2);
+  EXPECT_LE(remask_latency_frames({"away", "[[2, -7.5], [2, -40]]", 11, 0.4}), 2);
+}
+
+// Not met (3 frames each): towards the camera the motion is mostly depth,
+// which stereo measures worst; at half the acceleration the roller has
+// moved 4 mm by frame 27 (16 mm at 0.4 m/s^2; the speed ramp is a cosine).
+TEST(DynamicRegression, DISABLED_StartingMachineIsRemaskedWithinTwoFramesTowardsTheCameraOrStartingSlowly) {
+  EXPECT_LE(remask_latency_frames({"towards", "[[2, -12], [2, -4]]", 11, 0.4}), 2);
+  EXPECT_LE(remask_latency_frames({"slow", kSideways, 11, 0.2}), 2);
 }
 
 // ROC of the motion states (static = positive) on crowded: sitepose mode
