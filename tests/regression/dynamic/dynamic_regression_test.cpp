@@ -337,7 +337,7 @@ TEST(DynamicRegression, StartingMachineIsRemaskedWithinTwoFramesWithoutFlicker) 
 }
 
 // Other renderings of the same start, and a start away from the camera
-// (measured before the map check: seed 13 took 3 frames).
+// (before the map check: seed 13 and the start away took 3 frames each).
 TEST(DynamicRegression, StartingMachineIsRemaskedWithinTwoFramesInOtherRenderingsAndMovingAway) {
   EXPECT_LE(remask_latency_frames({"sideways_seed12", kSideways, 12, 0.4}), 2);
   EXPECT_LE(remask_latency_frames({"sideways_seed13", kSideways, 13, 0.4}), 2);
