@@ -266,6 +266,7 @@ std::vector<dynamic::MapCheck> SlamSystem::check_against_map(const tracking::Pre
   // than the local map search allows (1 px): 7 px, times 2.5 for points
   // seen head-on (the local map search's scaling), 17.5 px at level 0.
   constexpr double kSearchRadiusPx = 7.0;
+  if (config_.dynamic.classifier == config::ClassifierMode::kPaper) return {};  // the paper has no such test
   std::vector<std::uint8_t> on_objects(prepared.size(), 0);
   for (int k = 0; k < prepared.size(); ++k) {
     on_objects[k] = std::find(instances.begin(), instances.end(), prepared.instance[k]) != instances.end() ? 1 : 0;
