@@ -6,7 +6,6 @@
 
 #include "detail/point_displacement.hpp"
 #include "sitepose/dynamic/motion_classifier.hpp"
-#include "sitepose/optim/triangulation.hpp"
 
 namespace sitepose::dynamic {
 namespace {
@@ -35,24 +34,20 @@ std::vector<MapCheck> MotionClassifier::check_against_map(
   if (config_.classifier == config::ClassifierMode::kPaper) return out;  // the paper has no such test
   std::optional<Matrix6d> pose_covariance;
   if (current.covariance) pose_covariance = *current.covariance * clamped_variance_factor(current.variance_factor);
-  const Eigen::Matrix3d R_world_cam = current.T_world_cam.rotation_matrix();
   for (std::uint16_t instance : instances) {
     std::vector<detail::PointDisplacement> points;
     for (int k = 0; k < frame.size(); ++k) {
       if (frame.instance[k] != instance || !map_point_of_keypoint[k]) continue;
       if (!frame.features.has_depth(k) || frame.features.depth_m[k] > max_depth_m_) continue;
       if (!frame.features.stereo_ambiguous.empty() && frame.features.stereo_ambiguous[k]) continue;
-      const double sigma_px = pixel_sigma_px(frame.octave[k], current.variance_factor);
-      const auto p_cam = optim::stereo_point_in_camera(
-          camera_, frame.uv_px[k], frame.features.u_right[k],
-          optim::stereo_pixel_covariance(sigma_px, sigma_px, sigma_px));
-      if (!p_cam) continue;
-      const optim::PointWithCovariance p_world =
-          optim::point_to_world(*p_cam, current.T_world_cam, pose_covariance ? &*pose_covariance : nullptr);
+      const auto sighting = to_world(frame.uv_px[k], frame.features.u_right[k], frame.octave[k],
+                                     current.variance_factor, current.T_world_cam,
+                                     pose_covariance ? &*pose_covariance : nullptr);
+      if (!sighting) continue;
       detail::PointDisplacement p;
-      p.d = p_world.p - *map_point_of_keypoint[k];
-      p.covariance = p_world.covariance;
-      p.pixel_covariance = R_world_cam * p_cam->covariance * R_world_cam.transpose();
+      p.d = sighting->p - *map_point_of_keypoint[k];
+      p.covariance = sighting->covariance;
+      p.pixel_covariance = sighting->pixel_covariance;
       points.push_back(p);
     }
     const std::vector<detail::PointDisplacement> kept = detail::consistent_points(points);

@@ -92,9 +92,10 @@ std::vector<double> judge_paper(std::vector<double> errors_m, const config::Dyna
 
 // Sitepose mode on one object's matched points (see the header). Fills
 // v.points, v.score, v.pooled_statistic and v.raw, and `statistics` with the
-// tested points' squared Mahalanobis distances. Returns true for evidence against "static"
-// without a moving verdict (no common displacement, or the points disagree
-// with "static" while the object as a whole has not moved): masked at once.
+// tested points' squared Mahalanobis distances. Returns true for evidence
+// against "static" without a moving verdict (no common displacement, or the
+// points disagree with "static" while the object as a whole has not moved):
+// masked at once.
 bool judge_sitepose(const std::vector<PointDisplacement>& points, const config::DynamicConfig& config,
                     ObjectVerdict& v, std::vector<double>& statistics) {
   v.points = static_cast<int>(points.size());
@@ -199,6 +200,20 @@ double MotionClassifier::pixel_sigma_px(int octave, double variance_factor) cons
   const int level = std::clamp(octave, 0, static_cast<int>(level_scale_.size()) - 1);
   return kPixelSigmaPx * level_scale_[level] *
          std::sqrt(clamped_variance_factor(variance_factor));
+}
+
+std::optional<MotionClassifier::WorldPoint> MotionClassifier::to_world(const Eigen::Vector2d& uv_px,
+                                                                       double u_right_px, int octave,
+                                                                       double variance_factor,
+                                                                       const SE3& T_world_cam,
+                                                                       const Matrix6d* pose_covariance) const {
+  const double sigma_px = pixel_sigma_px(octave, variance_factor);
+  const auto p_cam = optim::stereo_point_in_camera(camera_, uv_px, u_right_px,
+                                                   optim::stereo_pixel_covariance(sigma_px, sigma_px, sigma_px));
+  if (!p_cam) return std::nullopt;
+  const optim::PointWithCovariance p_world = optim::point_to_world(*p_cam, T_world_cam, pose_covariance);
+  const Eigen::Matrix3d R_world_cam = T_world_cam.rotation_matrix();
+  return WorldPoint{p_world.p, p_world.covariance, R_world_cam * p_cam->covariance * R_world_cam.transpose()};
 }
 
 const ObjectFeatures* MotionClassifier::select_reference(const ObjectFeatures& current) const {
@@ -349,28 +364,21 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
         if (match[c] < 0 || current.instance[c] != v.instance) continue;
         const int r = match[c];
         if (ref->instance[r] != it->second) continue;
-        const double s_cf = pixel_sigma_px(current.octave[c], current.variance_factor);
-        const double s_rf = pixel_sigma_px(ref->octave[r], ref->variance_factor);
-        const auto p_cf = optim::stereo_point_in_camera(camera_, current.uv_px[c], current.u_right_px[c],
-                                                        optim::stereo_pixel_covariance(s_cf, s_cf, s_cf));
-        const auto p_rf = optim::stereo_point_in_camera(camera_, ref->uv_px[r], ref->u_right_px[r],
-                                                        optim::stereo_pixel_covariance(s_rf, s_rf, s_rf));
-        if (!p_cf || !p_rf) continue;
-        const optim::PointWithCovariance w_cf = optim::point_to_world(*p_cf, current.T_world_cam, cov_cf);
-        const optim::PointWithCovariance w_rf = optim::point_to_world(*p_rf, ref->T_world_cam, cov_rf);
-        const Eigen::Vector3d d = w_cf.p - w_rf.p;
+        const auto w_cf = to_world(current.uv_px[c], current.u_right_px[c], current.octave[c],
+                                   current.variance_factor, current.T_world_cam, cov_cf);
+        const auto w_rf = to_world(ref->uv_px[r], ref->u_right_px[r], ref->octave[r], ref->variance_factor,
+                                   ref->T_world_cam, cov_rf);
+        if (!w_cf || !w_rf) continue;
+        const Eigen::Vector3d d = w_cf->p - w_rf->p;
         if (d.norm() > kMaxPointErrorM) continue;
         if (paper) {
           stats.push_back(d.norm());
         } else {
           PointDisplacement p;
           p.d = d;
-          p.covariance = w_cf.covariance + w_rf.covariance;
+          p.covariance = w_cf->covariance + w_rf->covariance;
           p.mahalanobis2 = d.dot(p.covariance.ldlt().solve(d));
-          p.pixel_covariance = current.T_world_cam.rotation_matrix() * p_cf->covariance *
-                                   current.T_world_cam.rotation_matrix().transpose() +
-                               ref->T_world_cam.rotation_matrix() * p_rf->covariance *
-                                   ref->T_world_cam.rotation_matrix().transpose();
+          p.pixel_covariance = w_cf->pixel_covariance + w_rf->pixel_covariance;
           points.push_back(p);
         }
       }

@@ -179,6 +179,17 @@ class MotionClassifier {
   MotionState smooth(std::uint16_t instance, std::int64_t seq, MotionState raw, bool static_evidence_counts,
                      bool conflicting_evidence);
   double pixel_sigma_px(int octave, double variance_factor) const;
+  // A keypoint's stereo point moved to the world: its covariance from the
+  // pixel noise of its level (scaled by the variance factor) and, when
+  // given, the pose's; and the pixel-noise part alone, rotated to the world.
+  struct WorldPoint {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+    Eigen::Matrix3d pixel_covariance = Eigen::Matrix3d::Zero();
+  };
+  std::optional<WorldPoint> to_world(const Eigen::Vector2d& uv_px, double u_right_px, int octave,
+                                     double variance_factor, const SE3& T_world_cam,
+                                     const Matrix6d* pose_covariance) const;
 
   StereoCamera camera_;
   config::DynamicConfig config_;
