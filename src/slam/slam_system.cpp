@@ -209,7 +209,7 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
         const auto t_pass2 = Clock::now();
         usable2 = usable;
         for (int k = 0; k < prepared.size(); ++k) usable2[k] |= is_static[prepared.instance[k]];
-        pass2 = tracker_->estimate(prepared, usable2, pass1.T_cam_world);
+        pass2 = tracker_->estimate(prepared, usable2, &pass1);
         report.timings.pass2_ms = ms_since(t_pass2);
         if (pass2.valid) {
           if (pass2_agrees_with_pass1(pass1, pass2)) {

@@ -300,8 +300,8 @@ bool Tracker::relocalise(const PreparedFrame& frame, const std::vector<std::uint
   return false;
 }
 
-std::vector<PointView> Tracker::local_points(const PreparedFrame& frame, const PassResult& result,
-                                             std::vector<int>& match) const {
+std::vector<PointView> Tracker::local_points(const PreparedFrame& frame, const std::vector<map::PointId>& tracked,
+                                             bool keep_tracked, std::vector<int>& match) const {
   // Local keyframes: those sharing the tracked points, plus their best
   // covisible ones; local points: all their points.
   std::vector<PointView> points;
@@ -309,7 +309,7 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame, const P
   map_.read([&](const map::MapData& map) {
     std::map<map::KeyFrameId, int> votes;
     for (int k = 0; k < frame.size(); ++k) {
-      const map::MapPoint* p = map.good_point(result.point_of_keypoint[k]);
+      const map::MapPoint* p = map.good_point(tracked[k]);
       if (p == nullptr) continue;
       for (const auto& [kf, index] : p->observations) ++votes[kf];
     }
@@ -328,10 +328,10 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame, const P
     }
     std::set<map::PointId> seen;
     for (int k = 0; k < frame.size(); ++k) {
-      if (result.point_of_keypoint[k] == map::kNoPoint) continue;
-      if (const map::MapPoint* p = map.good_point(result.point_of_keypoint[k]); p != nullptr) {
+      if (tracked[k] == map::kNoPoint) continue;
+      if (const map::MapPoint* p = map.good_point(tracked[k]); p != nullptr) {
         seen.insert(p->id);
-        match[k] = static_cast<int>(points.size());
+        if (keep_tracked) match[k] = static_cast<int>(points.size());
         points.push_back(make_point_view(*p));
       }
     }
@@ -351,7 +351,7 @@ std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
                                                     const std::vector<std::uint8_t>& usable,
                                                     const PassResult& anchor, double radius_px) const {
   std::vector<int> match;
-  const std::vector<PointView> points = local_points(frame, anchor, match);
+  const std::vector<PointView> points = local_points(frame, anchor.point_of_keypoint, true, match);
   search_by_projection(frame, camera_, pyramid_, anchor.T_cam_world, points, usable, local_map_search(radius_px),
                        match, nullptr);
   std::vector<map::PointId> out(frame.size(), map::kNoPoint);
@@ -362,10 +362,12 @@ std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
 }
 
 void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                              PassResult& result) const {
+                              const PassResult* anchor, PassResult& result) const {
   const auto start = Clock::now();
   std::vector<int> match;
-  const std::vector<PointView> points = local_points(frame, result, match);
+  const std::vector<PointView> points =
+      anchor != nullptr ? local_points(frame, anchor->point_of_keypoint, false, match)
+                        : local_points(frame, result.point_of_keypoint, true, match);
   std::vector<int> visible;
   search_by_projection(frame, camera_, pyramid_, result.T_cam_world, points, usable,
                        local_map_search(kLocalMapRadiusPx), match, &visible);
@@ -376,7 +378,7 @@ void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std:
 }
 
 PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                             const std::optional<SE3>& start) const {
+                             const PassResult* anchor) const {
   const auto t0 = Clock::now();
   PassResult result;
   result.point_of_keypoint.assign(frame.size(), map::kNoPoint);
@@ -389,9 +391,10 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
   }
   const auto t_motion = Clock::now();
   bool tracked = false;
-  if (start) {
-    // Pass 2: start from pass 1's pose; the local map search finds all.
-    result.T_cam_world = *start;
+  if (anchor != nullptr) {
+    // Pass 2: start from pass 1's pose; the search of pass 1's local map
+    // finds all.
+    result.T_cam_world = anchor->T_cam_world;
     tracked = true;
   } else if (has_last_ && state_ != TrackingState::kLost) {
     const SE3 predicted = has_velocity_ ? velocity_ * last_T_cam_world_ : last_T_cam_world_;
@@ -404,7 +407,7 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     result.timings.total_ms = ms_since(t0);
     return result;
   }
-  track_local_map(frame, usable, result);
+  track_local_map(frame, usable, anchor, result);
   result.valid = result.n_inliers >= config_.tracking.min_inliers_recovering;
   if (!result.valid) result.failure = "only " + std::to_string(result.n_inliers) + " inliers";
   result.timings.total_ms = ms_since(t0);

@@ -82,10 +82,12 @@ class Tracker {
   Expected<PreparedFrame> prepare(const StereoFrame& frame, const cv::Mat& instance_labels = {},
                                   const cv::Mat& extraction_mask = {});
 
-  // usable: per keypoint of `frame`, 1 = may be used. start: the pose to
-  // start from (pass 2 starts at pass 1's); default: the motion model.
+  // usable: per keypoint of `frame`, 1 = may be used. anchor: an earlier
+  // pass on the same frame (pass 2 gets pass 1) whose pose to start from
+  // and whose local map to search, matching every keypoint afresh;
+  // default: the motion model.
   PassResult estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                      const std::optional<SE3>& start = std::nullopt) const;
+                      const PassResult* anchor = nullptr) const;
 
   // Accepts `result` for `frame` (usable: the keypoints allowed into new map
   // points); initialises the map from the first frame with enough stereo
@@ -113,11 +115,15 @@ class Tracker {
                           const SE3& predicted, PassResult& result) const;
   bool relocalise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                   PassResult& result) const;
+  // Without anchor: the local map of result's own matches, which stay.
+  // With anchor: the anchor's local map, every keypoint matched afresh.
   void track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                       PassResult& result) const;
-  // The local map of `result`'s matches; `match` gets their indices.
-  std::vector<PointView> local_points(const PreparedFrame& frame, const PassResult& result,
-                                      std::vector<int>& match) const;
+                       const PassResult* anchor, PassResult& result) const;
+  // The local map of the keyframes observing `tracked` (per keypoint a point
+  // or kNoPoint). keep_tracked: `match` gets the tracked keypoints' indices
+  // into the result; else all keypoints start unmatched.
+  std::vector<PointView> local_points(const PreparedFrame& frame, const std::vector<map::PointId>& tracked,
+                                      bool keep_tracked, std::vector<int>& match) const;
   // Motion-only BA over the matches in result.point_of_keypoint; drops
   // outliers and fills pose, covariance and inlier count.
   void optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,

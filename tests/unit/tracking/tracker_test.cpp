@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <set>
 
 #include <opencv2/imgproc.hpp>
 
@@ -92,8 +93,30 @@ TEST_F(TrackerAtFrame10, EstimateLeavesNoTrace) {
   const PassResult restricted = tracker.estimate(prepared, half);
   EXPECT_LT(restricted.n_inliers, first.n_inliers);
   for (int k = 1; k < prepared.size(); k += 2) EXPECT_EQ(restricted.point_of_keypoint[k], map::kNoPoint);
-  const PassResult from_first = tracker.estimate(prepared, all, first.T_cam_world);
+  const PassResult from_first = tracker.estimate(prepared, all, &first);
   EXPECT_LT((from_first.T_cam_world.translation() - first.T_cam_world.translation()).norm(), 0.005);
+}
+
+// Pass 2 searches pass 1's local map from pass 1's pose: every point pass 1
+// matched is among the points pass 2 sees, and with twice the keypoints it
+// finds more inliers than pass 1.
+TEST_F(TrackerAtFrame10, SecondPassSearchesTheFirstPassLocalMap) {
+  std::vector<std::uint8_t> even(prepared.size(), 0);
+  for (int k = 0; k < prepared.size(); k += 2) even[k] = 1;
+  const PassResult pass1 = tracker.estimate(prepared, even);
+  ASSERT_TRUE(pass1.valid);
+  const std::vector<std::uint8_t> all(prepared.size(), 1);
+  const PassResult pass2 = tracker.estimate(prepared, all, &pass1);
+  ASSERT_TRUE(pass2.valid);
+  const std::set<map::PointId> seen(pass2.visible_points.begin(), pass2.visible_points.end());
+  int matched_by_pass1 = 0, seen_by_pass2 = 0;
+  for (const map::PointId id : pass1.point_of_keypoint) {
+    if (id == map::kNoPoint) continue;
+    ++matched_by_pass1;
+    seen_by_pass2 += seen.count(id) != 0 ? 1 : 0;
+  }
+  EXPECT_EQ(seen_by_pass2, matched_by_pass1);
+  EXPECT_GT(pass2.n_inliers, pass1.n_inliers);
 }
 
 // The map check's matching: only the usable keypoints are matched, to the
