@@ -99,7 +99,9 @@ TEST_F(TrackerAtFrame10, EstimateLeavesNoTrace) {
 
 // Pass 2 searches pass 1's local map from pass 1's pose: every point pass 1
 // matched is among the points pass 2 sees, and with twice the keypoints it
-// finds more inliers than pass 1.
+// finds more inliers than pass 1. (Here, 10 frames in, the reference
+// keyframe's neighbourhood, pass 2's local map before b55d757, holds them
+// all too; on `parked` it missed 291 of pass 1's points in 52 of 100 frames.)
 TEST_F(TrackerAtFrame10, SecondPassSearchesTheFirstPassLocalMap) {
   std::vector<std::uint8_t> even(prepared.size(), 0);
   for (int k = 0; k < prepared.size(); k += 2) even[k] = 1;
