@@ -392,8 +392,9 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
   const auto t_motion = Clock::now();
   bool tracked = false;
   if (anchor != nullptr) {
-    // Pass 2: start from pass 1's pose; the search of pass 1's local map
-    // finds all.
+    // Pass 2: pass 1's pose and pass 1's local map. Only the local-map
+    // search runs, which re-finds about 80 % of pass 1's matches (fast,
+    // seed 7); carrying pass 1's matches over was worse on average.
     result.T_cam_world = anchor->T_cam_world;
     tracked = true;
   } else if (has_last_ && state_ != TrackingState::kLost) {
