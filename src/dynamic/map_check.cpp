@@ -38,8 +38,7 @@ std::vector<MapCheck> MotionClassifier::check_against_map(
     std::vector<detail::PointDisplacement> points;
     for (int k = 0; k < frame.size(); ++k) {
       if (frame.instance[k] != instance || !map_point_of_keypoint[k]) continue;
-      if (!frame.features.has_depth(k) || frame.features.depth_m[k] > max_depth_m_) continue;
-      if (!frame.features.stereo_ambiguous.empty() && frame.features.stereo_ambiguous[k]) continue;
+      if (!detail::gives_trusted_point(frame, k, max_depth_m_)) continue;
       const auto sighting = to_world(frame.uv_px[k], frame.features.u_right[k], frame.octave[k],
                                      current.variance_factor, current.T_world_cam,
                                      pose_covariance ? &*pose_covariance : nullptr);

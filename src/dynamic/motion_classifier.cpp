@@ -133,11 +133,7 @@ ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
   out.boxes = boxes;
   std::vector<int> rows;
   for (int k = 0; k < frame.size(); ++k) {
-    if (frame.instance[k] == 0 || !frame.features.has_depth(k)) continue;
-    if (frame.features.depth_m[k] > max_depth_m) continue;
-    // A wrong stereo match looks like motion of several metres.
-    if (!frame.features.stereo_ambiguous.empty() && frame.features.stereo_ambiguous[k]) continue;
-    rows.push_back(k);
+    if (frame.instance[k] != 0 && detail::gives_trusted_point(frame, k, max_depth_m)) rows.push_back(k);
   }
   out.descriptors.create(static_cast<int>(rows.size()), features::kDescriptorBytes, CV_8UC1);
   for (std::size_t i = 0; i < rows.size(); ++i) {

@@ -15,6 +15,11 @@ constexpr double kConsistencyGate = 11.34;
 
 }  // namespace
 
+bool gives_trusted_point(const tracking::PreparedFrame& frame, int k, double max_depth_m) {
+  if (!frame.features.has_depth(k) || frame.features.depth_m[k] > max_depth_m) return false;
+  return frame.features.stereo_ambiguous.empty() || !frame.features.stereo_ambiguous[k];
+}
+
 double quantile(std::vector<double> values, double q) {
   if (values.empty()) return 0.0;
   std::sort(values.begin(), values.end());

@@ -7,7 +7,14 @@
 
 #include <Eigen/Core>
 
+#include "sitepose/tracking/prepared_frame.hpp"
+
 namespace sitepose::dynamic::detail {
+
+// Whether keypoint k of `frame` gives a stereo point the object tests can
+// use: it has depth, no deeper than max_depth_m, and an unambiguous stereo
+// match (a wrong one looks like motion of several metres).
+bool gives_trusted_point(const tracking::PreparedFrame& frame, int k, double max_depth_m);
 
 // One point of an object: where the current frame (CF) sees it minus where
 // it was (a reference frame's sighting, or its map point), world frame.
