@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <future>
+#include <set>
+
 #include <opencv2/calib3d.hpp>
 
 #include "sitepose/features/hamming.hpp"
+#include "sitepose/optim/reprojection_costs.hpp"
 
 namespace sitepose::tracking {
 namespace {
@@ -394,7 +397,8 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
   if (anchor != nullptr) {
     // Pass 2: pass 1's pose and pass 1's local map. Only the local-map
     // search runs, which re-finds about 80 % of pass 1's matches (fast,
-    // seed 7); carrying pass 1's matches over was worse on average.
+    // seed 7). Giving pass 1's matches to the optimisation was worse on
+    // average; carry_over_matches() adds them to the committed frame.
     result.T_cam_world = anchor->T_cam_world;
     tracked = true;
   } else if (has_last_ && state_ != TrackingState::kLost) {
@@ -413,6 +417,43 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
   if (!result.valid) result.failure = "only " + std::to_string(result.n_inliers) + " inliers";
   result.timings.total_ms = ms_since(t0);
   return result;
+}
+
+int Tracker::carry_over_matches(const PreparedFrame& frame, const PassResult& anchor, PassResult& result) const {
+  if (anchor.point_of_keypoint.size() != static_cast<std::size_t>(frame.size()) ||
+      result.point_of_keypoint.size() != static_cast<std::size_t>(frame.size())) {
+    return 0;
+  }
+  std::set<map::PointId> matched(result.point_of_keypoint.begin(), result.point_of_keypoint.end());
+  int carried = 0;
+  map_.read([&](const map::MapData& map) {
+    for (int k = 0; k < frame.size(); ++k) {
+      const map::PointId id = anchor.point_of_keypoint[k];
+      if (id == map::kNoPoint || result.point_of_keypoint[k] != map::kNoPoint || matched.count(id) != 0) continue;
+      const map::MapPoint* point = map.good_point(id);
+      if (point == nullptr) continue;
+      const Eigen::Vector3d p_cam = result.T_cam_world * point->p_world;
+      const double sqrt_information = 1.0 / pyramid_.scale(frame.octave[k]);
+      const double u_right_px = frame.features.u_right[k];
+      bool inside_gate = false;
+      if (u_right_px >= 0.0) {
+        Eigen::Vector3d r;
+        inside_gate = optim::whitened_reprojection<3>(camera_, p_cam,
+                                                      Eigen::Vector3d(frame.uv_px[k].x(), frame.uv_px[k].y(), u_right_px),
+                                                      sqrt_information, &r, nullptr) &&
+                      r.squaredNorm() <= config_.tracking.chi2_stereo;
+      } else {
+        Eigen::Vector2d r;
+        inside_gate = optim::whitened_reprojection<2>(camera_, p_cam, frame.uv_px[k], sqrt_information, &r, nullptr) &&
+                      r.squaredNorm() <= config_.tracking.chi2_mono;
+      }
+      if (!inside_gate) continue;
+      result.point_of_keypoint[k] = id;
+      matched.insert(id);
+      ++carried;
+    }
+  });
+  return carried;
 }
 
 PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& result,

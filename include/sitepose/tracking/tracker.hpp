@@ -89,6 +89,17 @@ class Tracker {
   PassResult estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                       const PassResult* anchor = nullptr) const;
 
+  // Pass 2 matches every keypoint afresh and re-finds only about 80 % of
+  // pass 1's matches (its local-map search has the ratio test that pass 1's
+  // motion-model search has not). Adds to `result` those inlier matches of
+  // `anchor` it did not re-find, where the keypoint is free, the point not
+  // matched elsewhere and its reprojection under result's pose within the
+  // chi2 gate; result's pose and n_inliers stay its own. Without them the
+  // committed frame seeds the next motion model, counts map points as found
+  // (culling) and gives a keyframe its associations with fewer points than
+  // pass 1 had. Returns how many were added.
+  int carry_over_matches(const PreparedFrame& frame, const PassResult& anchor, PassResult& result) const;
+
   // Accepts `result` for `frame` (usable: the keypoints allowed into new map
   // points); initialises the map from the first frame with enough stereo
   // points. Returns the pose the outputs publish.

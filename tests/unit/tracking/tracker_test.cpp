@@ -121,6 +121,56 @@ TEST_F(TrackerAtFrame10, SecondPassSearchesTheFirstPassLocalMap) {
   EXPECT_GT(pass2.n_inliers, pass1.n_inliers);
 }
 
+// Pass 1's matches that pass 2 did not re-find are carried over when their
+// keypoint is free, their point unclaimed and their reprojection under
+// pass 2's pose within the chi2 gate; pass 2's own matches and inlier count
+// stay. From a pose turned by 20 px nothing passes the gate.
+TEST_F(TrackerAtFrame10, CarryOverAddsPassOneMatchesThatPassTwoDidNotRefind) {
+  const std::vector<std::uint8_t> all(prepared.size(), 1);
+  const PassResult pass1 = tracker.estimate(prepared, all);
+  ASSERT_TRUE(pass1.valid);
+  std::vector<std::uint8_t> even(prepared.size(), 0);
+  for (int k = 0; k < prepared.size(); k += 2) even[k] = 1;
+  // A pass 2 that leaves the odd keypoints unmatched, as pass 2's search
+  // leaves a fifth of pass 1's matches.
+  const PassResult pass2 = tracker.estimate(prepared, even, &pass1);
+  ASSERT_TRUE(pass2.valid);
+  const std::set<map::PointId> claimed_by_pass2(pass2.point_of_keypoint.begin(), pass2.point_of_keypoint.end());
+  int unclaimed = 0;  // pass 1's matches on keypoints pass 2 left free, to points pass 2 did not match
+  for (int k = 1; k < prepared.size(); k += 2) {
+    const map::PointId id = pass1.point_of_keypoint[k];
+    unclaimed += id != map::kNoPoint && claimed_by_pass2.count(id) == 0 ? 1 : 0;
+  }
+  ASSERT_GT(unclaimed, 50);
+
+  PassResult merged = pass2;
+  const int carried = tracker.carry_over_matches(prepared, pass1, merged);
+  EXPECT_LE(carried, unclaimed);
+  EXPECT_GE(carried, unclaimed * 9 / 10);  // the rest are outside the gate at pass 2's pose
+  EXPECT_EQ(merged.n_inliers, pass2.n_inliers);
+  EXPECT_LT((merged.T_cam_world.matrix() - pass2.T_cam_world.matrix()).norm(), 1e-15);
+  std::set<map::PointId> ids;
+  int matches = 0;
+  for (int k = 0; k < prepared.size(); ++k) {
+    if (pass2.point_of_keypoint[k] != map::kNoPoint) {
+      EXPECT_EQ(merged.point_of_keypoint[k], pass2.point_of_keypoint[k]);
+    } else if (merged.point_of_keypoint[k] != map::kNoPoint) {
+      EXPECT_EQ(merged.point_of_keypoint[k], pass1.point_of_keypoint[k]);
+    }
+    if (merged.point_of_keypoint[k] == map::kNoPoint) continue;
+    ++matches;
+    ids.insert(merged.point_of_keypoint[k]);
+  }
+  EXPECT_EQ(static_cast<int>(ids.size()), matches) << "a point matched at two keypoints";
+  EXPECT_EQ(tracker.carry_over_matches(prepared, pass1, merged), 0) << "carried twice";
+
+  PassResult turned = pass2;  // every point 20 px off
+  const double yaw = 20.0 / site.simulator.camera().fx;
+  turned.T_cam_world = SE3(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero()) *
+                       pass2.T_cam_world;
+  EXPECT_EQ(tracker.carry_over_matches(prepared, pass1, turned), 0);
+}
+
 // The map check's matching: only the usable keypoints are matched, to the
 // same points a full estimate finds; a pose guess 8 px off needs the wider
 // radius (radii scale by 2.5 for points seen head-on, as in the local map
