@@ -210,7 +210,6 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
         usable2 = usable;
         for (int k = 0; k < prepared.size(); ++k) usable2[k] |= is_static[prepared.instance[k]];
         pass2 = tracker_->estimate(prepared, usable2, &pass1);
-        report.timings.pass2_ms = ms_since(t_pass2);
         if (pass2.valid) {
           if (pass2_agrees_with_pass1(pass1, pass2)) {
             // The committed frame keeps what pass 1 found (fast, seed 7:
@@ -225,6 +224,7 @@ Expected<FrameReport> SlamSystem::process_masked(const StereoFrame& frame,
             report.pass2_rejected = true;
           }
         }
+        report.timings.pass2_ms = ms_since(t_pass2);
       }
     } else {
       for (const auto& b : mask.dynamic_boxes) {

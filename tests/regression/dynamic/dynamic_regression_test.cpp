@@ -338,9 +338,13 @@ TEST(DynamicRegression, StartingMachineIsRemaskedWithinTwoFramesInOtherRendering
   EXPECT_LE(remask_latency_frames({"away", "[[2, -7.5], [2, -40]]", 11, 0.4}), 2);
 }
 
-// Not met (3 frames each): towards the camera the motion is mostly depth,
-// which stereo measures worst; at half the acceleration the roller has
-// moved 4 mm by frame 27 (16 mm at 0.4 m/s^2; the speed ramp is a cosine).
+// Not met (3 frames each), and not separable at frame 27 by either test:
+// towards the camera the roller has moved 16 mm in depth at about 12 m
+// (map statistic 0.4; 2.7 while still parked at frame 24); at half the
+// acceleration it has moved 4 mm (the speed ramp is a cosine; map statistic
+// 3.8, reference-frame statistic 0.9). Truly static machines of the suite
+// score up to 8.9 on the map test, so no gate catches these at frame 27
+// without re-masking parked ones. Both are caught at frame 28 (17.9; 16.6).
 TEST(DynamicRegression, DISABLED_StartingMachineIsRemaskedWithinTwoFramesTowardsTheCameraOrStartingSlowly) {
   EXPECT_LE(remask_latency_frames({"towards", "[[2, -12], [2, -4]]", 11, 0.4}), 2);
   EXPECT_LE(remask_latency_frames({"slow", kSideways, 11, 0.2}), 2);
