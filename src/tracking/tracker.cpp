@@ -419,11 +419,26 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
   return result;
 }
 
-int Tracker::carry_over_matches(const PreparedFrame& frame, const PassResult& anchor, PassResult& result) const {
-  if (anchor.point_of_keypoint.size() != static_cast<std::size_t>(frame.size()) ||
-      result.point_of_keypoint.size() != static_cast<std::size_t>(frame.size())) {
-    return 0;
+bool Tracker::within_reprojection_gate(const PreparedFrame& frame, int k, const Eigen::Vector3d& p_world,
+                                       const SE3& T_cam_world) const {
+  const Eigen::Vector3d p_cam = T_cam_world * p_world;
+  const double sqrt_information = 1.0 / pyramid_.scale(frame.octave[k]);
+  const double u_right_px = frame.features.u_right[k];
+  if (u_right_px >= 0.0) {
+    Eigen::Vector3d r;
+    const Eigen::Vector3d observed_px(frame.uv_px[k].x(), frame.uv_px[k].y(), u_right_px);
+    return optim::whitened_reprojection<3>(camera_, p_cam, observed_px, sqrt_information, &r, nullptr) &&
+           r.squaredNorm() <= config_.tracking.chi2_stereo;
   }
+  Eigen::Vector2d r;
+  return optim::whitened_reprojection<2>(camera_, p_cam, frame.uv_px[k], sqrt_information, &r, nullptr) &&
+         r.squaredNorm() <= config_.tracking.chi2_mono;
+}
+
+int Tracker::carry_over_matches(const PreparedFrame& frame, const PassResult& anchor, PassResult& result) const {
+  const auto n = static_cast<std::size_t>(frame.size());
+  // A pass that returned before matching (map empty) has nothing to give or take.
+  if (anchor.point_of_keypoint.size() != n || result.point_of_keypoint.size() != n) return 0;
   std::set<map::PointId> matched(result.point_of_keypoint.begin(), result.point_of_keypoint.end());
   int carried = 0;
   map_.read([&](const map::MapData& map) {
@@ -431,23 +446,7 @@ int Tracker::carry_over_matches(const PreparedFrame& frame, const PassResult& an
       const map::PointId id = anchor.point_of_keypoint[k];
       if (id == map::kNoPoint || result.point_of_keypoint[k] != map::kNoPoint || matched.count(id) != 0) continue;
       const map::MapPoint* point = map.good_point(id);
-      if (point == nullptr) continue;
-      const Eigen::Vector3d p_cam = result.T_cam_world * point->p_world;
-      const double sqrt_information = 1.0 / pyramid_.scale(frame.octave[k]);
-      const double u_right_px = frame.features.u_right[k];
-      bool inside_gate = false;
-      if (u_right_px >= 0.0) {
-        Eigen::Vector3d r;
-        inside_gate = optim::whitened_reprojection<3>(camera_, p_cam,
-                                                      Eigen::Vector3d(frame.uv_px[k].x(), frame.uv_px[k].y(), u_right_px),
-                                                      sqrt_information, &r, nullptr) &&
-                      r.squaredNorm() <= config_.tracking.chi2_stereo;
-      } else {
-        Eigen::Vector2d r;
-        inside_gate = optim::whitened_reprojection<2>(camera_, p_cam, frame.uv_px[k], sqrt_information, &r, nullptr) &&
-                      r.squaredNorm() <= config_.tracking.chi2_mono;
-      }
-      if (!inside_gate) continue;
+      if (point == nullptr || !within_reprojection_gate(frame, k, point->p_world, result.T_cam_world)) continue;
       result.point_of_keypoint[k] = id;
       matched.insert(id);
       ++carried;

@@ -135,6 +135,10 @@ class Tracker {
   // into the result; else all keypoints start unmatched.
   std::vector<PointView> local_points(const PreparedFrame& frame, const std::vector<map::PointId>& tracked,
                                       bool keep_tracked, std::vector<int>& match) const;
+  // Keypoint k's reprojection error of p_world seen from T_cam_world within
+  // the motion-only BA's chi2 gate (stereo or mono, by the keypoint).
+  bool within_reprojection_gate(const PreparedFrame& frame, int k, const Eigen::Vector3d& p_world,
+                                const SE3& T_cam_world) const;
   // Motion-only BA over the matches in result.point_of_keypoint; drops
   // outliers and fills pose, covariance and inlier count.
   void optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
