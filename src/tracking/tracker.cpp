@@ -437,7 +437,8 @@ bool Tracker::within_reprojection_gate(const PreparedFrame& frame, int k, const 
 
 int Tracker::carry_over_matches(const PreparedFrame& frame, const PassResult& anchor, PassResult& result) const {
   const auto n = static_cast<std::size_t>(frame.size());
-  // A pass that returned before matching (map empty) has nothing to give or take.
+  // estimate() sizes both to the frame, even when it fails; a PassResult made
+  // otherwise (default-constructed, another frame's) has nothing to give or take.
   if (anchor.point_of_keypoint.size() != n || result.point_of_keypoint.size() != n) return 0;
   std::set<map::PointId> matched(result.point_of_keypoint.begin(), result.point_of_keypoint.end());
   int carried = 0;
