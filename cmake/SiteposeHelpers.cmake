@@ -1,8 +1,11 @@
 # Shared build rules: one warnings target, one library rule, one test rule.
 
+# Warnings are errors by default (one compiler, Debian 12's GCC): a warning
+# fails the build, in CI too. -DSITEPOSE_WERROR=OFF for other compilers.
+option(SITEPOSE_WERROR "Treat compiler warnings as errors" ON)
 add_library(sitepose_warnings INTERFACE)
 target_compile_options(sitepose_warnings INTERFACE
-  $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra -Wpedantic>)
+  $<$<COMPILE_LANGUAGE:CXX>:-Wall -Wextra -Wpedantic $<$<BOOL:${SITEPOSE_WERROR}>:-Werror>>)
 
 # sitepose_add_library(<module> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
 # Defines sitepose_<module> with alias sitepose::<module>; headers live in

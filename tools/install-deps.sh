@@ -7,7 +7,7 @@ set -euo pipefail
 
 packages=(
   # toolchain
-  build-essential cmake ninja-build pkg-config ccache git
+  build-essential cmake ninja-build pkg-config ccache git clang-format clang-tidy
   # numerics and vision
   libeigen3-dev libopencv-dev libceres-dev
   # config, logging, command line
