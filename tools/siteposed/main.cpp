@@ -9,8 +9,8 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
-#include "daemon.hpp"
-#include "daemon_config.hpp"
+#include "sitepose/daemon/daemon.hpp"
+#include "sitepose/daemon/daemon_config.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/core/build_info.hpp"
 #include "sitepose/core/log.hpp"
