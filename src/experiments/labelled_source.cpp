@@ -1,4 +1,4 @@
-#include "sitepose/slam/labelled_source.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 
 #include <vector>
 
@@ -7,7 +7,7 @@
 #include "sitepose/sim/simulator.hpp"
 #include "sitepose/slam/slam_system.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 namespace {
 
 dynamic::PixelSegmenter segmenter_of(const cv::Mat& mask) {
@@ -126,7 +126,7 @@ Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::stri
                       directory + ": no labels/boxes.csv; the dynamic layer's ablations need object labels");
   }
   double fps = io::mean_frame_rate_hz(*sequence);
-  if (!(fps > 0.0)) fps = SlamOptions{}.fps;
+  if (!(fps > 0.0)) fps = slam::SlamOptions{}.fps;
   return std::unique_ptr<LabelledSource>(new SequenceSource(std::move(sequence), fps));
 }
 
@@ -134,4 +134,4 @@ std::unique_ptr<LabelledSource> cache_frames(std::unique_ptr<LabelledSource> sou
   return std::make_unique<CachedSource>(std::move(source));
 }
 
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments

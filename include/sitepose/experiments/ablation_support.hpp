@@ -10,9 +10,9 @@
 #include <opencv2/core.hpp>
 
 #include "sitepose/core/expected.hpp"
-#include "sitepose/slam/labelled_source.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 
 // Exactly one of `sequence` and `scenario` must be non-empty. A scenario is
 // simulated (frames > 0 limits it) into `temp_dir`/<scenario>, which must
@@ -58,4 +58,4 @@ Status write_png(const std::string& path, const cv::Mat& image);
 // Writes a text file (CSV) (kIoError naming the path on failure).
 Status write_text(const std::string& path, const std::string& text);
 
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments

@@ -1,4 +1,4 @@
-#include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/slam_system.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 
 double DynamicRunResult::coverage_ok() const {
   return frames > 0 ? static_cast<double>(recorder.frames_ok()) / frames : 0.0;
@@ -20,10 +20,10 @@ double DynamicRunResult::ate_m() const {
 
 Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const config::SiteposeConfig& config,
                                        const DynamicRunOptions& options) {
-  SlamOptions slam_options;
+  slam::SlamOptions slam_options;
   slam_options.fps = source.fps();
   slam_options.mapper_thread = options.mapper_thread;
-  SITEPOSE_TRY(auto system, SlamSystem::create(source.camera(), config, slam_options));
+  SITEPOSE_TRY(auto system, slam::SlamSystem::create(source.camera(), config, slam_options));
   DynamicRunResult result;
   result.name = source.name();
   result.mode = config.dynamic.mode;
@@ -32,10 +32,10 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
     SITEPOSE_TRY(LabelledFrame frame, source.read(i));
     if (options.alter) options.alter(frame);
     if (options.detector != nullptr) {
-      SITEPOSE_TRY(frame.objects, detect_objects(*options.detector, frame.frame));
+      SITEPOSE_TRY(frame.objects, slam::detect_objects(*options.detector, frame.frame));
       frame.moving.clear();
     }
-    SITEPOSE_TRY(FrameReport report, system->process(frame.frame, frame.objects));
+    SITEPOSE_TRY(slam::FrameReport report, system->process(frame.frame, frame.objects));
     result.recorder.add(report);
     result.max_masked_ratio = std::max(result.max_masked_ratio, report.masked_ratio);
     result.max_mar = std::max(result.max_mar, report.mar);
@@ -159,4 +159,4 @@ double roc_auc(std::vector<RocPoint> curve) {
   return area;
 }
 
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments

@@ -19,7 +19,7 @@
 #include "sitepose/core/stereo_frame.hpp"
 #include "sitepose/dynamic/object_types.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 
 struct LabelledFrame {
   StereoFrame frame;
@@ -57,4 +57,4 @@ Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::stri
 // ablations run several modes on the same frames).
 std::unique_ptr<LabelledSource> cache_frames(std::unique_ptr<LabelledSource> source);
 
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments

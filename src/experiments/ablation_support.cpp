@@ -1,4 +1,4 @@
-#include "sitepose/slam/ablation_support.hpp"
+#include "sitepose/experiments/ablation_support.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,7 +15,7 @@
 #include "sitepose/sim/sequence_writer.hpp"
 #include "sitepose/sim/simulator.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 namespace fs = std::filesystem;
 
 Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceRequest& request,
@@ -196,4 +196,4 @@ Status write_text(const std::string& path, const std::string& text) {
   return ok_status();
 }
 
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments
