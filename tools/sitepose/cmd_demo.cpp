@@ -12,7 +12,7 @@
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/core/build_info.hpp"
-#include "sitepose/eval/plot.hpp"
+#include "sitepose/experiments/eval_plot.hpp"
 #include "sitepose/experiments/dynamic_run.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
 
@@ -70,7 +70,7 @@ int run_demo(const DemoArgs& args) {
     const std::string traj = args.out_dir + "/trajectory.txt";
     const std::string plot = args.out_dir + "/accuracy.png";
     if (auto st = run->recorder.write_tum(traj); !st) return fail("demo", st.error().message, 1);
-    if (auto st = eval::write_eval_plot(plot, run->ground_truth, e); !st) return fail("demo", st.error().message, 1);
+    if (auto st = experiments::write_eval_plot(plot, run->ground_truth, e); !st) return fail("demo", st.error().message, 1);
     std::printf("wrote %s and %s\n", traj.c_str(), plot.c_str());
   }
   return 0;
