@@ -12,7 +12,7 @@
 #include "ablation_inputs.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/experiments/ablation_support.hpp"
+#include "sitepose/experiments/charts.hpp"
 #include "sitepose/experiments/dynamic_run.hpp"
 
 namespace sitepose::cli {

@@ -14,8 +14,9 @@
 #include "ablation_inputs.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/experiments/ablation_support.hpp"
+#include "sitepose/experiments/charts.hpp"
 #include "sitepose/experiments/dynamic_run.hpp"
+#include "sitepose/experiments/roc.hpp"
 
 namespace sitepose::cli {
 namespace {

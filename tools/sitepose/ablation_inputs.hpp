@@ -8,7 +8,6 @@
 
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
-#include "sitepose/experiments/ablation_support.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
 
 namespace sitepose::cli {

@@ -11,7 +11,7 @@
 #include "sitepose/config/config.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/io/sequence.hpp"
-#include "sitepose/experiments/ablation_support.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"

@@ -1,8 +1,8 @@
 #pragma once
 // One run of the positioning core over a LabelledSource in a given masking
 // mode, scored against ground truth: ATE (eval module), coverage, the
-// motion-state samples with their ground-truth flags (ROC, re-masking
-// latency). Shared by the regression tests, the ablations and
+// motion-state samples with their ground-truth flags (ROC: roc.hpp,
+// re-masking latency). Shared by the regression tests, the ablations and
 // `sitepose bench dynamic`. Inline mapping: reproducible.
 
 #include <functional>
@@ -81,18 +81,5 @@ std::vector<RemaskEvent> remask_latencies(const std::vector<ObjectSample>& sampl
 // points is not counted: the machine left the view or is hidden, and there
 // is nothing left to test (it is counted again if it turns static anew).
 int static_flips(const std::vector<ObjectSample>& samples, int min_points);
-
-// ROC of "static" as positive over thresholds applied to the per-point
-// statistics (is_static_at), for samples with ground truth; points with
-// too few statistics count as predicted not static.
-struct RocPoint {
-  double threshold = 0.0;
-  double tpr = 0.0;  // static predicted static
-  double fpr = 0.0;  // moving predicted static
-};
-std::vector<RocPoint> roc_curve(const std::vector<ObjectSample>& samples, const std::vector<double>& thresholds,
-                                double fraction, int min_points);
-// Area under the curve by the trapezoid rule, (0,0) and (1,1) added.
-double roc_auc(std::vector<RocPoint> curve);
 
 }  // namespace sitepose::experiments

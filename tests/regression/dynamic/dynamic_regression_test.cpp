@@ -15,6 +15,7 @@
 
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/experiments/dynamic_run.hpp"
+#include "sitepose/experiments/roc.hpp"
 
 namespace sitepose::experiments {
 namespace {

@@ -3,6 +3,7 @@
 #include <vector>
 
 #include "sitepose/experiments/dynamic_run.hpp"
+#include "sitepose/experiments/roc.hpp"
 
 namespace sitepose::experiments {
 namespace {
