@@ -11,8 +11,8 @@
 #include "ablation_inputs.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/slam/ablation_support.hpp"
-#include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/experiments/charts.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
 
 namespace sitepose::cli {
 namespace {
@@ -20,7 +20,7 @@ namespace {
 constexpr const char* kCommand = "ablate masks";
 
 struct Args {
-  slam::SourceRequest source;
+  experiments::SourceRequest source;
   std::string config_path;
   std::string out_dir;
 };
@@ -39,7 +39,7 @@ int run(Args args) {
   for (config::MaskingMode mode :
        {config::MaskingMode::kBbox, config::MaskingMode::kHierarchical, config::MaskingMode::kPixel}) {
     config.dynamic.mode = mode;
-    auto result = slam::run_dynamic(*source, config);
+    auto result = experiments::run_dynamic(*source, config);
     if (!result) return fail(kCommand, result.error().message, 1);
     const auto stages = result->recorder.stage_summaries();
     const double mask_ms = stages.count("mask") ? stages.at("mask").mean_ms : 0.0;
@@ -60,18 +60,18 @@ int run(Args args) {
   }
   const std::string csv_path = args.out_dir + "/masks.csv";
   const std::string png_path = args.out_dir + "/masks.png";
-  if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
-  slam::ChartOptions chart;
+  if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
+  experiments::ChartOptions chart;
   chart.height_px = 400;
   chart.title = "Masking on " + std::filesystem::path(source->name()).filename().string() + ": ATE RMSE (m)";
-  cv::Mat a = slam::render_bar_chart(labels, ates, chart);
+  cv::Mat a = experiments::render_bar_chart(labels, ates, chart);
   chart.title = "Largest masked ratio of a frame";
-  cv::Mat b = slam::render_bar_chart(labels, masked, chart);
+  cv::Mat b = experiments::render_bar_chart(labels, masked, chart);
   chart.title = "Mean frame time (ms; masks from labels, no segmentation network)";
-  cv::Mat c = slam::render_bar_chart(labels, frame_ms, chart);
+  cv::Mat c = experiments::render_bar_chart(labels, frame_ms, chart);
   cv::Mat all;
   cv::vconcat(std::vector<cv::Mat>{a, b, c}, all);
-  if (auto st = slam::write_png(png_path, all); !st) return fail(kCommand, st.error().message, 1);
+  if (auto st = experiments::write_png(png_path, all); !st) return fail(kCommand, st.error().message, 1);
   std::printf("wrote %s, %s\n", csv_path.c_str(), png_path.c_str());
   return 0;
 }

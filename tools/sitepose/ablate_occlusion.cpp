@@ -12,8 +12,8 @@
 #include "ablation_inputs.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/slam/ablation_support.hpp"
-#include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/experiments/charts.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
 
 namespace sitepose::cli {
 namespace {
@@ -23,7 +23,7 @@ constexpr const char* kCommand = "ablate occlusion-sweep";
 constexpr std::uint16_t kOccluderInstance = 65000;
 
 struct Args {
-  slam::SourceRequest source;
+  experiments::SourceRequest source;
   std::string config_path;
   std::string out_dir;
   std::vector<double> ratios{0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8};
@@ -45,18 +45,18 @@ int run(Args args) {
 
   std::ostringstream csv;
   csv << "occlusion_ratio,ate_rmse_m,ate_max_m,frames,frames_ok,frames_lost,coverage\n";
-  slam::ChartSeries ate{"ATE RMSE (m)", {}, {}, {200, 80, 30}};
-  slam::ChartSeries lost{"lost frames (share)", {}, {}, {30, 30, 200}};
+  experiments::ChartSeries ate{"ATE RMSE (m)", {}, {}, {200, 80, 30}};
+  experiments::ChartSeries lost{"lost frames (share)", {}, {}, {30, 30, 200}};
   for (double ratio : args.ratios) {
     const int w = static_cast<int>(std::lround(size.width * std::sqrt(ratio)));
     const int h = static_cast<int>(std::lround(size.height * std::sqrt(ratio)));
     const cv::Rect box((size.width - w) / 2, (size.height - h) / 2, w, h);
-    slam::DynamicRunOptions options;
-    options.alter = [&](slam::LabelledFrame& f) {
+    experiments::DynamicRunOptions options;
+    options.alter = [&](experiments::LabelledFrame& f) {
       f.objects.boxes.clear();
       if (box.area() > 0) f.objects.boxes.push_back({kOccluderInstance, "occluder", 1.0, box});
     };
-    auto result = slam::run_dynamic(*source, config, options);
+    auto result = experiments::run_dynamic(*source, config, options);
     if (!result) return fail(kCommand, result.error().message, 1);
     const int ok = result->recorder.frames_ok();
     const int lost_frames = static_cast<int>(std::count_if(
@@ -76,17 +76,17 @@ int run(Args args) {
   const std::string csv_path = args.out_dir + "/occlusion_sweep.csv";
   const std::string png_ate = args.out_dir + "/occlusion_sweep_ate.png";
   const std::string png_lost = args.out_dir + "/occlusion_sweep_lost.png";
-  if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
-  slam::ChartOptions chart;
+  if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
+  experiments::ChartOptions chart;
   chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() + ": ATE vs centred masked ratio";
   chart.x_label = "occlusion ratio";
   chart.y_label = "ATE RMSE (m)";
-  if (auto st = slam::write_png(png_ate, slam::render_line_chart({ate}, chart)); !st) {
+  if (auto st = experiments::write_png(png_ate, experiments::render_line_chart({ate}, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }
   chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() + ": lost frames vs centred masked ratio";
   chart.y_label = "share of frames LOST";
-  if (auto st = slam::write_png(png_lost, slam::render_line_chart({lost}, chart)); !st) {
+  if (auto st = experiments::write_png(png_lost, experiments::render_line_chart({lost}, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }
   std::printf("wrote %s, %s, %s\n", csv_path.c_str(), png_ate.c_str(), png_lost.c_str());

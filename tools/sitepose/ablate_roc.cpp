@@ -14,8 +14,9 @@
 #include "ablation_inputs.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/slam/ablation_support.hpp"
-#include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/experiments/charts.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
+#include "sitepose/experiments/roc.hpp"
 
 namespace sitepose::cli {
 namespace {
@@ -23,7 +24,7 @@ namespace {
 constexpr const char* kCommand = "ablate roc";
 
 struct Args {
-  slam::SourceRequest source;
+  experiments::SourceRequest source;
   std::string config_path;
   std::string out_dir;
 };
@@ -38,10 +39,10 @@ int run(Args args) {
   std::ostringstream csv, summary;
   csv << "classifier,parameter,parameter_value,threshold,tpr,fpr\n";
   summary << "classifier,auc,samples,static_samples,moving_samples,ate_rmse_m\n";
-  std::vector<slam::ChartSeries> curves;
+  std::vector<experiments::ChartSeries> curves;
   for (config::ClassifierMode classifier : {config::ClassifierMode::kPaper, config::ClassifierMode::kSitepose}) {
     config.dynamic.classifier = classifier;
-    auto result = slam::run_dynamic(*source, config);
+    auto result = experiments::run_dynamic(*source, config);
     if (!result) return fail(kCommand, result.error().message, 1);
     const bool paper = classifier == config::ClassifierMode::kPaper;
     std::vector<double> parameters, thresholds;
@@ -52,14 +53,14 @@ int run(Args args) {
       for (int i = 0; i <= 140; ++i) parameters.push_back(std::pow(10.0, -2.0 + 0.05 * i));  // chi2 gate
       thresholds = parameters;
     }
-    const auto curve = slam::roc_curve(result->samples, thresholds, config.dynamic.static_inlier_fraction,
+    const auto curve = experiments::roc_curve(result->samples, thresholds, config.dynamic.static_inlier_fraction,
                                        config.dynamic.min_object_points);
-    const double auc = slam::roc_auc(curve);
+    const double auc = experiments::roc_auc(curve);
     int positives = 0, negatives = 0;
     for (const auto& s : result->samples) {
       if (s.moving_gt) (*s.moving_gt ? negatives : positives)++;
     }
-    slam::ChartSeries series{std::string(paper ? "paper (sigma_bkg 0..0.6 m)" : "sitepose (chi2 gate)") +
+    experiments::ChartSeries series{std::string(paper ? "paper (sigma_bkg 0..0.6 m)" : "sitepose (chi2 gate)") +
                                  ", AUC " + std::to_string(auc).substr(0, 5),
                              {}, {}, paper ? cv::Scalar(30, 30, 200) : cv::Scalar(200, 90, 30)};
     for (std::size_t i = 0; i < curve.size(); ++i) {
@@ -78,15 +79,15 @@ int run(Args args) {
   const std::string csv_path = args.out_dir + "/roc.csv";
   const std::string summary_path = args.out_dir + "/roc_auc.csv";
   const std::string png_path = args.out_dir + "/roc.png";
-  if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
-  if (auto st = slam::write_text(summary_path, summary.str()); !st) return fail(kCommand, st.error().message, 1);
-  slam::ChartOptions chart;
+  if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
+  if (auto st = experiments::write_text(summary_path, summary.str()); !st) return fail(kCommand, st.error().message, 1);
+  experiments::ChartOptions chart;
   chart.title = "Motion states on " + std::filesystem::path(source->name()).filename().string() + ": ROC, static = positive";
   chart.x_label = "false positive rate (moving called static)";
   chart.y_label = "true positive rate";
   chart.draw_diagonal = true;
   chart.markers = false;
-  if (auto st = slam::write_png(png_path, slam::render_line_chart(curves, chart)); !st) {
+  if (auto st = experiments::write_png(png_path, experiments::render_line_chart(curves, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }
   std::printf("wrote %s, %s, %s\n", csv_path.c_str(), summary_path.c_str(), png_path.c_str());

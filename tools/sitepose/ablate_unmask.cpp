@@ -11,8 +11,8 @@
 #include "ablation_inputs.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/slam/ablation_support.hpp"
-#include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/experiments/charts.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
 
 namespace sitepose::cli {
 namespace {
@@ -20,7 +20,7 @@ namespace {
 constexpr const char* kCommand = "ablate unmask";
 
 struct Args {
-  slam::SourceRequest source;
+  experiments::SourceRequest source;
   std::string config_path;
   std::string out_dir;
 };
@@ -42,7 +42,7 @@ int run(Args args) {
       {"static unmasked", config::MaskingMode::kFull}};
   for (const auto& [name, mode] : variants) {
     config.dynamic.mode = mode;
-    auto result = slam::run_dynamic(*source, config);
+    auto result = experiments::run_dynamic(*source, config);
     if (!result) return fail(kCommand, result.error().message, 1);
     double unmasked = 0, f1 = 0, f2 = 0;
     for (const PoseEstimate& p : result->recorder.poses()) {
@@ -63,10 +63,10 @@ int run(Args args) {
   }
   const std::string csv_path = args.out_dir + "/unmask.csv";
   const std::string png_path = args.out_dir + "/unmask.png";
-  if (auto st = slam::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
-  slam::ChartOptions chart;
+  if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
+  experiments::ChartOptions chart;
   chart.title = "Unmasking static objects on " + std::filesystem::path(source->name()).filename().string() + ": ATE RMSE (m)";
-  if (auto st = slam::write_png(png_path, slam::render_bar_chart(labels, ates, chart)); !st) {
+  if (auto st = experiments::write_png(png_path, experiments::render_bar_chart(labels, ates, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }
   std::printf("wrote %s, %s\n", csv_path.c_str(), png_path.c_str());

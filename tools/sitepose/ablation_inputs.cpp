@@ -7,7 +7,7 @@
 namespace sitepose::cli {
 
 Expected<AblationInputs> open_ablation_inputs(const std::string& config_path, const std::string& out_dir,
-                                              slam::SourceRequest request,
+                                              experiments::SourceRequest request,
                                               const std::string& default_scenario) {
   AblationInputs inputs;
   if (!config_path.empty()) {
@@ -18,7 +18,7 @@ Expected<AblationInputs> open_ablation_inputs(const std::string& config_path, co
   if (ec) return make_error(ErrorCode::kInvalidArgument, "--out-dir " + out_dir + ": " + ec.message());
   if (request.sequence.empty() && request.scenario.empty()) request.scenario = default_scenario;
   if (request.temp_dir.empty()) request.temp_dir = out_dir + "/sequence";
-  SITEPOSE_TRY(inputs.source, slam::open_ablation_source(request));
+  SITEPOSE_TRY(inputs.source, experiments::open_ablation_source(request));
   return inputs;
 }
 

@@ -8,20 +8,19 @@
 
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
-#include "sitepose/slam/ablation_support.hpp"
-#include "sitepose/slam/labelled_source.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 
 namespace sitepose::cli {
 
 struct AblationInputs {
   config::SiteposeConfig config;
-  std::unique_ptr<slam::LabelledSource> source;
+  std::unique_ptr<experiments::LabelledSource> source;
 };
 
 // config_path: empty = defaults. default_scenario: used when the request
 // names neither a sequence nor a scenario. Errors name the option.
 Expected<AblationInputs> open_ablation_inputs(const std::string& config_path, const std::string& out_dir,
-                                              slam::SourceRequest request,
+                                              experiments::SourceRequest request,
                                               const std::string& default_scenario);
 
 }  // namespace sitepose::cli

@@ -11,7 +11,7 @@
 #include "sitepose/config/config.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/io/sequence.hpp"
-#include "sitepose/slam/ablation_support.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"
@@ -22,7 +22,7 @@ namespace {
 constexpr const char* kCommand = "bench dynamic";
 
 struct Args {
-  slam::SourceRequest source;
+  experiments::SourceRequest source;
   std::string config_path;
   std::string detector = "labels";
   std::string mode = "full";
@@ -43,7 +43,7 @@ int run(Args args) {
   std::string dir = args.source.sequence;
   if (!args.source.scenario.empty()) {
     // Simulate to disk: the labels detector reads the sequence's labels/.
-    auto written = slam::open_ablation_source(args.source, &dir);
+    auto written = experiments::open_ablation_source(args.source, &dir);
     if (!written) return fail(kCommand, written.error().message, 2);
   }
   auto sequence = io::open_sequence(dir);

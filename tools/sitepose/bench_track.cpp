@@ -7,8 +7,8 @@
 
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/slam/dynamic_run.hpp"
-#include "sitepose/slam/labelled_source.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 
 namespace sitepose::cli {
 namespace {
@@ -30,7 +30,7 @@ int bench_track(const BenchTrackArgs& args) {
     config = *loaded;
   }
   config.dynamic.mode = config::MaskingMode::kNone;
-  slam::DynamicRunOptions options;
+  experiments::DynamicRunOptions options;
   options.frames = args.frames;
   options.mapper_thread = args.mapper_thread;
   std::vector<std::pair<int, double>> rss_marks;
@@ -40,10 +40,10 @@ int bench_track(const BenchTrackArgs& args) {
     }
     if ((i + 1) % 100 == 0 || i + 1 == n) std::fprintf(stderr, "bench track: %d/%d frames\n", i + 1, n);
   };
-  auto source = args.sequence.empty() ? slam::open_simulated(args.scenario, args.frames)
-                                      : slam::open_labelled_sequence(args.sequence, false);
+  auto source = args.sequence.empty() ? experiments::open_simulated(args.scenario, args.frames)
+                                      : experiments::open_labelled_sequence(args.sequence, false);
   if (!source) return fail("bench track", source.error().message, 2);
-  auto run = slam::run_dynamic(**source, config, options);
+  auto run = experiments::run_dynamic(**source, config, options);
   if (!run) return fail("bench track", run.error().message, 1);
   const auto stages = run->recorder.stage_summaries();
   std::printf("bench track: %s, %d frames, mapper %s\n", run->name.c_str(), run->frames,

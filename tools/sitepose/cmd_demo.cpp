@@ -12,9 +12,9 @@
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/core/build_info.hpp"
-#include "sitepose/eval/plot.hpp"
-#include "sitepose/slam/dynamic_run.hpp"
-#include "sitepose/slam/labelled_source.hpp"
+#include "sitepose/experiments/eval_plot.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 
 namespace sitepose::cli {
 namespace {
@@ -35,7 +35,7 @@ int run_demo(const DemoArgs& args) {
   std::printf("demo: simulating scenario '%s' (%d frames, 960x540 stereo) and tracking it in mode "
               "'%s' (objects from the simulator's labels, as the paper's protocol)\n",
               args.scenario.c_str(), args.frames, args.mode.c_str());
-  slam::DynamicRunOptions options;
+  experiments::DynamicRunOptions options;
   const bool tty = isatty(STDERR_FILENO) != 0;
   options.on_frame = [tty](int i, int n, const slam::FrameReport& report) {
     if (tty) {
@@ -46,9 +46,9 @@ int run_demo(const DemoArgs& args) {
       std::fprintf(stderr, "frame %d/%d\n", i + 1, n);
     }
   };
-  auto source = slam::open_simulated(args.scenario, args.frames);
+  auto source = experiments::open_simulated(args.scenario, args.frames);
   if (!source) return fail("demo", source.error().message, source.error().exit_status());
-  auto run = slam::run_dynamic(**source, config, options);
+  auto run = experiments::run_dynamic(**source, config, options);
   if (!run) return fail("demo", run.error().message, run.error().exit_status());
   std::printf("tracked %d frames: %d OK (%.1f %%), %zu keyframes, %zu map points\n", run->frames,
               run->recorder.frames_ok(), 100.0 * run->coverage_ok(), run->keyframes, run->points);
@@ -70,7 +70,7 @@ int run_demo(const DemoArgs& args) {
     const std::string traj = args.out_dir + "/trajectory.txt";
     const std::string plot = args.out_dir + "/accuracy.png";
     if (auto st = run->recorder.write_tum(traj); !st) return fail("demo", st.error().message, 1);
-    if (auto st = eval::write_eval_plot(plot, run->ground_truth, e); !st) return fail("demo", st.error().message, 1);
+    if (auto st = experiments::write_eval_plot(plot, run->ground_truth, e); !st) return fail("demo", st.error().message, 1);
     std::printf("wrote %s and %s\n", traj.c_str(), plot.c_str());
   }
   return 0;

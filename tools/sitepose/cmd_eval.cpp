@@ -8,7 +8,7 @@
 
 #include "command_registry.hpp"
 #include "sitepose/eval/evaluate.hpp"
-#include "sitepose/eval/plot.hpp"
+#include "sitepose/experiments/eval_plot.hpp"
 #include "sitepose/io/trajectory.hpp"
 
 namespace sitepose::cli {
@@ -52,7 +52,7 @@ int run_eval(const EvalArgs& args) {
     std::fputs(eval::to_text(*result).c_str(), stdout);
   }
   if (!args.plot_path.empty()) {
-    if (auto st = eval::write_eval_plot(args.plot_path, *gt, *result); !st) {
+    if (auto st = experiments::write_eval_plot(args.plot_path, *gt, *result); !st) {
       return fail(cmd, st.error().message, st.error().exit_status());
     }
     if (!args.json) std::printf("plot          %s\n", args.plot_path.c_str());

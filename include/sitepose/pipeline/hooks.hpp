@@ -7,7 +7,7 @@
 //   PoseTracker - track stage: the positioning core (SlamPoseTracker in
 //                 slam_tracker.hpp).
 //   PoseOutput  - publish stage: LCM, CAN, trajectory file... (the daemon's
-//                 outputs in tools/siteposed/). The stage retries a failed
+//                 outputs in src/daemon/). The stage retries a failed
 //                 pose through retry() and counts errors (pipeline.hpp).
 // Ownership: the pipeline owns the hooks (unique_ptr) and destroys them
 // after their thread has ended.

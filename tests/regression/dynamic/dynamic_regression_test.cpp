@@ -14,9 +14,10 @@
 #include <string>
 
 #include "sitepose/detect/create_detector.hpp"
-#include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
+#include "sitepose/experiments/roc.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 namespace {
 
 // Objects with fewer matched points are not tested (unknown); flicker and
@@ -68,7 +69,7 @@ class Scenario {
     }
     if (std::getenv("SITEPOSE_DYN_DUMP") != nullptr) {
       // Diagnostics on demand: one line per frame and per classified object.
-      options.on_frame = [](int i, int, const FrameReport& r) {
+      options.on_frame = [](int i, int, const slam::FrameReport& r) {
         std::printf("frame %d %s p1 %d p2 %d mar %.2f t %.3f %.3f %.3f\n", i, to_string(r.pose.state),
                     r.pose.counters.features_used_pass1, r.pose.counters.features_used, r.mar,
                     r.pose.T_world_cam.translation().x(), r.pose.T_world_cam.translation().y(),
@@ -374,4 +375,4 @@ TEST(DynamicRegression, MotionStateRocOnCrowded) {
 }
 
 }  // namespace
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments

@@ -4,10 +4,10 @@
 
 #include <gtest/gtest.h>
 
-#include "sitepose/slam/dynamic_run.hpp"
-#include "sitepose/slam/labelled_source.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 namespace {
 
 struct Case {
@@ -43,4 +43,4 @@ INSTANTIATE_TEST_SUITE_P(Scenarios, SlamAccuracy,
                          [](const auto& info) { return std::string(info.param.scenario); });
 
 }  // namespace
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments

@@ -42,7 +42,7 @@ TEST(Config, EveryYamlFileInConfigFolderLoads) {
   for (const auto& entry : std::filesystem::directory_iterator(kSourceDir + "/config")) {
     if (!entry.is_regular_file() || entry.path().extension() != ".yaml") continue;
     // The daemon's file embeds these sections among its own; siteposed
-    // --check-config validates it (tests/integration/pipeline).
+    // --check-config validates it (tests/integration/daemon).
     if (entry.path().filename() == "siteposed.yaml") continue;
     ++files;
     const auto config = load_config(entry.path().string());

@@ -5,9 +5,7 @@
 #include <algorithm>
 
 #include <fmt/format.h>
-#include <opencv2/core.hpp>
 
-#include "sitepose/eval/plot.hpp"
 #include "test_trajectories.hpp"
 
 namespace sitepose::eval {
@@ -15,21 +13,8 @@ namespace {
 
 using testing::curvy_trajectory;
 using testing::some_rigid_transform;
+using testing::sparse_estimate;
 using testing::transformed;
-
-// Estimate with every other pose missing in the first half: coverage known.
-io::Trajectory sparse_estimate(const io::Trajectory& gt) {
-  io::Trajectory est;
-  for (std::size_t i = 0; i < gt.size(); ++i) {
-    if (i < gt.size() / 2 && i % 2 == 1) continue;
-    io::StampedPose p = gt[i];
-    // 0.1 m error along the camera x axis on odd-tenth frames.
-    const double bump = (i / 10) % 2 == 1 ? 0.1 : 0.0;
-    p.T_world_cam = p.T_world_cam * SE3(Eigen::Quaterniond::Identity(), {bump, 0.0, 0.0});
-    est.push_back(p);
-  }
-  return transformed(est, some_rigid_transform());
-}
 
 TEST(Evaluate, CoverageCountsAndStats) {
   const io::Trajectory gt = curvy_trajectory(200, 10.0);
@@ -112,30 +97,6 @@ TEST(Evaluate, JsonWritesNullForMissingRpe) {
             std::string::npos)
       << json;
   EXPECT_NE(to_text(*r).find("ATE [m]"), std::string::npos);
-}
-
-TEST(EvalPlot, RendersBothPanels) {
-  const io::Trajectory gt = curvy_trajectory(200, 10.0);
-  const auto r = evaluate(gt, sparse_estimate(gt), EvalOptions{});
-  ASSERT_TRUE(r.has_value());
-  const auto img = render_eval_plot(gt, *r);
-  ASSERT_TRUE(img.has_value()) << img.error().message;
-  EXPECT_EQ(img->cols, 1600);
-  EXPECT_EQ(img->rows, 800);
-  EXPECT_EQ(img->type(), CV_8UC3);
-  // Non-trivial: a good share of non-white pixels in each half.
-  const auto non_white = [](const cv::Mat& m) {
-    int n = 0;
-    for (int y = 0; y < m.rows; ++y)
-      for (int x = 0; x < m.cols; ++x)
-        if (m.at<cv::Vec3b>(y, x) != cv::Vec3b(255, 255, 255)) ++n;
-    return n;
-  };
-  EXPECT_GT(non_white((*img)(cv::Rect(0, 0, 800, 800))), 20000);
-  EXPECT_GT(non_white((*img)(cv::Rect(900, 0, 700, 800))), 20000);
-  EvalResult empty;
-  EXPECT_FALSE(render_eval_plot(gt, empty).has_value());
-  EXPECT_FALSE(render_eval_plot(gt, *r, PlotOptions{400, 300}).has_value());
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #pragma once
-// Synthetic trajectories shared by the eval tests.
+// Synthetic trajectories shared by the eval tests (and the eval plot test in
+// tests/unit/experiments).
 
 #include <cmath>
 
@@ -38,6 +39,21 @@ inline io::Trajectory transformed(const io::Trajectory& traj, const SE3& T_other
 
 inline SE3 some_rigid_transform() {
   return SE3(so3_exp(Eigen::Vector3d(0.4, -1.1, 2.3)), Eigen::Vector3d(120.0, -35.0, 7.5));
+}
+
+// `gt` with every other pose missing in its first half (coverage known) and
+// 0.1 m error along the camera x axis on odd-tenth frames, in another world
+// frame (some_rigid_transform()).
+inline io::Trajectory sparse_estimate(const io::Trajectory& gt) {
+  io::Trajectory est;
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    if (i < gt.size() / 2 && i % 2 == 1) continue;
+    io::StampedPose p = gt[i];
+    const double bump = (i / 10) % 2 == 1 ? 0.1 : 0.0;
+    p.T_world_cam = p.T_world_cam * SE3(Eigen::Quaterniond::Identity(), {bump, 0.0, 0.0});
+    est.push_back(p);
+  }
+  return transformed(est, some_rigid_transform());
 }
 
 }  // namespace sitepose::eval::testing

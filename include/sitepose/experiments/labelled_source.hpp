@@ -1,8 +1,9 @@
 #pragma once
 // Frames with their object labels and ground truth, from the simulator
-// (rendered in-process, nothing written) or from a sitepose sequence with
-// labels/ (boxes.csv, masks). The regression tests, `sitepose ablate ...`
-// and `sitepose bench dynamic` run the dynamic layer on these.
+// (rendered in-process, nothing written, or written to a sequence folder
+// first: open_ablation_source) or from a sitepose sequence with labels/
+// (boxes.csv, masks). The regression tests, `sitepose ablate ...` and
+// `sitepose bench dynamic` run the dynamic layer on these.
 //
 // The labels play the `labels` detector of the paper's protocol (boxes and
 // masks computed beforehand); ground-truth `moving` flags score the motion
@@ -19,7 +20,7 @@
 #include "sitepose/core/stereo_frame.hpp"
 #include "sitepose/dynamic/object_types.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 
 struct LabelledFrame {
   StereoFrame frame;
@@ -57,4 +58,18 @@ Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::stri
 // ablations run several modes on the same frames).
 std::unique_ptr<LabelledSource> cache_frames(std::unique_ptr<LabelledSource> source);
 
-}  // namespace sitepose::slam
+// Exactly one of `sequence` and `scenario` must be non-empty. A scenario is
+// simulated (frames > 0 limits it) into `temp_dir`/<scenario>, which must
+// be empty or absent, and read back like any sequence; the frames are then
+// kept in memory (cache_frames) because ablations run several times.
+// Errors: kInvalidArgument naming the flags when both or none are given.
+struct SourceRequest {
+  std::string sequence;
+  std::string scenario;
+  int frames = 0;
+  std::string temp_dir;  // where a scenario is written; empty = a fresh folder under /tmp
+};
+Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceRequest& request,
+                                                              std::string* written_dir = nullptr);
+
+}  // namespace sitepose::experiments

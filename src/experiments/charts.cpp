@@ -1,51 +1,15 @@
-#include "sitepose/slam/ablation_support.hpp"
+#include "sitepose/experiments/charts.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <limits>
-#include <unistd.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "sitepose/sim/scenario.hpp"
-#include "sitepose/sim/sequence_writer.hpp"
-#include "sitepose/sim/simulator.hpp"
-
-namespace sitepose::slam {
-namespace fs = std::filesystem;
-
-Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceRequest& request,
-                                                              std::string* written_dir) {
-  if (request.sequence.empty() == request.scenario.empty()) {
-    return make_error(ErrorCode::kInvalidArgument, "give exactly one of --sequence DIR and --scenario NAME");
-  }
-  std::string dir = request.sequence;
-  if (!request.scenario.empty()) {
-    SITEPOSE_TRY(sim::Scenario scenario, sim::load_scenario(request.scenario));
-    sim::SimOptions options;
-    if (request.frames > 0) options.frames = request.frames;
-    SITEPOSE_TRY(sim::Simulator simulator, sim::Simulator::create(scenario, options));
-    const fs::path base = request.temp_dir.empty()
-                              ? fs::temp_directory_path() / ("sitepose-ablate-" + std::to_string(::getpid()))
-                              : fs::path(request.temp_dir);
-    dir = (base / scenario.name).string();
-    std::error_code ec;
-    fs::create_directories(dir, ec);
-    if (ec) return make_error(ErrorCode::kIoError, "cannot create " + dir + ": " + ec.message());
-    std::fprintf(stderr, "simulating %s (%d frames) into %s\n", scenario.name.c_str(), simulator.frame_count(),
-                 dir.c_str());
-    SITEPOSE_TRY(sim::WriteSummary summary, sim::write_sequence(simulator, dir));
-    (void)summary;
-  }
-  if (written_dir != nullptr) *written_dir = request.scenario.empty() ? "" : dir;
-  SITEPOSE_TRY(auto source, open_labelled_sequence(dir));
-  return cache_frames(std::move(source));
-}
-
+namespace sitepose::experiments {
 namespace {
 
 struct Axes {
@@ -196,4 +160,4 @@ Status write_text(const std::string& path, const std::string& text) {
   return ok_status();
 }
 
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments

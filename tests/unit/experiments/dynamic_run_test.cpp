@@ -1,41 +1,12 @@
 #include <gtest/gtest.h>
 
-#include <cstdio>
-#include <fstream>
-#include <sstream>
+#include <vector>
 
-#include "sitepose/slam/dynamic_run.hpp"
-#include "sitepose/slam/slam_system.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
+#include "sitepose/experiments/roc.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 namespace {
-
-// A 64 x 48 camera: enough for SlamSystem to run where a test looks at the
-// dynamic layer.
-StereoCamera tiny_camera() {
-  StereoCamera camera;
-  camera.fx = camera.fy = 100.0;
-  camera.cx = 32.0;
-  camera.cy = 24.0;
-  camera.baseline_m = 0.5;
-  camera.width = 64;
-  camera.height = 48;
-  return camera;
-}
-
-// One textureless frame (the map never initialises) with `boxes` through a
-// fresh SlamSystem in `mode`.
-Expected<FrameReport> process_blank_frame(config::MaskingMode mode, std::vector<dynamic::ObjectBox> boxes) {
-  config::SiteposeConfig config;
-  config.dynamic.mode = mode;
-  SITEPOSE_TRY(std::unique_ptr<SlamSystem> system, SlamSystem::create(tiny_camera(), config));
-  StereoFrame frame;
-  frame.left = cv::Mat(48, 64, CV_8UC1, cv::Scalar(100));
-  frame.right = frame.left.clone();
-  dynamic::FrameObjects objects;
-  objects.boxes = std::move(boxes);
-  return system->process(frame, objects);
-}
 
 ObjectSample make_sample(std::int64_t frame, std::uint16_t instance, bool moving, dynamic::MotionState state,
                          std::vector<double> statistics = {}, int points = 20) {
@@ -107,57 +78,5 @@ TEST(DynamicRun, RocAucOfChanceIsOneHalf) {
   EXPECT_NEAR(roc_auc({{1.0, 0.5, 0.5}}), 0.5, 1e-12);
 }
 
-TEST(RunRecorder, WritesStatesCsvOfDynamicReports) {
-  FrameReport report;
-  report.dynamic_layer = true;
-  report.pose.seq = 7;
-  report.mar = 0.55;
-  report.pixel_mask_used = true;
-  dynamic::ClassifiedObject o;
-  o.verdict.instance = 12;
-  o.verdict.class_name = "truck";
-  o.verdict.state = dynamic::MotionState::kStatic;
-  o.verdict.score = 1.25;
-  o.verdict.points = 40;
-  report.objects.push_back(o);
-  RunRecorder recorder;
-  recorder.add(report);
-  EXPECT_EQ(recorder.pixel_mask_calls(), 1);
-  ASSERT_EQ(recorder.masked_area_ratios().size(), 1u);
-  const std::string path = ::testing::TempDir() + "/states_test.csv";
-  ASSERT_TRUE(recorder.write_states_csv(path));
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_EQ(text.str(), "frame,instance,class,state,score,points\n7,12,truck,static,1.2500,40\n");
-}
-
-TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
-  const auto report =
-      process_blank_frame(config::MaskingMode::kPixel, {{1, "truck", 1.0, cv::Rect(0, 0, 10, 10)}});
-  ASSERT_FALSE(report);
-  EXPECT_EQ(report.error().code, ErrorCode::kUnsupported);
-}
-
-// Mode none masks nothing but reports mar like the masking modes: the
-// dynamic-class boxes only, clipped to the image.
-TEST(SlamSystem, ModeNoneReportsTheMarOfDynamicClassBoxes) {
-  const auto report = process_blank_frame(config::MaskingMode::kNone,
-                                          {{1, "truck", 1.0, cv::Rect(-8, 0, 24, 12)},    // 16 x 12 inside
-                                           {2, "cone", 1.0, cv::Rect(30, 30, 10, 10)}});  // not a dynamic class
-  ASSERT_TRUE(report) << report.error().message;
-  EXPECT_TRUE(report->dynamic_layer);
-  EXPECT_DOUBLE_EQ(report->mar, 16.0 * 12.0 / (64.0 * 48.0));
-  EXPECT_DOUBLE_EQ(report->pose.counters.masked_area_ratio, report->mar);
-}
-
-TEST(SlamSystem, RejectsNonPositiveFps) {
-  SlamOptions options;
-  options.fps = 0.0;
-  auto system = SlamSystem::create(tiny_camera(), config::SiteposeConfig{}, options);
-  ASSERT_FALSE(system);
-  EXPECT_EQ(system.error().code, ErrorCode::kInvalidArgument);
-}
-
 }  // namespace
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments

@@ -1,4 +1,4 @@
-#include "daemon.hpp"
+#include "sitepose/daemon/daemon.hpp"
 
 #include <pthread.h>
 

@@ -8,7 +8,7 @@
 #include <cmath>
 #include <thread>
 
-#include "outputs.hpp"
+#include "sitepose/daemon/outputs.hpp"
 #include "sitepose/geo/geodetic.hpp"
 
 namespace sitepose::daemon {

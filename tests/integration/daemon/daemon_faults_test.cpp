@@ -6,8 +6,8 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "../../unit/pipeline/fakes.hpp"
-#include "daemon.hpp"
 #include "daemon_test_util.hpp"
+#include "sitepose/daemon/daemon.hpp"
 #include "sitepose/output/candump.hpp"
 #include "sitepose/output/lcm_messages.hpp"
 #include "sitepose/pipeline/replay_source.hpp"

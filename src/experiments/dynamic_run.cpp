@@ -1,4 +1,4 @@
-#include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/experiments/dynamic_run.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/slam_system.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 
 double DynamicRunResult::coverage_ok() const {
   return frames > 0 ? static_cast<double>(recorder.frames_ok()) / frames : 0.0;
@@ -20,10 +20,10 @@ double DynamicRunResult::ate_m() const {
 
 Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const config::SiteposeConfig& config,
                                        const DynamicRunOptions& options) {
-  SlamOptions slam_options;
+  slam::SlamOptions slam_options;
   slam_options.fps = source.fps();
   slam_options.mapper_thread = options.mapper_thread;
-  SITEPOSE_TRY(auto system, SlamSystem::create(source.camera(), config, slam_options));
+  SITEPOSE_TRY(auto system, slam::SlamSystem::create(source.camera(), config, slam_options));
   DynamicRunResult result;
   result.name = source.name();
   result.mode = config.dynamic.mode;
@@ -32,10 +32,10 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
     SITEPOSE_TRY(LabelledFrame frame, source.read(i));
     if (options.alter) options.alter(frame);
     if (options.detector != nullptr) {
-      SITEPOSE_TRY(frame.objects, detect_objects(*options.detector, frame.frame));
+      SITEPOSE_TRY(frame.objects, slam::detect_objects(*options.detector, frame.frame));
       frame.moving.clear();
     }
-    SITEPOSE_TRY(FrameReport report, system->process(frame.frame, frame.objects));
+    SITEPOSE_TRY(slam::FrameReport report, system->process(frame.frame, frame.objects));
     result.recorder.add(report);
     result.max_masked_ratio = std::max(result.max_masked_ratio, report.masked_ratio);
     result.max_mar = std::max(result.max_mar, report.mar);
@@ -121,42 +121,4 @@ int static_flips(const std::vector<ObjectSample>& samples, int min_points) {
   return flips;
 }
 
-std::vector<RocPoint> roc_curve(const std::vector<ObjectSample>& samples, const std::vector<double>& thresholds,
-                                double fraction, int min_points) {
-  std::vector<RocPoint> out;
-  for (double threshold : thresholds) {
-    int tp = 0, fn = 0, fp = 0, tn = 0;
-    for (const auto& s : samples) {
-      if (!s.moving_gt) continue;
-      const auto& stats = s.object.statistics;
-      const bool predicted_static = static_cast<int>(stats.size()) >= min_points &&
-                                    dynamic::is_static_at(stats, threshold, fraction);
-      if (!*s.moving_gt) {
-        (predicted_static ? tp : fn)++;
-      } else {
-        (predicted_static ? fp : tn)++;
-      }
-    }
-    RocPoint p;
-    p.threshold = threshold;
-    p.tpr = tp + fn > 0 ? static_cast<double>(tp) / (tp + fn) : 0.0;
-    p.fpr = fp + tn > 0 ? static_cast<double>(fp) / (fp + tn) : 0.0;
-    out.push_back(p);
-  }
-  return out;
-}
-
-double roc_auc(std::vector<RocPoint> curve) {
-  curve.push_back({0.0, 0.0, 0.0});
-  curve.push_back({0.0, 1.0, 1.0});
-  std::sort(curve.begin(), curve.end(), [](const RocPoint& a, const RocPoint& b) {
-    return a.fpr != b.fpr ? a.fpr < b.fpr : a.tpr < b.tpr;
-  });
-  double area = 0.0;
-  for (std::size_t i = 1; i < curve.size(); ++i) {
-    area += (curve[i].fpr - curve[i - 1].fpr) * 0.5 * (curve[i].tpr + curve[i - 1].tpr);
-  }
-  return area;
-}
-
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments

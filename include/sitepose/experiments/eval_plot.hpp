@@ -12,7 +12,7 @@
 #include "sitepose/eval/evaluate.hpp"
 #include "sitepose/io/trajectory.hpp"
 
-namespace sitepose::eval {
+namespace sitepose::experiments {
 
 struct PlotOptions {
   int width_px = 1600;
@@ -23,13 +23,13 @@ struct PlotOptions {
 // drawn with equal scale (for the usual camera frame, y down, that is x-z:
 // looking down). Returns an 8-bit BGR image. Fails (kInvalidArgument) when
 // the result has no poses or the size is below 800x400.
-Expected<cv::Mat> render_eval_plot(const io::Trajectory& gt, const EvalResult& result,
+Expected<cv::Mat> render_eval_plot(const io::Trajectory& gt, const eval::EvalResult& result,
                                    const PlotOptions& options = {});
 
 // Renders and writes a PNG. Fails with kInvalidArgument when `path` does not
 // end in ".png" (or rendering fails), kIoError when the file cannot be
 // written; the message names the path.
-Status write_eval_plot(const std::string& path, const io::Trajectory& gt, const EvalResult& result,
+Status write_eval_plot(const std::string& path, const io::Trajectory& gt, const eval::EvalResult& result,
                        const PlotOptions& options = {});
 
-}  // namespace sitepose::eval
+}  // namespace sitepose::experiments

@@ -1,8 +1,8 @@
 #pragma once
 // One run of the positioning core over a LabelledSource in a given masking
 // mode, scored against ground truth: ATE (eval module), coverage, the
-// motion-state samples with their ground-truth flags (ROC, re-masking
-// latency). Shared by the regression tests, the ablations and
+// motion-state samples with their ground-truth flags (ROC: roc.hpp,
+// re-masking latency). Shared by the regression tests, the ablations and
 // `sitepose bench dynamic`. Inline mapping: reproducible.
 
 #include <functional>
@@ -15,10 +15,10 @@
 #include "sitepose/detect/detector.hpp"
 #include "sitepose/eval/evaluate.hpp"
 #include "sitepose/io/trajectory.hpp"
-#include "sitepose/slam/labelled_source.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
 
 struct DynamicRunOptions {
   int frames = 0;  // 0 = all of the source
@@ -28,7 +28,7 @@ struct DynamicRunOptions {
   // Changes a frame before tracking (e.g. the occlusion sweep paints a
   // fake occluder and its box into it).
   std::function<void(LabelledFrame&)> alter;
-  std::function<void(int, int, const FrameReport&)> on_frame;
+  std::function<void(int, int, const slam::FrameReport&)> on_frame;
   // When set, its detections replace the source's labels (e.g. the
   // weight-free stereo-geometric detector); motion-state samples then carry
   // no ground truth (its instance ids are not the labels').
@@ -46,7 +46,7 @@ struct DynamicRunResult {
   std::string name;
   config::MaskingMode mode = config::MaskingMode::kNone;
   int frames = 0;
-  RunRecorder recorder;
+  slam::RunRecorder recorder;
   io::Trajectory ground_truth;
   io::Trajectory estimate;  // poses not LOST
   std::optional<eval::EvalResult> evaluation;
@@ -82,17 +82,4 @@ std::vector<RemaskEvent> remask_latencies(const std::vector<ObjectSample>& sampl
 // is nothing left to test (it is counted again if it turns static anew).
 int static_flips(const std::vector<ObjectSample>& samples, int min_points);
 
-// ROC of "static" as positive over thresholds applied to the per-point
-// statistics (is_static_at), for samples with ground truth; points with
-// too few statistics count as predicted not static.
-struct RocPoint {
-  double threshold = 0.0;
-  double tpr = 0.0;  // static predicted static
-  double fpr = 0.0;  // moving predicted static
-};
-std::vector<RocPoint> roc_curve(const std::vector<ObjectSample>& samples, const std::vector<double>& thresholds,
-                                double fraction, int min_points);
-// Area under the curve by the trapezoid rule, (0,0) and (1,1) added.
-double roc_auc(std::vector<RocPoint> curve);
-
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments

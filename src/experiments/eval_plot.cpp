@@ -1,4 +1,4 @@
-#include "sitepose/eval/plot.hpp"
+#include "sitepose/experiments/eval_plot.hpp"
 
 #include <algorithm>
 #include <array>
@@ -11,7 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace sitepose::eval {
+namespace sitepose::experiments {
 namespace {
 
 const cv::Scalar kWhite(255, 255, 255);
@@ -168,7 +168,7 @@ void draw_colour_bar(cv::Mat& img, const cv::Rect& bar, const ErrorColours& colo
 }
 
 void draw_top_view(cv::Mat& img, const cv::Rect& panel, const io::Trajectory& gt,
-                   const EvalResult& result, const ErrorColours& colours) {
+                   const eval::EvalResult& result, const ErrorColours& colours) {
   // The two axes of largest ground-truth extent, in index order (x-z for a
   // y-down camera: x to the right, z up, i.e. seen from above).
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
@@ -212,10 +212,10 @@ void draw_top_view(cv::Mat& img, const cv::Rect& panel, const io::Trajectory& gt
   }
   cv::polylines(img, gt_px, false, kGtGray, kGtThickness, cv::LINE_AA);
   for (std::size_t k = 0; k < result.poses.size(); ++k) {
-    const PoseError& p = result.poses[k];
+    const eval::PoseError& p = result.poses[k];
     const cv::Point px = ax.to_px(p.p_est_aligned_m[ax_h], p.p_est_aligned_m[ax_v]);
     if (k > 0 && p.gt_index - result.poses[k - 1].gt_index <= kMaxSegmentGapFrames) {
-      const PoseError& q = result.poses[k - 1];
+      const eval::PoseError& q = result.poses[k - 1];
       cv::line(img, ax.to_px(q.p_est_aligned_m[ax_h], q.p_est_aligned_m[ax_v]), px,
                colours(0.5 * (p.error_m + q.error_m)), 2, cv::LINE_AA);
     }
@@ -243,7 +243,7 @@ void draw_top_view(cv::Mat& img, const cv::Rect& panel, const io::Trajectory& gt
                   colours);
 }
 
-void draw_error_over_time(cv::Mat& img, const cv::Rect& panel, const EvalResult& result,
+void draw_error_over_time(cv::Mat& img, const cv::Rect& panel, const eval::EvalResult& result,
                           const ErrorColours& colours) {
   const cv::Rect area(panel.x + 90, panel.y + 70, panel.width - 90 - 30, panel.height - 70 - 75);
   const double t0 = result.poses.front().t_gt_s;
@@ -257,10 +257,10 @@ void draw_error_over_time(cv::Mat& img, const cv::Rect& panel, const EvalResult&
   ax.sy = area.height / (1.05 * vmax);
   draw_axes(img, ax, 0.0, t1 - t0, 0.0, 1.05 * vmax, "time since first pose [s]", "ATE [m]");
   for (std::size_t k = 0; k < result.poses.size(); ++k) {
-    const PoseError& p = result.poses[k];
+    const eval::PoseError& p = result.poses[k];
     const cv::Point px = ax.to_px(p.t_gt_s - t0, p.error_m);
     if (k > 0 && p.gt_index - result.poses[k - 1].gt_index <= kMaxSegmentGapFrames) {
-      const PoseError& q = result.poses[k - 1];
+      const eval::PoseError& q = result.poses[k - 1];
       cv::line(img, ax.to_px(q.t_gt_s - t0, q.error_m), px, kSeriesBlue, 1, cv::LINE_AA);
     }
     cv::circle(img, px, 2, colours(p.error_m), cv::FILLED, cv::LINE_AA);
@@ -283,7 +283,7 @@ void draw_error_over_time(cv::Mat& img, const cv::Rect& panel, const EvalResult&
 
 }  // namespace
 
-Expected<cv::Mat> render_eval_plot(const io::Trajectory& gt, const EvalResult& result,
+Expected<cv::Mat> render_eval_plot(const io::Trajectory& gt, const eval::EvalResult& result,
                                    const PlotOptions& options) {
   if (result.poses.empty() || gt.empty()) {
     return make_error(ErrorCode::kInvalidArgument,
@@ -313,7 +313,7 @@ Expected<cv::Mat> render_eval_plot(const io::Trajectory& gt, const EvalResult& r
   return img;
 }
 
-Status write_eval_plot(const std::string& path, const io::Trajectory& gt, const EvalResult& result,
+Status write_eval_plot(const std::string& path, const io::Trajectory& gt, const eval::EvalResult& result,
                        const PlotOptions& options) {
   const std::string ext = ".png";
   if (path.size() <= ext.size() ||
@@ -336,4 +336,4 @@ Status write_eval_plot(const std::string& path, const io::Trajectory& gt, const 
   return ok_status();
 }
 
-}  // namespace sitepose::eval
+}  // namespace sitepose::experiments

@@ -1,4 +1,4 @@
-#include "outputs.hpp"
+#include "sitepose/daemon/outputs.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>

@@ -1,13 +1,19 @@
-#include "sitepose/slam/labelled_source.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
 #include <vector>
 
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/sim/scenario.hpp"
+#include "sitepose/sim/sequence_writer.hpp"
 #include "sitepose/sim/simulator.hpp"
 #include "sitepose/slam/slam_system.hpp"
 
-namespace sitepose::slam {
+namespace sitepose::experiments {
+namespace fs = std::filesystem;
 namespace {
 
 dynamic::PixelSegmenter segmenter_of(const cv::Mat& mask) {
@@ -126,7 +132,7 @@ Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::stri
                       directory + ": no labels/boxes.csv; the dynamic layer's ablations need object labels");
   }
   double fps = io::mean_frame_rate_hz(*sequence);
-  if (!(fps > 0.0)) fps = SlamOptions{}.fps;
+  if (!(fps > 0.0)) fps = slam::SlamOptions{}.fps;
   return std::unique_ptr<LabelledSource>(new SequenceSource(std::move(sequence), fps));
 }
 
@@ -134,4 +140,32 @@ std::unique_ptr<LabelledSource> cache_frames(std::unique_ptr<LabelledSource> sou
   return std::make_unique<CachedSource>(std::move(source));
 }
 
-}  // namespace sitepose::slam
+Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceRequest& request,
+                                                              std::string* written_dir) {
+  if (request.sequence.empty() == request.scenario.empty()) {
+    return make_error(ErrorCode::kInvalidArgument, "give exactly one of --sequence DIR and --scenario NAME");
+  }
+  std::string dir = request.sequence;
+  if (!request.scenario.empty()) {
+    SITEPOSE_TRY(sim::Scenario scenario, sim::load_scenario(request.scenario));
+    sim::SimOptions options;
+    if (request.frames > 0) options.frames = request.frames;
+    SITEPOSE_TRY(sim::Simulator simulator, sim::Simulator::create(scenario, options));
+    const fs::path base = request.temp_dir.empty()
+                              ? fs::temp_directory_path() / ("sitepose-ablate-" + std::to_string(::getpid()))
+                              : fs::path(request.temp_dir);
+    dir = (base / scenario.name).string();
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) return make_error(ErrorCode::kIoError, "cannot create " + dir + ": " + ec.message());
+    std::fprintf(stderr, "simulating %s (%d frames) into %s\n", scenario.name.c_str(), simulator.frame_count(),
+                 dir.c_str());
+    SITEPOSE_TRY(sim::WriteSummary summary, sim::write_sequence(simulator, dir));
+    (void)summary;
+  }
+  if (written_dir != nullptr) *written_dir = request.scenario.empty() ? "" : dir;
+  SITEPOSE_TRY(auto source, open_labelled_sequence(dir));
+  return cache_frames(std::move(source));
+}
+
+}  // namespace sitepose::experiments

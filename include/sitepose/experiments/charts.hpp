@@ -1,32 +1,15 @@
 #pragma once
-// What the `sitepose ablate ...` commands and `sitepose bench dynamic`
-// share: opening their input (a labelled sequence, or a scenario simulated
-// into a temporary sequence folder) and drawing simple charts (OpenCV).
+// Line and bar charts of the `sitepose ablate ...` figures (OpenCV), and
+// writing them and their CSV tables.
 
-#include <memory>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "sitepose/core/expected.hpp"
-#include "sitepose/slam/labelled_source.hpp"
 
-namespace sitepose::slam {
-
-// Exactly one of `sequence` and `scenario` must be non-empty. A scenario is
-// simulated (frames > 0 limits it) into `temp_dir`/<scenario>, which must
-// be empty or absent, and read back like any sequence; the frames are then
-// kept in memory (cache_frames) because ablations run several times.
-// Errors: kInvalidArgument naming the flags when both or none are given.
-struct SourceRequest {
-  std::string sequence;
-  std::string scenario;
-  int frames = 0;
-  std::string temp_dir;  // where a scenario is written; empty = a fresh folder under /tmp
-};
-Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceRequest& request,
-                                                              std::string* written_dir = nullptr);
+namespace sitepose::experiments {
 
 struct ChartSeries {
   std::string name;
@@ -58,4 +41,4 @@ Status write_png(const std::string& path, const cv::Mat& image);
 // Writes a text file (CSV) (kIoError naming the path on failure).
 Status write_text(const std::string& path, const std::string& text);
 
-}  // namespace sitepose::slam
+}  // namespace sitepose::experiments
