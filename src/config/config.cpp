@@ -5,10 +5,6 @@
 
 #include "sitepose/config/config.hpp"
 
-#include <cerrno>
-#include <cstring>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "detail/orb_limits.hpp"
@@ -172,15 +168,8 @@ void read_config(const YamlMap& root, SiteposeConfig& config) {
 }
 
 Expected<SiteposeConfig> load_config(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return make_error(ErrorCode::kNotFound,
-                      "cannot open config file " + path + ": " + std::strerror(errno));
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) return make_error(ErrorCode::kIoError, "cannot read config file " + path);
-  return load_config_from_string(text.str(), path);
+  SITEPOSE_TRY(const std::string text, read_yaml_file(path));
+  return load_config_from_string(text, path);
 }
 
 Expected<SiteposeConfig> load_config_from_string(std::string_view text,

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <ctime>
 #include <filesystem>
 #include <string>
 
@@ -221,6 +222,28 @@ TEST(Config, MissingFileIsNotFoundAndExitsWithTwo) {
   EXPECT_EQ(config.error().code, ErrorCode::kNotFound);
   EXPECT_EQ(config.error().exit_status(), 2);
   EXPECT_TRUE(contains(config.error().message, "/nonexistent/sitepose.yaml"));
+}
+
+TEST(Config, DirectoryIsRefusedInsteadOfGivingTheDefaults) {
+  const std::string dir = std::filesystem::temp_directory_path().string();
+  const auto config = load_config(dir);
+  ASSERT_FALSE(config.has_value());
+  EXPECT_EQ(config.error().exit_status(), 2);
+  EXPECT_TRUE(contains(config.error().message, dir + ": is a directory")) << config.error().message;
+}
+
+// issue 20: 20 000 keys took 34 s (a quadratic duplicate-key pass), 40 000
+// never finished. Now ~0.25 s of CPU; the bound (CPU time, so a loaded
+// machine cannot fail it) leaves room for sanitizer builds.
+TEST(Config, FortyThousandKeysAreRejectedWithinSeconds) {
+  std::string text = "orb:\n  n_levels: 4\n";
+  for (int i = 0; i < 40000; ++i) text += "  k" + std::to_string(i) + ": 1\n";
+  text += "  n_levels: 5\n";
+  const std::clock_t start = std::clock();
+  const std::string message = load_error(text);
+  EXPECT_LT(static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC, 2.0);
+  EXPECT_TRUE(contains(message, "t.yaml:3: orb.k0: unknown key")) << message.substr(0, 300);
+  EXPECT_TRUE(contains(message, "39901 more problems not shown")) << message.substr(0, 300);
 }
 
 TEST(Config, EnumHelpersRoundTrip) {
