@@ -382,8 +382,10 @@ bool YamlMap::parse_value(std::string_view key, std::vector<std::vector<double>>
   return parse_any(*state_, record_, key, out);
 }
 
-void YamlMap::report_missing(std::string_view key) const {
+bool YamlMap::require(std::string_view key) const {
+  if (has(key)) return true;
   add_problem(*state_, line(), key_path(key) + ": missing (required key)");
+  return false;
 }
 
 void YamlMap::report(std::string_view key, std::string_view message) const {

@@ -190,7 +190,7 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text,
   read_supervisor(root.map("supervisor"), c.supervisor);
   read_outputs(root.map("outputs"), c, base_dir);
   read_geo(root.map("geo"), c.geo, base_dir);
-  config::read_config(root, c.sitepose);
+  config::sitepose_sections().read(root, c.sitepose);
   if (c.can.enabled && c.geo.mode == GeoMode::kNone) {
     root.map("outputs").map("can").report(
         "enabled", "CAN frames carry WGS84 positions: needs geo.mode fixed or online");

@@ -164,11 +164,19 @@ class YamlMap {
   // As read(), and a missing key is an error too.
   template <typename T, typename... Rules>
   bool read_required(std::string_view key, T& value, const Rules&... rules) const {
-    if (!has(key)) {
-      report_missing(key);
-      return false;
-    }
+    if (!require(key)) return false;
     return read(key, value, rules...);
+  }
+
+  // A key required only in some settings (a cross-field rule): false and
+  // reported missing when absent. Registers the key as known.
+  bool require(std::string_view key) const;
+
+  // Checks a value already read against rules, reporting the first broken
+  // one about `key` (cross-field rules that reuse the rule helpers).
+  template <typename T, typename... Rules>
+  bool check(std::string_view key, const T& value, const Rules&... rules) const {
+    return check_rules(key, value, rules...);
   }
 
   // A string turned into T by `parse` (std::string -> Expected<T>), e.g. an
@@ -213,7 +221,6 @@ class YamlMap {
   bool parse_value(std::string_view key, std::vector<double>& out) const;
   bool parse_value(std::string_view key, std::vector<std::string>& out) const;
   bool parse_value(std::string_view key, std::vector<std::vector<double>>& out) const;
-  void report_missing(std::string_view key) const;
 
   template <typename T, typename Rule, typename... Rest>
   bool check_rules(std::string_view key, const T& value, const Rule& rule,

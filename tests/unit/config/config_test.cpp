@@ -38,6 +38,15 @@ TEST(Config, ShippedDefaultFileEqualsStructDefaults) {
                                            << to_yaml(*config);
 }
 
+// Every key of the table is in config/sitepose.yaml with its default, and
+// the file has no key outside the table; the optional camera override is
+// documented in comments.
+TEST(Config, DocumentedFileAgreesWithTheTable) {
+  const Status status =
+      check_documented(sitepose_sections(), DocumentedFile{kSourceDir + "/config/sitepose.yaml", {}, {}});
+  EXPECT_TRUE(status.has_value()) << status.error().message;
+}
+
 TEST(Config, EveryYamlFileInConfigFolderLoads) {
   int files = 0;
   for (const auto& entry : std::filesystem::directory_iterator(kSourceDir + "/config")) {
@@ -266,11 +275,11 @@ TEST(Config, EnumHelpersRoundTrip) {
   EXPECT_FALSE(parse_classifier_mode("").has_value());
 }
 
-TEST(Config, ReadConfigCanBeEmbeddedInAnotherFile) {
+TEST(Config, SectionsCanBeEmbeddedInAnotherFile) {
   auto reader = YamlReader::from_string("daemon: {port: 5}\norb: {n_levels: 4}\n", "d.yaml");
   ASSERT_TRUE(reader.has_value());
   SiteposeConfig config;
-  read_config(reader->root(), config);
+  sitepose_sections().read(reader->root(), config);
   int port = 0;
   reader->root().map("daemon").read("port", port);
   ASSERT_TRUE(reader->finish().has_value()) << reader->finish().error().message;
