@@ -14,8 +14,8 @@
 #include <memory>
 #include <thread>
 
-#include "daemon_config.hpp"
 #include "outputs.hpp"
+#include "sitepose/daemon/daemon_config.hpp"
 #include "sitepose/output/lcm_gnss_subscriber.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"

@@ -10,10 +10,10 @@
 #include <cstdio>
 
 #include "daemon.hpp"
-#include "daemon_config.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/core/build_info.hpp"
 #include "sitepose/core/log.hpp"
+#include "sitepose/daemon/daemon_config.hpp"
 
 namespace {
 

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "daemon_config.hpp"
+#include "sitepose/daemon/daemon_config.hpp"
 #include "sitepose/geo/site_anchor.hpp"
 #include "sitepose/geo/site_frame.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"

@@ -1,4 +1,4 @@
-#include "daemon_config.hpp"
+#include "sitepose/daemon/daemon_config.hpp"
 
 #include <cerrno>
 #include <cmath>
