@@ -10,7 +10,6 @@
 #include <cstdio>
 
 #include "daemon.hpp"
-#include "sitepose/config/config.hpp"
 #include "sitepose/core/build_info.hpp"
 #include "sitepose/core/log.hpp"
 #include "sitepose/daemon/daemon_config.hpp"
@@ -71,8 +70,7 @@ int main(int argc, char** argv) {
   const std::string level = log_level.empty() ? config->sitepose.logging.level : log_level;
   if (auto st = sitepose::set_log_level(level); !st) return fail("--log-level: " + st.error().message, 2);
 
-  const std::string resolved =
-      sitepose::daemon::daemon_sections_to_yaml(*config) + sitepose::config::to_yaml(config->sitepose);
+  const std::string resolved = sitepose::daemon::to_yaml(*config);
   if (check_only) {
     // The sequence is part of the input: check that it opens too.
     auto source = sitepose::pipeline::ReplaySource::open(config->replay);
