@@ -1,14 +1,11 @@
-// Reading sitepose.yaml into SiteposeConfig: one function per section, each
-// key with its rule. Bounds reject values that break the algorithm (a
-// negative count, a ratio outside [0, 1]); the defaults' sources are in
-// config/sitepose.yaml and METHOD.md.
+// The sitepose configuration's table: every key of config/sitepose.yaml
+// once, with its rule. Bounds reject values that break the algorithm (a
+// negative count, a ratio outside [0, 1]); the defaults are the struct
+// initialisers of sitepose_config.hpp, their sources in config/sitepose.yaml
+// and METHOD.md.
 
 #include "sitepose/config/config.hpp"
 
-#include <cerrno>
-#include <cstring>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "detail/orb_limits.hpp"
@@ -17,170 +14,199 @@ namespace sitepose::config {
 
 namespace {
 
-void read_camera(const YamlMap& section, CameraConfig& camera) {
-  if (!section.has("stereo")) return;
-  const YamlMap stereo = section.map("stereo");
-  // A partial override would mix two calibrations: all fields or none.
-  StereoCamera cam;
-  bool complete = true;
-  complete &= stereo.read_required("fx", cam.fx, positive());
-  complete &= stereo.read_required("fy", cam.fy, positive());
-  complete &= stereo.read_required("cx", cam.cx, non_negative());
-  complete &= stereo.read_required("cy", cam.cy, non_negative());
-  complete &= stereo.read_required("baseline_m", cam.baseline_m, positive());
-  complete &= stereo.read_required("width", cam.width, positive());
-  complete &= stereo.read_required("height", cam.height, positive());
-  if (!complete) return;
-  if (const Status valid = cam.validate(); !valid) {
-    stereo.report_here(valid.error().message);
-    return;
-  }
-  camera.stereo = cam;
+Section<StereoCamera> stereo_camera_section() {
+  // A partial override would mix two calibrations: all keys or none.
+  Section<StereoCamera> s;
+  s.required("fx", &StereoCamera::fx, positive())
+      .required("fy", &StereoCamera::fy, positive())
+      .required("cx", &StereoCamera::cx, non_negative())
+      .required("cy", &StereoCamera::cy, non_negative())
+      .required("baseline_m", &StereoCamera::baseline_m, positive())
+      .required("width", &StereoCamera::width, positive())
+      .required("height", &StereoCamera::height, positive())
+      .check([](const ReadKeys& keys, const StereoCamera& cam) {
+        if (!keys.all_valid()) return;
+        if (const Status valid = cam.validate(); !valid) keys.map().report_here(valid.error().message);
+      });
+  return s;
 }
 
-void read_orb(const YamlMap& section, OrbConfig& orb) {
-  section.read("n_features", orb.n_features, in_range(detail::kMinOrbFeatures, detail::kMaxOrbFeatures));
-  section.read("scale_factor", orb.scale_factor, greater_than(1.0), at_most(detail::kMaxScaleFactor));
-  section.read("n_levels", orb.n_levels, in_range(1, detail::kMaxLevels));
-  section.read("ini_fast_threshold", orb.ini_fast_threshold, in_range(1, detail::kMaxFastThreshold));
-  if (section.read("min_fast_threshold", orb.min_fast_threshold,
-                   in_range(1, detail::kMaxFastThreshold)) &&
-      orb.min_fast_threshold > orb.ini_fast_threshold) {
-    section.report("min_fast_threshold", "must be <= orb.ini_fast_threshold (" +
-                                             std::to_string(orb.ini_fast_threshold) + ")");
-  }
-  section.read("grid_cell_px", orb.grid_cell_px, in_range(8, 500));
+Section<CameraConfig> camera_section() {
+  Section<CameraConfig> s;
+  s.optional_section("stereo", &CameraConfig::stereo, stereo_camera_section(),
+                     "stereo calibration from the sequence (calib.txt)");
+  return s;
 }
 
-void read_stereo(const YamlMap& section, StereoMatchConfig& stereo) {
-  section.read("min_disparity_px", stereo.min_disparity_px, positive());
-  if (section.read("max_disparity_px", stereo.max_disparity_px, positive()) &&
-      stereo.max_disparity_px <= stereo.min_disparity_px) {
-    section.report("max_disparity_px", "must be > stereo.min_disparity_px (" +
-                                           detail::number_text(stereo.min_disparity_px) + ")");
-  }
-  section.read("max_descriptor_distance", stereo.max_descriptor_distance, in_range(0, 256));
-  section.read("sad_half_window_px", stereo.sad_half_window_px, in_range(1, 30));
-  section.read("row_band_px", stereo.row_band_px, in_range(0, 20));
+Section<OrbConfig> orb_section() {
+  Section<OrbConfig> s;
+  s.key("n_features", &OrbConfig::n_features, in_range(detail::kMinOrbFeatures, detail::kMaxOrbFeatures))
+      .key("scale_factor", &OrbConfig::scale_factor, greater_than(1.0), at_most(detail::kMaxScaleFactor))
+      .key("n_levels", &OrbConfig::n_levels, in_range(1, detail::kMaxLevels))
+      .key("ini_fast_threshold", &OrbConfig::ini_fast_threshold, in_range(1, detail::kMaxFastThreshold))
+      .key("min_fast_threshold", &OrbConfig::min_fast_threshold, in_range(1, detail::kMaxFastThreshold))
+      .key("grid_cell_px", &OrbConfig::grid_cell_px, in_range(8, 500))
+      .check([](const ReadKeys& keys, const OrbConfig& orb) {
+        if (keys.valid("min_fast_threshold") && orb.min_fast_threshold > orb.ini_fast_threshold) {
+          keys.report("min_fast_threshold", "must be <= orb.ini_fast_threshold (" +
+                                                std::to_string(orb.ini_fast_threshold) + ")");
+        }
+      });
+  return s;
 }
 
-void read_tracking(const YamlMap& section, TrackingConfig& tracking) {
-  section.read("close_depth_baselines", tracking.close_depth_baselines, positive(),
-               at_most(detail::kMaxCloseDepthBaselines));
-  section.read("motion_ba_rounds", tracking.motion_ba_rounds, in_range(1, 20));
-  section.read("motion_ba_iterations", tracking.motion_ba_iterations, in_range(1, 200));
-  section.read("chi2_mono", tracking.chi2_mono, positive());
-  section.read("chi2_stereo", tracking.chi2_stereo, positive());
-  // A stereo pose has 6 dof; below ~10 inliers "tracking OK" means nothing.
-  section.read("min_inliers_ok", tracking.min_inliers_ok, at_least(10));
-  if (section.read("min_inliers_recovering", tracking.min_inliers_recovering, at_least(3)) &&
-      tracking.min_inliers_recovering > tracking.min_inliers_ok) {
-    section.report("min_inliers_recovering", "must be <= tracking.min_inliers_ok (" +
-                                                 std::to_string(tracking.min_inliers_ok) + ")");
-  }
-  section.read("keyframe_max_interval_frames", tracking.keyframe_max_interval_frames,
-               non_negative());
-  section.read("keyframe_tracked_ratio", tracking.keyframe_tracked_ratio, greater_than(0.0),
-               at_most(1.0));
-  section.read("keyframe_min_close_points", tracking.keyframe_min_close_points, non_negative());
-  section.read("keyframe_new_close_points", tracking.keyframe_new_close_points, non_negative());
+Section<StereoMatchConfig> stereo_section() {
+  Section<StereoMatchConfig> s;
+  s.key("min_disparity_px", &StereoMatchConfig::min_disparity_px, positive())
+      .key("max_disparity_px", &StereoMatchConfig::max_disparity_px, positive())
+      .key("max_descriptor_distance", &StereoMatchConfig::max_descriptor_distance, in_range(0, 256))
+      .key("sad_half_window_px", &StereoMatchConfig::sad_half_window_px, in_range(1, 30))
+      .key("row_band_px", &StereoMatchConfig::row_band_px, in_range(0, 20))
+      .check([](const ReadKeys& keys, const StereoMatchConfig& stereo) {
+        if (keys.valid("max_disparity_px") && stereo.max_disparity_px <= stereo.min_disparity_px) {
+          keys.report("max_disparity_px", "must be > stereo.min_disparity_px (" +
+                                              detail::number_text(stereo.min_disparity_px) + ")");
+        }
+      });
+  return s;
 }
 
-void read_mapping(const YamlMap& section, MappingConfig& mapping) {
-  section.read("enabled", mapping.enabled);
-  section.read("local_ba_keyframes", mapping.local_ba_keyframes, in_range(1, 100));
-  section.read("local_ba_iterations", mapping.local_ba_iterations, in_range(1, 200));
-  section.read("keyframe_redundancy", mapping.keyframe_redundancy, greater_than(0.0),
-               at_most(1.0));
-  section.read("min_point_observations", mapping.min_point_observations, in_range(1, 20));
+Section<TrackingConfig> tracking_section() {
+  using T = TrackingConfig;
+  Section<T> s;
+  s.key("close_depth_baselines", &T::close_depth_baselines, positive(),
+        at_most(detail::kMaxCloseDepthBaselines))
+      .key("motion_ba_rounds", &T::motion_ba_rounds, in_range(1, 20))
+      .key("motion_ba_iterations", &T::motion_ba_iterations, in_range(1, 200))
+      .key("chi2_mono", &T::chi2_mono, positive())
+      .key("chi2_stereo", &T::chi2_stereo, positive())
+      // A stereo pose has 6 dof; below ~10 inliers "tracking OK" means nothing.
+      .key("min_inliers_ok", &T::min_inliers_ok, at_least(10))
+      .key("min_inliers_recovering", &T::min_inliers_recovering, at_least(3))
+      .key("keyframe_max_interval_frames", &T::keyframe_max_interval_frames, non_negative())
+      .key("keyframe_tracked_ratio", &T::keyframe_tracked_ratio, greater_than(0.0), at_most(1.0))
+      .key("keyframe_min_close_points", &T::keyframe_min_close_points, non_negative())
+      .key("keyframe_new_close_points", &T::keyframe_new_close_points, non_negative())
+      .check([](const ReadKeys& keys, const T& tracking) {
+        if (keys.valid("min_inliers_recovering") &&
+            tracking.min_inliers_recovering > tracking.min_inliers_ok) {
+          keys.report("min_inliers_recovering", "must be <= tracking.min_inliers_ok (" +
+                                                    std::to_string(tracking.min_inliers_ok) + ")");
+        }
+      });
+  return s;
 }
 
-void read_dynamic(const YamlMap& section, DynamicConfig& dynamic) {
-  section.read_parsed("mode", dynamic.mode,
-                      [](const std::string& s) { return parse_masking_mode(s); });
-  section.read("tau_mar", dynamic.tau_mar, in_range(0.0, 1.0));
-  section.read_parsed("classifier", dynamic.classifier,
-                      [](const std::string& s) { return parse_classifier_mode(s); });
-  section.read("sigma_bkg_m", dynamic.sigma_bkg_m, positive());
-  section.read("static_inlier_fraction", dynamic.static_inlier_fraction, greater_than(0.0),
-               at_most(1.0));
-  section.read("reference_offset_frames", dynamic.reference_offset_frames, in_range(0, 1000));
-  section.read("min_reference_parallax_m", dynamic.min_reference_parallax_m, non_negative());
-  section.read("chi2_static_3dof", dynamic.chi2_static_3dof, positive());
-  section.read("hysteresis_frames", dynamic.hysteresis_frames, in_range(1, 100));
-  section.read("min_object_points", dynamic.min_object_points, in_range(1, 10000));
-  // An empty list is allowed: then only class-free detectors mark objects.
-  section.read("dynamic_classes", dynamic.dynamic_classes, each(non_empty()));
+Section<MappingConfig> mapping_section() {
+  Section<MappingConfig> s;
+  s.key("enabled", &MappingConfig::enabled)
+      .key("local_ba_keyframes", &MappingConfig::local_ba_keyframes, in_range(1, 100))
+      .key("local_ba_iterations", &MappingConfig::local_ba_iterations, in_range(1, 200))
+      .key("keyframe_redundancy", &MappingConfig::keyframe_redundancy, greater_than(0.0),
+           at_most(1.0))
+      .key("min_point_observations", &MappingConfig::min_point_observations, in_range(1, 20));
+  return s;
+}
+
+Section<DynamicConfig> dynamic_section() {
+  using D = DynamicConfig;
+  Section<D> s;
+  s.parsed("mode", &D::mode, [](const std::string& t) { return parse_masking_mode(t); },
+           [](MaskingMode m) { return to_string(m); })
+      .key("tau_mar", &D::tau_mar, in_range(0.0, 1.0))
+      .parsed("classifier", &D::classifier,
+              [](const std::string& t) { return parse_classifier_mode(t); },
+              [](ClassifierMode m) { return to_string(m); })
+      .key("sigma_bkg_m", &D::sigma_bkg_m, positive())
+      .key("static_inlier_fraction", &D::static_inlier_fraction, greater_than(0.0), at_most(1.0))
+      .key("reference_offset_frames", &D::reference_offset_frames, in_range(0, 1000))
+      .key("min_reference_parallax_m", &D::min_reference_parallax_m, non_negative())
+      .key("chi2_static_3dof", &D::chi2_static_3dof, positive())
+      .key("hysteresis_frames", &D::hysteresis_frames, in_range(1, 100))
+      .key("min_object_points", &D::min_object_points, in_range(1, 10000))
+      // An empty list is allowed: then only class-free detectors mark objects.
+      .key("dynamic_classes", &D::dynamic_classes, each(non_empty()));
+  return s;
 }
 
 bool is_plugin_path(const std::string& name) {
   return name.size() > 3 && name.compare(name.size() - 3, 3, ".so") == 0;
 }
 
-void read_detector(const YamlMap& section, DetectorConfig& detector) {
-  section.read("name", detector.name,
-               make_rule(
-                   [](const std::string& name) {
-                     return name == "labels" || name == "stereo-geometric" ||
-                            name == "opencv-dnn" || is_plugin_path(name);
-                   },
-                   "expected one of: labels, stereo-geometric, opencv-dnn, or a plugin path "
-                   "ending in .so"));
-  section.read("model_config", detector.model_config);
-  section.read("model_weights", detector.model_weights);
-  section.read("score_threshold", detector.score_threshold, in_range(0.0, 1.0));
-  section.read("labels_latency_ms", detector.labels_latency_ms, in_range(0.0, 10000.0));
-  section.read("labels_miss_probability", detector.labels_miss_probability, in_range(0.0, 1.0));
-  section.read("labels_jitter_px", detector.labels_jitter_px, in_range(0.0, 1000.0));
-  section.read("labels_seed", detector.labels_seed);
-  section.read("geometric_max_range_m", detector.geometric_max_range_m, in_range(3.0, 1000.0));
-  section.read("geometric_min_height_m", detector.geometric_min_height_m, in_range(0.2, 10.0));
-  section.read("dnn_classes_file", detector.dnn_classes_file);
-  section.read("dnn_input_width_px", detector.dnn_input_width_px, in_range(1, 8192));
-  section.read("dnn_input_height_px", detector.dnn_input_height_px, in_range(1, 8192));
-  if (detector.name == "opencv-dnn") {
-    // The dnn detector cannot start without weights: say so at load time.
-    // (model_config may stay empty: a TensorFlow .pb is a single file.)
-    if (detector.model_weights.empty()) {
-      section.report("model_weights", "required when detector.name is opencv-dnn");
-    }
-  }
+Section<DetectorConfig> detector_section() {
+  using D = DetectorConfig;
+  Section<D> s;
+  s.key("name", &D::name,
+        make_rule(
+            [](const std::string& name) {
+              return name == "labels" || name == "stereo-geometric" || name == "opencv-dnn" ||
+                     is_plugin_path(name);
+            },
+            "expected one of: labels, stereo-geometric, opencv-dnn, or a plugin path ending in "
+            ".so"))
+      .key("model_config", &D::model_config)
+      .key("model_weights", &D::model_weights)
+      .key("score_threshold", &D::score_threshold, in_range(0.0, 1.0))
+      .key("labels_latency_ms", &D::labels_latency_ms, in_range(0.0, 10000.0))
+      .key("labels_miss_probability", &D::labels_miss_probability, in_range(0.0, 1.0))
+      .key("labels_jitter_px", &D::labels_jitter_px, in_range(0.0, 1000.0))
+      .key("labels_seed", &D::labels_seed)
+      .key("geometric_max_range_m", &D::geometric_max_range_m, in_range(3.0, 1000.0))
+      .key("geometric_min_height_m", &D::geometric_min_height_m, in_range(0.2, 10.0))
+      .key("dnn_classes_file", &D::dnn_classes_file)
+      .key("dnn_input_width_px", &D::dnn_input_width_px, in_range(1, 8192))
+      .key("dnn_input_height_px", &D::dnn_input_height_px, in_range(1, 8192))
+      .check([](const ReadKeys& keys, const D& detector) {
+        // The dnn detector cannot start without weights: say so at load time.
+        // (model_config may stay empty: a TensorFlow .pb is a single file.)
+        if (detector.name == "opencv-dnn" && detector.model_weights.empty()) {
+          keys.report("model_weights", "required when detector.name is opencv-dnn");
+        }
+      });
+  return s;
 }
 
-void read_logging(const YamlMap& section, LoggingConfig& logging) {
-  section.read("level", logging.level, one_of({"trace", "debug", "info", "warn", "error", "off"}));
+Section<LoggingConfig> logging_section() {
+  Section<LoggingConfig> s;
+  s.key("level", &LoggingConfig::level, one_of({"trace", "debug", "info", "warn", "error", "off"}));
+  return s;
+}
+
+Section<SiteposeConfig> make_sitepose_sections() {
+  using C = SiteposeConfig;
+  Section<C> s;
+  s.section("camera", &C::camera, camera_section())
+      .section("orb", &C::orb, orb_section())
+      .section("stereo", &C::stereo, stereo_section())
+      .section("tracking", &C::tracking, tracking_section())
+      .section("mapping", &C::mapping, mapping_section())
+      .section("dynamic", &C::dynamic, dynamic_section())
+      .section("detector", &C::detector, detector_section())
+      .section("logging", &C::logging, logging_section());
+  return s;
 }
 
 Expected<SiteposeConfig> finish_loading(const YamlReader& reader) {
   SiteposeConfig config;
-  read_config(reader.root(), config);
+  sitepose_sections().read(reader.root(), config);
   SITEPOSE_TRY_STATUS(reader.finish());
   return config;
 }
 
 }  // namespace
 
-void read_config(const YamlMap& root, SiteposeConfig& config) {
-  read_camera(root.map("camera"), config.camera);
-  read_orb(root.map("orb"), config.orb);
-  read_stereo(root.map("stereo"), config.stereo);
-  read_tracking(root.map("tracking"), config.tracking);
-  read_mapping(root.map("mapping"), config.mapping);
-  read_dynamic(root.map("dynamic"), config.dynamic);
-  read_detector(root.map("detector"), config.detector);
-  read_logging(root.map("logging"), config.logging);
+const Section<SiteposeConfig>& sitepose_sections() {
+  static const Section<SiteposeConfig> sections = make_sitepose_sections();
+  return sections;
+}
+
+std::string to_yaml(const SiteposeConfig& config) {
+  return write_yaml(sitepose_sections(), config);
 }
 
 Expected<SiteposeConfig> load_config(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return make_error(ErrorCode::kNotFound,
-                      "cannot open config file " + path + ": " + std::strerror(errno));
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) return make_error(ErrorCode::kIoError, "cannot read config file " + path);
-  return load_config_from_string(text.str(), path);
+  SITEPOSE_TRY(const std::string text, read_yaml_file(path));
+  return load_config_from_string(text, path);
 }
 
 Expected<SiteposeConfig> load_config_from_string(std::string_view text,

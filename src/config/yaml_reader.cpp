@@ -5,10 +5,11 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <optional>
-#include <sstream>
+#include <unordered_map>
 
 namespace sitepose::config {
 
@@ -28,6 +29,7 @@ struct Problem {
 struct ReaderState {
   std::string source;
   std::vector<MapRecord> records;
+  std::unordered_map<std::string, int> record_by_path;  // records[i].path -> i
   std::vector<Problem> problems;
 };
 
@@ -110,36 +112,33 @@ void register_known(MapRecord& record, std::string_view key) {
 }
 
 // Duplicate keys: yaml-cpp keeps both and lookups see the first, so the
-// second would be silently ignored.
+// second would be silently ignored. One hash lookup per key: files with tens
+// of thousands of keys are checked in milliseconds.
 void check_duplicates(ReaderState& state, const MapRecord& record) {
   if (!record.node.IsMap()) return;
-  std::vector<Entry> seen;
+  std::unordered_map<std::string, int> first_line;
   for (auto it = record.node.begin(); it != record.node.end(); ++it) {
     if (!it->first.IsScalar()) {
       add_problem(state, line_of(it->first),
                   join_path(record.path, value_text(it->first)) + ": keys must be plain names");
       continue;
     }
-    const auto first = std::find_if(seen.begin(), seen.end(), [&](const Entry& e) {
-      return e.key.Scalar() == it->first.Scalar();
-    });
-    if (first != seen.end()) {
+    const auto [first, inserted] = first_line.try_emplace(it->first.Scalar(), line_of(it->first));
+    if (!inserted) {
       add_problem(state, line_of(it->first),
                   join_path(record.path, it->first.Scalar()) + ": duplicate key (first at line " +
-                      std::to_string(line_of(first->key)) + ")");
-    } else {
-      seen.push_back(Entry{it->first, it->second});
+                      std::to_string(first->second) + ")");
     }
   }
 }
 
 int open_record(ReaderState& state, const std::string& path, const YAML::Node& node) {
-  for (std::size_t i = 0; i < state.records.size(); ++i) {
-    if (state.records[i].path == path) return static_cast<int>(i);
-  }
+  const auto [known, inserted] =
+      state.record_by_path.try_emplace(path, static_cast<int>(state.records.size()));
+  if (!inserted) return known->second;
   state.records.push_back(MapRecord{path, node, {}});
   check_duplicates(state, state.records.back());
-  return static_cast<int>(state.records.size() - 1);
+  return known->second;
 }
 
 // ---- decoding one node into a typed value -------------------------------
@@ -308,6 +307,12 @@ std::vector<detail::Problem> unknown_keys(const ReaderState& state) {
   return out;
 }
 
+Unexpected too_large(const std::string& source, const std::string& size_bytes) {
+  return make_error(ErrorCode::kInvalidArgument,
+                    source + ": " + size_bytes + " bytes, larger than a configuration file may be (" +
+                        std::to_string(kMaxYamlBytes) + " bytes = 1 MiB)");
+}
+
 }  // namespace
 
 std::string join_choices(const std::vector<std::string>& choices, std::string_view separator) {
@@ -377,8 +382,10 @@ bool YamlMap::parse_value(std::string_view key, std::vector<std::vector<double>>
   return parse_any(*state_, record_, key, out);
 }
 
-void YamlMap::report_missing(std::string_view key) const {
+bool YamlMap::require(std::string_view key) const {
+  if (has(key)) return true;
   add_problem(*state_, line(), key_path(key) + ": missing (required key)");
+  return false;
 }
 
 void YamlMap::report(std::string_view key, std::string_view message) const {
@@ -438,19 +445,34 @@ std::vector<YamlMap> YamlMap::maps(std::string_view key) const {
 
 YamlReader::YamlReader(std::shared_ptr<detail::ReaderState> state) : state_(std::move(state)) {}
 
-Expected<YamlReader> YamlReader::from_file(const std::string& path) {
+Expected<std::string> read_yaml_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "cannot read config file " + path + ": is a directory, expected a YAML file");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     return make_error(ErrorCode::kNotFound,
-                      "cannot open YAML file " + path + ": " + std::strerror(errno));
+                      "cannot open config file " + path + ": " + std::strerror(errno));
   }
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) return make_error(ErrorCode::kIoError, "cannot read YAML file " + path);
-  return from_string(text.str(), path);
+  // One byte past the limit tells a file at the limit from a larger one
+  // without reading all of a huge file.
+  std::string text(kMaxYamlBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (in.bad()) return make_error(ErrorCode::kIoError, "cannot read config file " + path);
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > kMaxYamlBytes) return too_large(path, "more than " + std::to_string(kMaxYamlBytes));
+  return text;
+}
+
+Expected<YamlReader> YamlReader::from_file(const std::string& path) {
+  SITEPOSE_TRY(const std::string text, read_yaml_file(path));
+  return from_string(text, path);
 }
 
 Expected<YamlReader> YamlReader::from_string(std::string_view text, std::string source_name) {
+  if (text.size() > kMaxYamlBytes) return too_large(source_name, std::to_string(text.size()));
   auto state = std::make_shared<ReaderState>();
   state->source = std::move(source_name);
   YAML::Node document;
@@ -495,10 +517,17 @@ Status YamlReader::finish() const {
     const int lb = b.line > 0 ? b.line : std::numeric_limits<int>::max();
     return la < lb;
   });
+  // A file of garbage gives one problem per line; the first ones say what
+  // is wrong, thousands more would only flood the terminal or journal.
+  const std::size_t shown = std::min(all.size(), kMaxReportedProblems);
   std::string message;
-  for (std::size_t i = 0; i < all.size(); ++i) {
+  for (std::size_t i = 0; i < shown; ++i) {
     if (i > 0) message += "\n";
     message += all[i].text;
+  }
+  if (shown < all.size()) {
+    message += "\n" + state_->source + ": " + std::to_string(all.size() - shown) +
+               " more problems not shown";
   }
   return make_error(ErrorCode::kInvalidArgument, message);
 }

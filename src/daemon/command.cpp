@@ -40,7 +40,7 @@ int run_siteposed(const Invocation& invocation) {
   const std::string level = invocation.log_level.empty() ? config->sitepose.logging.level : invocation.log_level;
   if (auto st = set_log_level(level); !st) return fail("--log-level: " + st.error().message, 2);
 
-  const std::string resolved = daemon_sections_to_yaml(*config) + config::to_yaml(config->sitepose);
+  const std::string resolved = to_yaml(*config);
   if (invocation.check_config) {
     // The sequence is part of the input: check that it opens too.
     auto source = pipeline::ReplaySource::open(config->replay);

@@ -1,13 +1,11 @@
+// The table of siteposed's settings file: every key once, with its rule.
+// The option structs of pipeline, output and geo hold the defaults; the
+// sections here bind the file's layout to them.
+
 #include "sitepose/daemon/daemon_config.hpp"
 
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
-
-#include <fmt/format.h>
 
 #include "sitepose/config/config.hpp"
 #include "sitepose/config/yaml_reader.hpp"
@@ -17,189 +15,303 @@ namespace sitepose::daemon {
 namespace {
 
 namespace fs = std::filesystem;
-using config::YamlMap;
+using config::Choice;
+using config::ReadKeys;
+using config::Section;
+using config::in_range;
+using config::make_rule;
+using config::non_empty;
+using config::non_negative;
 
 std::string resolve(const std::string& base_dir, const std::string& path) {
   if (path.empty() || fs::path(path).is_absolute() || base_dir.empty()) return path;
   return (fs::path(base_dir) / path).lexically_normal().string();
 }
 
-void read_source(const YamlMap& s, DaemonConfig& c, const std::string& base) {
-  s.read("type", c.source_type, config::one_of({"replay"}));
-  const YamlMap r = s.map("replay");
-  if (c.source_type == "replay") {
-    r.read_required("sequence", c.replay.sequence_dir, config::non_empty());
-    c.replay.sequence_dir = resolve(base, c.replay.sequence_dir);
-  }
-  r.read_parsed("rate", c.replay.rate, [](const std::string& t) { return pipeline::parse_replay_rate(t); });
-  r.read("loop", c.replay.loop);
-  r.read("max_frames", c.replay.max_frames, config::non_negative());
+std::vector<double> as_list(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+Eigen::Vector3d as_vector3(const std::vector<double>& v) { return {v[0], v[1], v[2]}; }
+
+auto three_numbers() {
+  return make_rule([](const std::vector<double>& x) { return x.size() == 3; },
+                   "expected a list of 3 numbers");
 }
 
-void read_pipeline(const YamlMap& s, pipeline::PipelineOptions& p) {
-  int capture = static_cast<int>(p.capture_ring_capacity);
-  int detect = static_cast<int>(p.detect_ring_capacity);
-  int publish = static_cast<int>(p.publish_ring_capacity);
-  auto power_of_two = config::make_rule(
-      [](int v) { return v >= 2 && v <= (1 << 20) && (v & (v - 1)) == 0; },
-      "must be a power of two in [2, 1048576]");
-  if (s.read("capture_ring_capacity", capture, power_of_two)) p.capture_ring_capacity = capture;
-  if (s.read("detect_ring_capacity", detect, power_of_two)) p.detect_ring_capacity = detect;
-  if (s.read("publish_ring_capacity", publish, power_of_two)) p.publish_ring_capacity = publish;
-  s.read("stall_timeout_s", p.stall_timeout_s, config::in_range(0.05, 3600.0));
-  s.read("publish_max_attempts", p.publish_max_attempts, config::in_range(1, 100));
-  s.read("publish_retry_delay_s", p.publish_retry_delay_s, config::in_range(0.0, 1.0));
-  s.read("health_interval_s", p.health_interval_s, config::in_range(0.05, 3600.0));
+// ---- source, pipeline, supervisor -----------------------------------------
+
+Section<pipeline::ReplayOptions> replay_section() {
+  using R = pipeline::ReplayOptions;
+  Section<R> s;
+  // The only source type is replay, which needs its sequence.
+  s.required("sequence", &R::sequence_dir, non_empty())
+      .parsed("rate", &R::rate, [](const std::string& t) { return pipeline::parse_replay_rate(t); },
+              [](pipeline::ReplayRate r) { return pipeline::to_string(r); })
+      .key("loop", &R::loop)
+      .key("max_frames", &R::max_frames, non_negative());
+  return s;
 }
 
-void read_supervisor(const YamlMap& s, pipeline::SupervisorOptions& o) {
-  s.read("status_interval_s", o.status_interval_s, config::in_range(0.05, 3600.0));
-  s.read("log_interval_s", o.log_interval_s, config::in_range(0.1, 86400.0));
+Section<DaemonConfig> source_group() {
+  Section<DaemonConfig> s;
+  s.key("type", &DaemonConfig::source_type, config::one_of({"replay"}))
+      .section("replay", &DaemonConfig::replay, replay_section());
+  return s;
 }
 
-void read_outputs(const YamlMap& s, DaemonConfig& c, const std::string& base) {
-  const YamlMap t = s.map("trajectory");
-  t.read("enabled", c.trajectory.enabled);
-  if (c.trajectory.enabled) t.read_required("path", c.trajectory.path, config::non_empty());
-  t.read("append", c.trajectory.append);
-  c.trajectory.path = resolve(base, c.trajectory.path);
-
-  const YamlMap can = s.map("can");
-  can.read("enabled", c.can.enabled);
-  std::string sink = "candump";
-  if (can.read("sink", sink, config::one_of({"candump", "stdout"}))) {
-    c.can.sink = sink == "stdout" ? CanSinkKind::kStdout : CanSinkKind::kCandumpFile;
-  }
-  if (c.can.enabled && c.can.sink == CanSinkKind::kCandumpFile) {
-    can.read_required("path", c.can.path, config::non_empty());
-  } else {
-    can.read("path", c.can.path);
-  }
-  c.can.path = resolve(base, c.can.path);
-  can.read("interface", c.can.interface,
-           config::make_rule([](const std::string& v) {
-             return !v.empty() && v.find_first_of(" \t") == std::string::npos;
-           }, "must be a non-empty name without blanks"));
-  int sa = c.can.frames.source_address;
-  if (can.read("source_address", sa, config::in_range(0, 253))) {
-    c.can.frames.source_address = static_cast<std::uint8_t>(sa);
-  }
-  const YamlMap f = can.map("frames");
-  f.read("j1939_vehicle_position", c.can.frames.j1939_vehicle_position);
-  f.read("j1939_vehicle_direction_speed", c.can.frames.j1939_vehicle_direction_speed);
-  f.read("n2k_position_rapid_update", c.can.frames.n2k_position_rapid_update);
-  f.read("n2k_cog_sog_rapid_update", c.can.frames.n2k_cog_sog_rapid_update);
-  f.read("n2k_gnss_position_data", c.can.frames.n2k_gnss_position_data);
-  f.read("n2k_vessel_heading", c.can.frames.n2k_vessel_heading);
-  f.read("sitepose_pose_quality", c.can.frames.sitepose_pose_quality);
-  if (c.can.enabled) {
-    if (auto st = output::check_can_output_options(c.can.frames); !st) {
-      can.report("frames", st.error().message);
-    }
-  }
-
-  const YamlMap l = s.map("lcm");
-  l.read("enabled", c.lcm.enabled);
-  l.read("url", c.lcm.lcm.url);
-  l.read("pose_channel", c.lcm.lcm.pose_channel);
-  l.read("health_channel", c.lcm.lcm.health_channel);
-  l.read("gnss_channel", c.lcm.lcm.gnss_channel);
-  l.read("max_send_attempts", c.lcm.lcm.max_send_attempts);
-  if (auto st = c.lcm.lcm.validate(l.path()); !st) l.report_here(st.error().message);
+Section<pipeline::PipelineOptions> pipeline_section() {
+  using P = pipeline::PipelineOptions;
+  const auto power_of_two =
+      make_rule([](int v) { return v >= 2 && v <= (1 << 20) && (v & (v - 1)) == 0; },
+                "must be a power of two in [2, 1048576]");
+  Section<P> s;
+  s.key_as<int>("capture_ring_capacity", &P::capture_ring_capacity, power_of_two)
+      .key_as<int>("detect_ring_capacity", &P::detect_ring_capacity, power_of_two)
+      .key_as<int>("publish_ring_capacity", &P::publish_ring_capacity, power_of_two)
+      .key("stall_timeout_s", &P::stall_timeout_s, in_range(0.05, 3600.0))
+      .key("publish_max_attempts", &P::publish_max_attempts, in_range(1, 100))
+      .key("publish_retry_delay_s", &P::publish_retry_delay_s, in_range(0.0, 1.0))
+      .key("health_interval_s", &P::health_interval_s, in_range(0.05, 3600.0));
+  return s;
 }
 
-bool read_vector3(const YamlMap& m, std::string_view key, Eigen::Vector3d& out) {
-  std::vector<double> v;
-  if (!m.has(key)) return false;
-  if (!m.read(key, v, config::make_rule([](const std::vector<double>& x) { return x.size() == 3; },
-                                        "expected a list of 3 numbers"))) {
-    return false;
-  }
-  out = Eigen::Vector3d(v[0], v[1], v[2]);
-  return true;
+Section<pipeline::SupervisorOptions> supervisor_section() {
+  using S = pipeline::SupervisorOptions;
+  Section<S> s;
+  s.key("status_interval_s", &S::status_interval_s, in_range(0.05, 3600.0))
+      .key("log_interval_s", &S::log_interval_s, in_range(0.1, 86400.0));
+  return s;
 }
 
-void read_geo(const YamlMap& s, GeoConfig& g, const std::string& base) {
-  std::string mode = "none";
-  if (s.read("mode", mode, config::one_of({"none", "fixed", "online"}))) {
-    g.mode = mode == "fixed" ? GeoMode::kFixed : mode == "online" ? GeoMode::kOnline : GeoMode::kNone;
-  }
-  const bool needed = g.mode != GeoMode::kNone;
-  const YamlMap o = s.map("origin");
-  auto read_origin = [&](std::string_view key, double& v, auto rule) {
-    if (needed) o.read_required(key, v, rule); else o.read(key, v, rule);
-  };
-  read_origin("latitude_deg", g.origin.latitude_deg, config::in_range(-90.0, 90.0));
-  read_origin("longitude_deg", g.origin.longitude_deg, config::in_range(-180.0, 180.0));
-  read_origin("height_m", g.origin.height_m, config::in_range(-1000.0, 10000.0));
-  s.read_parsed("forward_axis", g.forward_axis_cam,
-                [](const std::string& t) { return geo::parse_forward_axis(t); });
+// ---- outputs --------------------------------------------------------------
 
-  const YamlMap t = s.map("T_site_slam");
-  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-  std::vector<double> q{1.0, 0.0, 0.0, 0.0};
-  if (g.mode == GeoMode::kFixed && !s.has("T_site_slam")) {
-    s.report("T_site_slam", "required with geo.mode = fixed (translation_m, rotation_wxyz)");
-  }
-  read_vector3(t, "translation_m", translation);
-  if (t.read("rotation_wxyz", q, config::make_rule([](const std::vector<double>& x) {
-               if (x.size() != 4) return false;
-               const double n = std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3]);
-               return std::abs(n - 1.0) < 1e-3;
-             }, "expected a unit quaternion [w, x, y, z] (norm within 1e-3 of 1)"))) {
-  }
-  g.T_site_slam = SE3(Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized(), translation);
+Section<TrajectoryOutputConfig> trajectory_section() {
+  using T = TrajectoryOutputConfig;
+  Section<T> s;
+  s.key("enabled", &T::enabled)
+      .key("path", &T::path)
+      .key("append", &T::append)
+      .check([](const ReadKeys& keys, const T& t) {
+        if (t.enabled) keys.require("path", t.path, non_empty());
+      });
+  return s;
+}
 
-  const YamlMap on = s.map("online");
-  std::string input = "lcm";
-  if (on.read("gnss_input", input, config::one_of({"lcm", "nmea_file"}))) {
-    g.gnss_input = input == "nmea_file" ? GnssInput::kNmeaFile : GnssInput::kLcm;
-  }
-  if (g.mode == GeoMode::kOnline && g.gnss_input == GnssInput::kNmeaFile) {
-    on.read_required("nmea_file", g.nmea_file, config::non_empty());
-  } else {
-    on.read("nmea_file", g.nmea_file);
-  }
-  g.nmea_file = resolve(base, g.nmea_file);
-  read_vector3(on, "p_cam_antenna_m", g.anchor.p_cam_antenna_m);
-  double offset_s = static_cast<double>(g.anchor.gnss_clock_offset_ns) * 1e-9;
-  if (on.read("gnss_clock_offset_s", offset_s, config::in_range(-1e10, 1e10))) {
-    g.anchor.gnss_clock_offset_ns = static_cast<std::int64_t>(std::llround(offset_s * 1e9));
-  }
-  on.read("min_inliers", g.anchor.min_inliers, config::in_range(3, 100000));
-  on.read("min_lateral_spread_m", g.anchor.min_lateral_spread_m, config::non_negative());
-  on.read("freeze_inliers", g.anchor.freeze_inliers, config::in_range(3, 1000000));
-  on.read("freeze_lateral_spread_m", g.anchor.freeze_lateral_spread_m, config::non_negative());
-  g.anchor.origin = g.origin;
-  g.anchor.forward_axis_cam = g.forward_axis_cam;
-  if (g.mode == GeoMode::kOnline) {
-    if (auto st = g.anchor.validate(); !st) on.report_here(st.error().message);
-  }
+Section<output::CanOutputOptions> can_frames_section() {
+  using O = output::CanOutputOptions;
+  Section<O> frames;
+  frames.key("j1939_vehicle_position", &O::j1939_vehicle_position)
+      .key("j1939_vehicle_direction_speed", &O::j1939_vehicle_direction_speed)
+      .key("n2k_position_rapid_update", &O::n2k_position_rapid_update)
+      .key("n2k_cog_sog_rapid_update", &O::n2k_cog_sog_rapid_update)
+      .key("n2k_gnss_position_data", &O::n2k_gnss_position_data)
+      .key("n2k_vessel_heading", &O::n2k_vessel_heading)
+      .key("sitepose_pose_quality", &O::sitepose_pose_quality);
+  Section<O> s;
+  s.key_as<int>("source_address", &O::source_address, in_range(0, 253))
+      .group("frames", std::move(frames));
+  return s;
+}
+
+Section<CanOutputConfig> can_section() {
+  using C = CanOutputConfig;
+  Section<C> s;
+  s.key("enabled", &C::enabled)
+      .choice("sink", &C::sink,
+              {Choice<CanSinkKind>{CanSinkKind::kCandumpFile, "candump"},
+               Choice<CanSinkKind>{CanSinkKind::kStdout, "stdout"}})
+      .key("path", &C::path)
+      .key("interface", &C::interface,
+           make_rule(
+               [](const std::string& v) {
+                 return !v.empty() && v.find_first_of(" \t") == std::string::npos;
+               },
+               "must be a non-empty name without blanks"))
+      .embed(&C::frames, can_frames_section())
+      .check([](const ReadKeys& keys, const C& can) {
+        if (!can.enabled) return;
+        if (can.sink == CanSinkKind::kCandumpFile) keys.require("path", can.path, non_empty());
+        if (auto st = output::check_can_output_options(can.frames); !st) {
+          keys.report("frames", st.error().message);
+        }
+      });
+  return s;
+}
+
+Section<output::LcmOptions> lcm_options_section() {
+  using L = output::LcmOptions;
+  Section<L> s;
+  s.key("url", &L::url)
+      .key("pose_channel", &L::pose_channel)
+      .key("health_channel", &L::health_channel)
+      .key("gnss_channel", &L::gnss_channel)
+      .key("max_send_attempts", &L::max_send_attempts)
+      .check([](const ReadKeys& keys, const L& lcm) {
+        if (auto st = lcm.validate(keys.map().path()); !st) {
+          keys.map().report_here(st.error().message);
+        }
+      });
+  return s;
+}
+
+Section<LcmOutputConfig> lcm_section() {
+  Section<LcmOutputConfig> s;
+  s.key("enabled", &LcmOutputConfig::enabled).embed(&LcmOutputConfig::lcm, lcm_options_section());
+  return s;
+}
+
+Section<DaemonConfig> outputs_group() {
+  Section<DaemonConfig> s;
+  s.section("trajectory", &DaemonConfig::trajectory, trajectory_section())
+      .section("can", &DaemonConfig::can, can_section())
+      .section("lcm", &DaemonConfig::lcm, lcm_section());
+  return s;
+}
+
+// ---- geo --------------------------------------------------------------------
+
+// The online anchor's options with the site origin and forward axis, which
+// the file gives once for every mode.
+geo::SiteAnchorOptions anchor_options(const GeoConfig& g) {
+  geo::SiteAnchorOptions anchor = g.anchor;
+  anchor.origin = g.origin;
+  anchor.forward_axis_cam = g.forward_axis_cam;
+  return anchor;
+}
+
+Section<geo::Geodetic> origin_section() {
+  using G = geo::Geodetic;
+  Section<G> s;
+  s.key("latitude_deg", &G::latitude_deg, in_range(-90.0, 90.0))
+      .key("longitude_deg", &G::longitude_deg, in_range(-180.0, 180.0))
+      .key("height_m", &G::height_m, in_range(-1000.0, 10000.0));
+  return s;
+}
+
+Section<SE3> site_slam_section() {
+  const auto unit_quaternion = make_rule(
+      [](const std::vector<double>& x) {
+        if (x.size() != 4) return false;
+        const double n = std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3]);
+        return std::abs(n - 1.0) < 1e-3;
+      },
+      "expected a unit quaternion [w, x, y, z] (norm within 1e-3 of 1)");
+  Section<SE3> s;
+  s.computed(
+       "translation_m", [](const SE3& T) { return as_list(T.translation()); },
+       [](SE3& T, const std::vector<double>& t) { T = SE3(T.rotation(), as_vector3(t)); },
+       three_numbers())
+      .computed(
+          "rotation_wxyz",
+          [](const SE3& T) {
+            const Eigen::Quaterniond& q = T.rotation();
+            return std::vector<double>{q.w(), q.x(), q.y(), q.z()};
+          },
+          [](SE3& T, const std::vector<double>& q) {
+            T = SE3(Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized(), T.translation());
+          },
+          unit_quaternion);
+  return s;
+}
+
+Section<geo::SiteAnchorOptions> anchor_section() {
+  using A = geo::SiteAnchorOptions;
+  Section<A> s;
+  s.computed(
+       "p_cam_antenna_m", [](const A& a) { return as_list(a.p_cam_antenna_m); },
+       [](A& a, const std::vector<double>& p) { a.p_cam_antenna_m = as_vector3(p); },
+       three_numbers())
+      .computed(
+          "gnss_clock_offset_s",
+          [](const A& a) { return static_cast<double>(a.gnss_clock_offset_ns) * 1e-9; },
+          [](A& a, double offset_s) {
+            a.gnss_clock_offset_ns = static_cast<std::int64_t>(std::llround(offset_s * 1e9));
+          },
+          in_range(-1e10, 1e10))
+      .key("min_inliers", &A::min_inliers, in_range(3, 100000))
+      .key("min_lateral_spread_m", &A::min_lateral_spread_m, non_negative())
+      .key("freeze_inliers", &A::freeze_inliers, in_range(3, 1000000))
+      .key("freeze_lateral_spread_m", &A::freeze_lateral_spread_m, non_negative());
+  return s;
+}
+
+Section<GeoConfig> online_group() {
+  Section<GeoConfig> s;
+  s.choice("gnss_input", &GeoConfig::gnss_input,
+           {Choice<GnssInput>{GnssInput::kLcm, "lcm"},
+            Choice<GnssInput>{GnssInput::kNmeaFile, "nmea_file"}})
+      .key("nmea_file", &GeoConfig::nmea_file)
+      .embed(&GeoConfig::anchor, anchor_section())
+      .check([](const ReadKeys& keys, const GeoConfig& g) {
+        if (g.mode != GeoMode::kOnline) return;
+        if (g.gnss_input == GnssInput::kNmeaFile) keys.require("nmea_file", g.nmea_file, non_empty());
+        if (auto st = anchor_options(g).validate(); !st) keys.map().report_here(st.error().message);
+      });
+  return s;
+}
+
+Section<GeoConfig> geo_section() {
+  Section<GeoConfig> s;
+  s.choice("mode", &GeoConfig::mode,
+           {Choice<GeoMode>{GeoMode::kNone, "none"}, Choice<GeoMode>{GeoMode::kFixed, "fixed"},
+            Choice<GeoMode>{GeoMode::kOnline, "online"}})
+      .section("origin", &GeoConfig::origin, origin_section())
+      .parsed("forward_axis", &GeoConfig::forward_axis_cam,
+              [](const std::string& t) { return geo::parse_forward_axis(t); },
+              [](geo::ForwardAxis a) { return geo::to_string(a); })
+      .section("T_site_slam", &GeoConfig::T_site_slam, site_slam_section())
+      .group("online", online_group())
+      .check([](const ReadKeys& keys, const GeoConfig& g) {
+        if (g.mode == GeoMode::kNone) return;
+        const config::YamlMap origin = keys.map().map("origin");
+        for (const char* key : {"latitude_deg", "longitude_deg", "height_m"}) origin.require(key);
+        if (g.mode == GeoMode::kFixed && !keys.map().has("T_site_slam")) {
+          keys.report("T_site_slam", "required with geo.mode = fixed (translation_m, rotation_wxyz)");
+        }
+      });
+  return s;
+}
+
+// ---- the file ---------------------------------------------------------------
+
+Section<DaemonConfig> make_daemon_sections() {
+  Section<DaemonConfig> s;
+  s.group("source", source_group())
+      .section("pipeline", &DaemonConfig::pipeline, pipeline_section())
+      .section("supervisor", &DaemonConfig::supervisor, supervisor_section())
+      .group("outputs", outputs_group())
+      .section("geo", &DaemonConfig::geo, geo_section())
+      .embed(&DaemonConfig::sitepose, config::sitepose_sections())
+      .check([](const ReadKeys& keys, const DaemonConfig& c) {
+        if (c.can.enabled && c.geo.mode == GeoMode::kNone) {
+          keys.map().map("outputs").map("can").report(
+              "enabled", "CAN frames carry WGS84 positions: needs geo.mode fixed or online");
+        }
+        if (c.sitepose.dynamic.mode != config::MaskingMode::kNone &&
+            c.sitepose.detector.name == "labels" && c.source_type != "replay") {
+          keys.map().map("detector").report(
+              "name", "\"labels\" reads a recorded sequence's labels: needs source.type replay");
+        }
+      });
+  return s;
 }
 
 }  // namespace
+
+const Section<DaemonConfig>& daemon_sections() {
+  static const Section<DaemonConfig> sections = make_daemon_sections();
+  return sections;
+}
 
 Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text,
                                                       const std::string& source_name,
                                                       const std::string& base_dir) {
   SITEPOSE_TRY(config::YamlReader reader, config::YamlReader::from_string(text, source_name));
-  const YamlMap root = reader.root();
   DaemonConfig c;
-  read_source(root.map("source"), c, base_dir);
-  read_pipeline(root.map("pipeline"), c.pipeline);
-  read_supervisor(root.map("supervisor"), c.supervisor);
-  read_outputs(root.map("outputs"), c, base_dir);
-  read_geo(root.map("geo"), c.geo, base_dir);
-  config::read_config(root, c.sitepose);
-  if (c.can.enabled && c.geo.mode == GeoMode::kNone) {
-    root.map("outputs").map("can").report(
-        "enabled", "CAN frames carry WGS84 positions: needs geo.mode fixed or online");
-  }
-  if (c.sitepose.dynamic.mode != config::MaskingMode::kNone && c.sitepose.detector.name == "labels" &&
-      c.source_type != "replay") {
-    root.map("detector").report("name", "\"labels\" reads a recorded sequence's labels: needs source.type replay");
-  }
+  daemon_sections().read(reader.root(), c);
   SITEPOSE_TRY_STATUS(reader.finish());
+  for (std::string* path : {&c.replay.sequence_dir, &c.trajectory.path, &c.can.path, &c.geo.nmea_file}) {
+    *path = resolve(base_dir, *path);
+  }
+  c.geo.anchor = anchor_options(c.geo);
   detect::add_inherent_dynamic_classes(c.sitepose.detector, c.sitepose.dynamic);
   if (auto st = pipeline::check_pipeline_options(c.pipeline); !st) {
     return make_error(ErrorCode::kInvalidArgument, source_name + ": " + st.error().message);
@@ -208,59 +320,13 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text,
 }
 
 Expected<DaemonConfig> load_daemon_config(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return make_error(ErrorCode::kNotFound, "cannot open config file " + path + ": " + std::strerror(errno));
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
+  SITEPOSE_TRY(const std::string text, config::read_yaml_file(path));
   const std::string base = fs::absolute(fs::path(path)).parent_path().string();
-  return load_daemon_config_from_string(text.str(), path, base);
+  return load_daemon_config_from_string(text, path, base);
 }
 
-std::string daemon_sections_to_yaml(const DaemonConfig& c) {
-  const auto b = [](bool v) { return v ? "true" : "false"; };
-  std::string y;
-  y += fmt::format("source:\n  type: {}\n  replay:\n    sequence: \"{}\"\n    rate: {}\n    loop: {}\n    max_frames: {}\n",
-                   c.source_type, c.replay.sequence_dir, pipeline::to_string(c.replay.rate),
-                   b(c.replay.loop), c.replay.max_frames);
-  const auto& p = c.pipeline;
-  y += fmt::format("pipeline:\n  capture_ring_capacity: {}\n  detect_ring_capacity: {}\n  publish_ring_capacity: {}\n"
-                   "  stall_timeout_s: {}\n  publish_max_attempts: {}\n  publish_retry_delay_s: {}\n  health_interval_s: {}\n",
-                   p.capture_ring_capacity, p.detect_ring_capacity, p.publish_ring_capacity, p.stall_timeout_s,
-                   p.publish_max_attempts, p.publish_retry_delay_s, p.health_interval_s);
-  y += fmt::format("supervisor:\n  status_interval_s: {}\n  log_interval_s: {}\n", c.supervisor.status_interval_s,
-                   c.supervisor.log_interval_s);
-  y += fmt::format("outputs:\n  trajectory:\n    enabled: {}\n    path: \"{}\"\n    append: {}\n", b(c.trajectory.enabled),
-                   c.trajectory.path, b(c.trajectory.append));
-  const auto& f = c.can.frames;
-  y += fmt::format("  can:\n    enabled: {}\n    sink: {}\n    path: \"{}\"\n    interface: {}\n    source_address: {}\n"
-                   "    frames: {{j1939_vehicle_position: {}, j1939_vehicle_direction_speed: {}, n2k_position_rapid_update: {}, "
-                   "n2k_cog_sog_rapid_update: {}, n2k_gnss_position_data: {}, n2k_vessel_heading: {}, sitepose_pose_quality: {}}}\n",
-                   b(c.can.enabled), c.can.sink == CanSinkKind::kStdout ? "stdout" : "candump", c.can.path,
-                   c.can.interface, static_cast<int>(f.source_address), b(f.j1939_vehicle_position),
-                   b(f.j1939_vehicle_direction_speed), b(f.n2k_position_rapid_update), b(f.n2k_cog_sog_rapid_update),
-                   b(f.n2k_gnss_position_data), b(f.n2k_vessel_heading), b(f.sitepose_pose_quality));
-  y += fmt::format("  lcm:\n    enabled: {}\n    url: \"{}\"\n    pose_channel: {}\n    health_channel: {}\n    gnss_channel: {}\n"
-                   "    max_send_attempts: {}\n",
-                   b(c.lcm.enabled), c.lcm.lcm.url, c.lcm.lcm.pose_channel, c.lcm.lcm.health_channel,
-                   c.lcm.lcm.gnss_channel, c.lcm.lcm.max_send_attempts);
-  const auto& g = c.geo;
-  const auto& q = g.T_site_slam.rotation();
-  const auto& t = g.T_site_slam.translation();
-  y += fmt::format("geo:\n  mode: {}\n  origin: {{latitude_deg: {}, longitude_deg: {}, height_m: {}}}\n  forward_axis: \"{}\"\n"
-                   "  T_site_slam: {{translation_m: [{}, {}, {}], rotation_wxyz: [{}, {}, {}, {}]}}\n",
-                   g.mode == GeoMode::kFixed ? "fixed" : g.mode == GeoMode::kOnline ? "online" : "none",
-                   g.origin.latitude_deg, g.origin.longitude_deg, g.origin.height_m, geo::to_string(g.forward_axis_cam),
-                   t.x(), t.y(), t.z(), q.w(), q.x(), q.y(), q.z());
-  const auto& a = g.anchor;
-  y += fmt::format("  online:\n    gnss_input: {}\n    nmea_file: \"{}\"\n    p_cam_antenna_m: [{}, {}, {}]\n"
-                   "    gnss_clock_offset_s: {}\n    min_inliers: {}\n    min_lateral_spread_m: {}\n"
-                   "    freeze_inliers: {}\n    freeze_lateral_spread_m: {}\n",
-                   g.gnss_input == GnssInput::kNmeaFile ? "nmea_file" : "lcm", g.nmea_file, a.p_cam_antenna_m.x(),
-                   a.p_cam_antenna_m.y(), a.p_cam_antenna_m.z(), static_cast<double>(a.gnss_clock_offset_ns) * 1e-9,
-                   a.min_inliers, a.min_lateral_spread_m, a.freeze_inliers, a.freeze_lateral_spread_m);
-  return y;
+std::string to_yaml(const DaemonConfig& config) {
+  return config::write_yaml(daemon_sections(), config);
 }
 
 }  // namespace sitepose::daemon

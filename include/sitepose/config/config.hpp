@@ -11,6 +11,9 @@
 // - to_yaml(config): the resolved configuration as YAML that load_config
 //   reads back to an equal struct (numbers printed round-trip exact); logged
 //   once at startup.
+// - sitepose_sections(): the table behind both (section.hpp): every key once
+//   with its rule; files embedding these sections (the daemon's) read them
+//   through it.
 // - load_orbslam2_settings(path): an ORB-SLAM2 stereo settings file
 //   (OpenCV FileStorage YAML) for users who bring theirs; see
 //   orbslam2_settings.hpp.
@@ -20,22 +23,19 @@
 #include <string_view>
 
 #include "sitepose/config/orbslam2_settings.hpp"
+#include "sitepose/config/section.hpp"
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/config/yaml_reader.hpp"
 #include "sitepose/core/expected.hpp"
 
 namespace sitepose::config {
 
+const Section<SiteposeConfig>& sitepose_sections();
+
 Expected<SiteposeConfig> load_config(const std::string& path);
 // Same, from text; source_name is used in messages in place of a path.
 Expected<SiteposeConfig> load_config_from_string(std::string_view text,
                                                  const std::string& source_name);
-
-// Reads every section of `config` from a document's root mapping, keeping
-// the values already in `config` for absent keys. For files that embed the
-// sitepose configuration next to keys of their own (the daemon's settings);
-// the caller owns `reader` and calls finish() on it.
-void read_config(const YamlMap& root, SiteposeConfig& config);
 
 std::string to_yaml(const SiteposeConfig& config);
 

@@ -3,8 +3,10 @@
 // units in field names. Loaded and validated by load_config() (config.hpp);
 // config/sitepose.yaml documents every key. Thresholds cite METHOD.md.
 //
-// Adding a key: add the field here with its default, read it in
-// src/config/config.cpp with its rule, document it in config/sitepose.yaml.
+// Adding a key: add the field here with its default, add it with its rule
+// to its section's table in src/config/config.cpp (which reads, validates and
+// writes it), document it in config/sitepose.yaml (a test compares the file
+// with the table).
 
 #include <optional>
 #include <string>

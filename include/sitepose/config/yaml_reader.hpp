@@ -27,6 +27,7 @@
 //   SITEPOSE_TRY_STATUS(reader.finish());
 
 #include <charconv>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -163,11 +164,19 @@ class YamlMap {
   // As read(), and a missing key is an error too.
   template <typename T, typename... Rules>
   bool read_required(std::string_view key, T& value, const Rules&... rules) const {
-    if (!has(key)) {
-      report_missing(key);
-      return false;
-    }
+    if (!require(key)) return false;
     return read(key, value, rules...);
+  }
+
+  // A key required only in some settings (a cross-field rule): false and
+  // reported missing when absent. Registers the key as known.
+  bool require(std::string_view key) const;
+
+  // Checks a value already read against rules, reporting the first broken
+  // one about `key` (cross-field rules that reuse the rule helpers).
+  template <typename T, typename... Rules>
+  bool check(std::string_view key, const T& value, const Rules&... rules) const {
+    return check_rules(key, value, rules...);
   }
 
   // A string turned into T by `parse` (std::string -> Expected<T>), e.g. an
@@ -212,7 +221,6 @@ class YamlMap {
   bool parse_value(std::string_view key, std::vector<double>& out) const;
   bool parse_value(std::string_view key, std::vector<std::string>& out) const;
   bool parse_value(std::string_view key, std::vector<std::vector<double>>& out) const;
-  void report_missing(std::string_view key) const;
 
   template <typename T, typename Rule, typename... Rest>
   bool check_rules(std::string_view key, const T& value, const Rule& rule,
@@ -232,11 +240,23 @@ class YamlMap {
   int record_ = 0;  // index of this mapping in the reader's records
 };
 
+// Largest YAML text read (1 MiB; the shipped files are a few kB): a larger
+// one is a mistake, such as a log or an image given as --config.
+inline constexpr std::size_t kMaxYamlBytes = std::size_t{1} << 20;
+// finish() lists at most this many problems, then their count.
+inline constexpr std::size_t kMaxReportedProblems = 100;
+
+// The text of a configuration file: kNotFound (cannot open), kInvalidArgument
+// (a directory; larger than kMaxYamlBytes), kIoError (read failed). Messages
+// name the path.
+Expected<std::string> read_yaml_file(const std::string& path);
+
 class YamlReader {
  public:
   // Errors: kNotFound (no such file), kParseError (malformed YAML, with the
-  // file and line), kInvalidArgument (the document is not a mapping).
-  // An empty document is an empty mapping.
+  // file and line), kInvalidArgument (the document is not a mapping, or the
+  // text is larger than kMaxYamlBytes). An empty document is an empty
+  // mapping.
   static Expected<YamlReader> from_file(const std::string& path);
   static Expected<YamlReader> from_string(std::string_view text, std::string source_name);
 
@@ -244,7 +264,8 @@ class YamlReader {
   YamlMap root() const;
 
   // Call after all reads: ok, or kInvalidArgument with every problem found,
-  // one per line, in file order where known. Adds the unknown keys of every
+  // one per line, in file order where known (the first
+  // kMaxReportedProblems, then how many more). Adds the unknown keys of every
   // mapping that was opened; mappings never opened were reported as unknown
   // keys of their parent.
   Status finish() const;

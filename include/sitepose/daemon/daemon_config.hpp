@@ -3,11 +3,14 @@
 // key) holding the daemon's own sections (source, pipeline, supervisor,
 // outputs, geo) next to the sitepose sections (camera, orb, stereo,
 // tracking, mapping, dynamic, detector, logging; config/sitepose.yaml).
-// load_daemon_config() validates everything before anything starts: unknown
-// keys, wrong types, broken rules and cross-field problems are reported all
-// at once, each naming file:line, the key path, the value and the rule
-// (kInvalidArgument; kNotFound for a missing file). Relative paths in the
-// file are resolved against the file's directory.
+// daemon_sections() is the table of the whole file, built on the config
+// module's Section machinery, so the daemon's keys are read, validated and
+// written like the sitepose ones. load_daemon_config() validates everything
+// before anything starts: unknown keys, wrong types, broken rules and
+// cross-field problems are reported all at once, each naming file:line, the
+// key path, the value and the rule (kInvalidArgument; kNotFound for a
+// missing file). Relative paths in the file are resolved against the file's
+// directory.
 
 #include <cstdint>
 #include <optional>
@@ -15,6 +18,7 @@
 
 #include <Eigen/Core>
 
+#include "sitepose/config/section.hpp"
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
 #include "sitepose/core/se3.hpp"
@@ -74,13 +78,16 @@ struct DaemonConfig {
   config::SiteposeConfig sitepose;
 };
 
+// The table of the settings file; defaults are DaemonConfig's initialisers.
+const config::Section<DaemonConfig>& daemon_sections();
+
 Expected<DaemonConfig> load_daemon_config(const std::string& path);
 Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text,
                                                       const std::string& source_name,
                                                       const std::string& base_dir);
 
-// The daemon's own sections, resolved, as YAML (logged once at startup next
-// to config::to_yaml of the sitepose sections).
-std::string daemon_sections_to_yaml(const DaemonConfig& config);
+// The resolved settings as YAML that load_daemon_config reads back to the
+// same values (logged once at startup, printed by --check-config).
+std::string to_yaml(const DaemonConfig& config);
 
 }  // namespace sitepose::daemon

@@ -2,6 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <ctime>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -20,6 +25,26 @@ std::string finish_message(const YamlReader& reader) {
   EXPECT_EQ(status.error().code, ErrorCode::kInvalidArgument);
   return status.error().message;
 }
+
+// `count` lines "<indent><name>: 1", name numbered unless `same_name`.
+std::string generated_keys(int count, const std::string& indent, bool same_name) {
+  std::string text;
+  for (int i = 0; i < count; ++i) {
+    text += indent + "k" + (same_name ? std::string() : std::to_string(i)) + ": 1\n";
+  }
+  return text;
+}
+
+// Processor time, not wall time: a loaded machine must not fail the test.
+double cpu_seconds_since(std::clock_t start) {
+  return static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC;
+}
+
+// Checking 40 000 keys takes ~0.25 s of CPU in a release build; the
+// quadratic duplicate pass this guards against needed 24 s for 20 000
+// distinct keys and never finished 40 000. The bound leaves room for
+// sanitizer builds.
+constexpr double kFortyThousandKeysBudget_s = 2.0;
 
 TEST(YamlReader, ReadsTypedValuesAndKeepsDefaultsForAbsentKeys) {
   const YamlReader reader = parse(
@@ -255,6 +280,82 @@ TEST(YamlReader, MissingFileIsNotFound) {
   ASSERT_FALSE(reader.has_value());
   EXPECT_EQ(reader.error().code, ErrorCode::kNotFound);
   EXPECT_NE(reader.error().message.find("/nonexistent/sitepose/x.yaml"), std::string::npos);
+}
+
+TEST(YamlReader, FortyThousandKeysAreCheckedInLinearTime) {
+  for (const bool same_name : {false, true}) {
+    const std::string text = "s:\n" + generated_keys(40000, "  ", same_name);
+    ASSERT_LT(text.size(), kMaxYamlBytes);
+    const std::clock_t start = std::clock();
+    const YamlReader reader = parse(text);
+    int value = 0;
+    reader.root().map("s").read(same_name ? "k" : "k0", value);
+    const std::string message = finish_message(reader);
+    EXPECT_LT(cpu_seconds_since(start), kFortyThousandKeysBudget_s) << (same_name ? "duplicates" : "unknown keys");
+    // Unknown keys (k1 ... k39999) or duplicates of k: every one is a problem.
+    EXPECT_NE(message.find(same_name ? "test.yaml:3: s.k: duplicate key (first at line 2)"
+                                     : "test.yaml:3: s.k1: unknown key (expected one of: k0)"),
+              std::string::npos)
+        << message.substr(0, 500);
+    EXPECT_NE(message.find("test.yaml: 39899 more problems not shown"), std::string::npos)
+        << message.substr(message.size() > 500 ? message.size() - 500 : 0);
+  }
+}
+
+TEST(YamlReader, FortyThousandListElementsOpenInLinearTime) {
+  std::string text = "items:\n";
+  for (int i = 0; i < 40000; ++i) text += "  - {a: " + std::to_string(i) + "}\n";
+  const std::clock_t start = std::clock();
+  const YamlReader reader = parse(text);
+  long long sum = 0;
+  for (const YamlMap& item : reader.root().maps("items")) {
+    int a = 0;
+    item.read("a", a);
+    sum += a;
+  }
+  EXPECT_EQ(finish_message(reader), "");
+  EXPECT_LT(cpu_seconds_since(start), kFortyThousandKeysBudget_s);
+  EXPECT_EQ(sum, 40000LL * 39999 / 2);
+}
+
+TEST(YamlReader, ProblemsBeyondTheCapAreCounted) {
+  const YamlReader reader = parse(generated_keys(kMaxReportedProblems + 2, "", false));
+  const std::string message = finish_message(reader);
+  EXPECT_NE(message.find("test.yaml:100: k99: unknown key"), std::string::npos) << message;
+  EXPECT_EQ(message.find("k100: unknown key"), std::string::npos) << message;
+  EXPECT_NE(message.find("\ntest.yaml: 2 more problems not shown"), std::string::npos) << message;
+}
+
+TEST(YamlReader, TextLargerThanOneMebibyteIsRefused) {
+  const std::string at_limit = "a: \"" + std::string(kMaxYamlBytes - 6, 'x') + "\"\n";
+  ASSERT_EQ(at_limit.size(), kMaxYamlBytes);
+  EXPECT_TRUE(YamlReader::from_string(at_limit, "limit.yaml").has_value());
+
+  const auto larger = YamlReader::from_string(at_limit + "\n", "big.yaml");
+  ASSERT_FALSE(larger.has_value());
+  EXPECT_EQ(larger.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_EQ(larger.error().message,
+            "big.yaml: 1048577 bytes, larger than a configuration file may be (1048576 bytes = 1 MiB)");
+
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("sitepose-yaml-big-" + std::to_string(::getpid()) + ".yaml"))
+                               .string();
+  std::ofstream(path) << at_limit << std::string(5 * kMaxYamlBytes, '#');
+  const auto from_file = YamlReader::from_file(path);
+  std::filesystem::remove(path);
+  ASSERT_FALSE(from_file.has_value());
+  EXPECT_EQ(from_file.error().message,
+            path + ": more than 1048576 bytes, larger than a configuration file may be (1048576 "
+                   "bytes = 1 MiB)");
+}
+
+TEST(YamlReader, DirectoryIsRefusedNamingThePath) {
+  const std::string dir = std::filesystem::temp_directory_path().string();
+  const auto reader = YamlReader::from_file(dir);
+  ASSERT_FALSE(reader.has_value());
+  EXPECT_EQ(reader.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_EQ(reader.error().message,
+            "cannot read config file " + dir + ": is a directory, expected a YAML file");
 }
 
 TEST(YamlReader, OpeningTheSameSectionTwiceSharesKnownKeys) {

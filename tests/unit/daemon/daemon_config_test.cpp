@@ -1,0 +1,156 @@
+#include "sitepose/daemon/daemon_config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <ctime>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "sitepose/config/config.hpp"
+
+namespace sitepose::daemon {
+namespace {
+
+const std::string kShippedFile = SITEPOSE_SOURCE_DIR "/config/siteposed.yaml";
+
+// A valid file: every output on, site frame fixed.
+const std::string kValid =
+    "source:\n  replay: {sequence: seq, rate: max}\n"
+    "outputs:\n  trajectory: {path: traj.tum}\n  can: {path: logs/can.log}\n"
+    "geo:\n  mode: fixed\n"
+    "  origin: {latitude_deg: 48.137, longitude_deg: 11.575, height_m: 520.0}\n"
+    "  T_site_slam: {translation_m: [0, 0, 2], rotation_wxyz: [0.5, -0.5, 0.5, -0.5]}\n"
+    "dynamic: {mode: none}\n";
+
+std::string load_error(const std::string& text) {
+  const auto config = load_daemon_config_from_string(text, "d.yaml", "/etc/sitepose");
+  EXPECT_FALSE(config.has_value()) << "loaded without error:\n" << text;
+  return config ? "" : config.error().message;
+}
+
+bool contains(const std::string& haystack, const std::string& needle) {
+  return haystack.find(needle) != std::string::npos;
+}
+
+// Every key of the daemon's sections is in config/siteposed.yaml with its
+// default, except the deployment values the shipped file sets on purpose
+// (each comment there states the default); the sitepose sections are
+// documented in config/sitepose.yaml.
+TEST(DaemonConfig, DocumentedFileAgreesWithTheTable) {
+  config::DocumentedFile file{kShippedFile,
+                              {"source.replay.sequence", "outputs.trajectory.path",
+                               "outputs.can.path", "outputs.lcm.url", "geo.mode",
+                               "geo.origin.latitude_deg", "geo.origin.longitude_deg",
+                               "geo.origin.height_m", "geo.T_site_slam.translation_m",
+                               "geo.T_site_slam.rotation_wxyz", "dynamic.mode"},
+                              {}};
+  for (const auto& entry : config::entries(config::sitepose_sections(), config::SiteposeConfig{}, false)) {
+    if (entry.depth == 0) file.documented_elsewhere.push_back(entry.key);
+  }
+  ASSERT_EQ(file.documented_elsewhere.size(), 8u);
+  const Status status = config::check_documented(daemon_sections(), file);
+  EXPECT_TRUE(status.has_value()) << status.error().message;
+}
+
+TEST(DaemonConfig, ShippedFileLoadsAndWritesWhatReadsBackTheSame) {
+  const auto shipped = load_daemon_config(kShippedFile);
+  ASSERT_TRUE(shipped.has_value()) << shipped.error().message;
+  EXPECT_EQ(shipped->replay.sequence_dir, "/var/lib/siteposed/replay");
+  EXPECT_EQ(shipped->geo.mode, GeoMode::kFixed);
+  EXPECT_EQ(shipped->sitepose.dynamic.mode, config::MaskingMode::kNone);
+  const std::string text = to_yaml(*shipped);
+  const auto again = load_daemon_config_from_string(text, "resolved.yaml", "");
+  ASSERT_TRUE(again.has_value()) << again.error().message << "\n" << text;
+  EXPECT_EQ(to_yaml(*again), text);
+}
+
+TEST(DaemonConfig, ReadsTheDaemonSectionsAndResolvesPaths) {
+  std::string text = kValid;
+  const std::string can = "  can: {path: logs/can.log}\n";
+  text.replace(text.find(can), can.size(),
+               "  can: {sink: stdout, source_address: 30, frames: {n2k_vessel_heading: false}}\n"
+               "  lcm: {url: \"memq://\", max_send_attempts: 2}\n");
+  const auto config = load_daemon_config_from_string(
+      text + "pipeline: {capture_ring_capacity: 8}\nsupervisor: {log_interval_s: 2.5}\n", "d.yaml",
+      "/etc/sitepose");
+  ASSERT_TRUE(config.has_value()) << config.error().message;
+  EXPECT_EQ(config->replay.sequence_dir, "/etc/sitepose/seq");
+  EXPECT_EQ(config->replay.rate, pipeline::ReplayRate::kMax);
+  EXPECT_EQ(config->trajectory.path, "/etc/sitepose/traj.tum");
+  EXPECT_EQ(config->pipeline.capture_ring_capacity, 8u);
+  EXPECT_DOUBLE_EQ(config->supervisor.log_interval_s, 2.5);
+  EXPECT_EQ(config->can.sink, CanSinkKind::kStdout);
+  EXPECT_EQ(config->can.frames.source_address, 30);
+  EXPECT_FALSE(config->can.frames.n2k_vessel_heading);
+  EXPECT_EQ(config->lcm.lcm.url, "memq://");
+  EXPECT_EQ(config->lcm.lcm.max_send_attempts, 2);
+  EXPECT_DOUBLE_EQ(config->geo.T_site_slam.translation().z(), 2.0);
+  EXPECT_DOUBLE_EQ(config->geo.T_site_slam.rotation().w(), 0.5);
+  // The anchor takes the site origin, given once for every mode.
+  EXPECT_DOUBLE_EQ(config->geo.anchor.origin.latitude_deg, 48.137);
+}
+
+TEST(DaemonConfig, BadValuesAreNamedWithFileLineKeyAndRule) {
+  const std::string message = load_error(
+      "source:\n  replay: {sequence: /nonexistent, rate: fastest}\n"
+      "pipeline: {capture_ring_capacity: 6}\n"
+      "outputs:\n  lcm: {urll: x}\n  can: {enabled: true, path: can.log}\n"
+      "dynamic: {mode: fullest}\n");
+  EXPECT_TRUE(contains(message, "d.yaml:2: source.replay.rate = \"fastest\"")) << message;
+  EXPECT_TRUE(contains(message, "d.yaml:3: pipeline.capture_ring_capacity = 6: must be a power of "
+                                "two in [2, 1048576]"))
+      << message;
+  EXPECT_TRUE(contains(message, "d.yaml:5: outputs.lcm.urll: unknown key")) << message;
+  EXPECT_TRUE(contains(message, "d.yaml:6: outputs.can.enabled = true: CAN frames carry WGS84 "
+                                "positions: needs geo.mode fixed or online"))
+      << message;
+  EXPECT_TRUE(contains(message, "d.yaml:7: dynamic.mode = \"fullest\": unknown masking mode")) << message;
+  EXPECT_TRUE(contains(message, "outputs.trajectory.path: missing (required key)")) << message;
+}
+
+TEST(DaemonConfig, RequirementsThatDependOnOtherKeys) {
+  EXPECT_TRUE(contains(load_error("outputs:\n  can: {enabled: false}\n  trajectory: {enabled: false}\n"),
+                       "source.replay.sequence: missing (required key)"));
+  const std::string geo_needs = load_error(
+      "source: {replay: {sequence: s}}\noutputs: {trajectory: {enabled: false}, can: {path: c}}\n"
+      "geo: {mode: fixed}\n");
+  EXPECT_TRUE(contains(geo_needs, "geo.origin.latitude_deg: missing (required key)")) << geo_needs;
+  EXPECT_TRUE(contains(geo_needs, "geo.T_site_slam: required with geo.mode = fixed")) << geo_needs;
+  const std::string nmea = load_error(
+      "source: {replay: {sequence: s}}\noutputs: {trajectory: {enabled: false}, can: {enabled: false}}\n"
+      "geo:\n  mode: online\n  origin: {latitude_deg: 1, longitude_deg: 2, height_m: 3}\n"
+      "  online: {gnss_input: nmea_file, min_inliers: 5000}\n");
+  EXPECT_TRUE(contains(nmea, "geo.online.nmea_file: missing (required key)")) << nmea;
+  // The anchor's own rules, reported at the section.
+  EXPECT_TRUE(contains(nmea, "d.yaml:6: geo.online: ")) << nmea;
+  // A disabled output needs no path.
+  const auto quiet = load_daemon_config_from_string(
+      "source: {replay: {sequence: s}}\noutputs: {trajectory: {enabled: false}, can: {enabled: false}}\n",
+      "d.yaml", "");
+  EXPECT_TRUE(quiet.has_value()) << quiet.error().message;
+}
+
+TEST(DaemonConfig, FortyThousandKeysAreRejectedWithinSeconds) {
+  std::string text = kValid + "pipeline:\n";
+  for (int i = 0; i < 40000; ++i) text += "  ring" + std::to_string(i) + ": 4\n";
+  const std::clock_t start = std::clock();  // CPU time: a loaded machine cannot fail it
+  const std::string message = load_error(text);
+  EXPECT_LT(static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC, 2.0);
+  EXPECT_TRUE(contains(message, "pipeline.ring0: unknown key")) << message.substr(0, 300);
+  EXPECT_TRUE(contains(message, "39900 more problems not shown")) << message.substr(0, 300);
+}
+
+TEST(DaemonConfig, DirectoryOrMissingFileIsAnError) {
+  const auto dir = load_daemon_config(std::filesystem::temp_directory_path().string());
+  ASSERT_FALSE(dir.has_value());
+  EXPECT_EQ(dir.error().exit_status(), 2);
+  EXPECT_TRUE(contains(dir.error().message, "is a directory")) << dir.error().message;
+  const auto missing = load_daemon_config("/nonexistent/nope.yaml");
+  ASSERT_FALSE(missing.has_value());
+  EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
+  EXPECT_TRUE(contains(missing.error().message, "/nonexistent/nope.yaml"));
+}
+
+}  // namespace
+}  // namespace sitepose::daemon
