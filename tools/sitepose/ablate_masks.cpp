@@ -8,7 +8,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "ablation_inputs.hpp"
+#include "ablation_command.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/experiments/charts.hpp"
@@ -19,17 +19,7 @@ namespace {
 
 constexpr const char* kCommand = "ablate masks";
 
-struct Args {
-  experiments::SourceRequest source;
-  std::string config_path;
-  std::string out_dir;
-};
-
-int run(Args args) {
-  auto inputs = open_ablation_inputs(args.config_path, args.out_dir, args.source, "crowded");
-  if (!inputs) return fail(kCommand, inputs.error().message, 2);
-  config::SiteposeConfig& config = inputs->config;
-  const auto& source = inputs->source;
+int run(const AblationArgs& args, config::SiteposeConfig& config, const experiments::LabelledSource& source) {
 
   std::ostringstream csv;
   csv << "mode,ate_rmse_m,ate_max_m,coverage,max_masked_ratio,max_mar,pixel_mask_calls,frames,"
@@ -39,7 +29,7 @@ int run(Args args) {
   for (config::MaskingMode mode :
        {config::MaskingMode::kBbox, config::MaskingMode::kHierarchical, config::MaskingMode::kPixel}) {
     config.dynamic.mode = mode;
-    auto result = experiments::run_dynamic(*source, config);
+    auto result = experiments::run_dynamic(source, config);
     if (!result) return fail(kCommand, result.error().message, 1);
     const auto stages = result->recorder.stage_summaries();
     const double mask_ms = stages.count("mask") ? stages.at("mask").mean_ms : 0.0;
@@ -63,7 +53,7 @@ int run(Args args) {
   if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   experiments::ChartOptions chart;
   chart.height_px = 400;
-  chart.title = "Masking on " + std::filesystem::path(source->name()).filename().string() + ": ATE RMSE (m)";
+  chart.title = "Masking on " + std::filesystem::path(source.name()).filename().string() + ": ATE RMSE (m)";
   cv::Mat a = experiments::render_bar_chart(labels, ates, chart);
   chart.title = "Largest masked ratio of a frame";
   cv::Mat b = experiments::render_bar_chart(labels, masked, chart);
@@ -77,17 +67,10 @@ int run(Args args) {
 }
 
 const CommandRegistrar kMasks{
-    {"ablate", "masks", "bbox vs hierarchical vs pixel masks: ATE, largest masked ratio, time (CSV + PNG)",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<Args>();
-       sub.add_option("--sequence", args->source.sequence, "Sequence directory with labels (boxes and masks)");
-       sub.add_option("--scenario", args->source.scenario,
-                      "Scenario to simulate into <out-dir>/sequence instead (default: crowded)");
-       sub.add_option("--frames", args->source.frames, "Frames to simulate (0 = the whole scenario)");
-       sub.add_option("--config", args->config_path, "sitepose YAML config (the mode is set here)");
-       sub.add_option("--out-dir", args->out_dir, "Output folder: masks.csv, masks.png")->required();
-       return [args] { return run(*args); };
-     }}};
+    ablation_command("masks", "bbox vs hierarchical vs pixel masks: ATE, largest masked ratio, time (CSV + PNG)",
+                     {"crowded", "Sequence directory with labels (boxes and masks)",
+                      "sitepose YAML config (the mode is set here)", "masks.csv, masks.png"},
+                     run)};
 
 }  // namespace
 }  // namespace sitepose::cli

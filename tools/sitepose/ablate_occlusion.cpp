@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <sstream>
 
-#include "ablation_inputs.hpp"
+#include "ablation_command.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/experiments/charts.hpp"
@@ -23,17 +23,15 @@ constexpr const char* kCommand = "ablate occlusion-sweep";
 constexpr std::uint16_t kOccluderInstance = 65000;
 
 struct Args {
-  experiments::SourceRequest source;
-  std::string config_path;
-  std::string out_dir;
+  AblationArgs common;
   std::vector<double> ratios{0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8};
 };
 
-int run(Args args) {
+int run(const Args& args) {
   for (double r : args.ratios) {
     if (!(r >= 0.0 && r < 1.0)) return fail(kCommand, "--ratios: " + std::to_string(r) + " is not in [0, 1)", 2);
   }
-  auto inputs = open_ablation_inputs(args.config_path, args.out_dir, args.source, "static");
+  auto inputs = open_ablation_inputs(args.common);
   if (!inputs) return fail(kCommand, inputs.error().message, 2);
   config::SiteposeConfig& config = inputs->config;
   const auto& source = inputs->source;
@@ -73,9 +71,9 @@ int run(Args args) {
     lost.x.push_back(ratio);
     lost.y.push_back(result->frames > 0 ? static_cast<double>(lost_frames) / result->frames : NAN);
   }
-  const std::string csv_path = args.out_dir + "/occlusion_sweep.csv";
-  const std::string png_ate = args.out_dir + "/occlusion_sweep_ate.png";
-  const std::string png_lost = args.out_dir + "/occlusion_sweep_lost.png";
+  const std::string csv_path = args.common.out_dir + "/occlusion_sweep.csv";
+  const std::string png_ate = args.common.out_dir + "/occlusion_sweep_ate.png";
+  const std::string png_lost = args.common.out_dir + "/occlusion_sweep_lost.png";
   if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   experiments::ChartOptions chart;
   chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() + ": ATE vs centred masked ratio";
@@ -98,13 +96,11 @@ const CommandRegistrar kOcclusion{
      "Fake centred occlusion 0..0.8 masked on a static sequence: ATE and lost frames (CSV + PNG)",
      [](CLI::App& sub) -> CommandAction {
        auto args = std::make_shared<Args>();
-       sub.add_option("--sequence", args->source.sequence, "Sequence directory with labels");
-       sub.add_option("--scenario", args->source.scenario,
-                      "Scenario to simulate into <out-dir>/sequence instead (default: static)");
-       sub.add_option("--frames", args->source.frames, "Frames to simulate (0 = the whole scenario)");
+       add_ablation_options(sub, args->common,
+                            {"static", "Sequence directory with labels",
+                             "sitepose YAML config (mode and classes are set here)",
+                             "occlusion_sweep.csv and two PNGs"});
        sub.add_option("--ratios", args->ratios, "Occlusion area ratios (default 0 0.1 ... 0.8)");
-       sub.add_option("--config", args->config_path, "sitepose YAML config (mode and classes are set here)");
-       sub.add_option("--out-dir", args->out_dir, "Output folder: occlusion_sweep.csv and two PNGs")->required();
        return [args] { return run(*args); };
      }}};
 

@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <sstream>
 
-#include "ablation_inputs.hpp"
+#include "ablation_command.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/experiments/charts.hpp"
@@ -23,17 +23,7 @@ namespace {
 
 constexpr const char* kCommand = "ablate roc";
 
-struct Args {
-  experiments::SourceRequest source;
-  std::string config_path;
-  std::string out_dir;
-};
-
-int run(Args args) {
-  auto inputs = open_ablation_inputs(args.config_path, args.out_dir, args.source, "crowded");
-  if (!inputs) return fail(kCommand, inputs.error().message, 2);
-  config::SiteposeConfig& config = inputs->config;
-  const auto& source = inputs->source;
+int run(const AblationArgs& args, config::SiteposeConfig& config, const experiments::LabelledSource& source) {
   config.dynamic.mode = config::MaskingMode::kFull;
 
   std::ostringstream csv, summary;
@@ -42,7 +32,7 @@ int run(Args args) {
   std::vector<experiments::ChartSeries> curves;
   for (config::ClassifierMode classifier : {config::ClassifierMode::kPaper, config::ClassifierMode::kSitepose}) {
     config.dynamic.classifier = classifier;
-    auto result = experiments::run_dynamic(*source, config);
+    auto result = experiments::run_dynamic(source, config);
     if (!result) return fail(kCommand, result.error().message, 1);
     const bool paper = classifier == config::ClassifierMode::kPaper;
     std::vector<double> parameters, thresholds;
@@ -82,7 +72,7 @@ int run(Args args) {
   if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   if (auto st = experiments::write_text(summary_path, summary.str()); !st) return fail(kCommand, st.error().message, 1);
   experiments::ChartOptions chart;
-  chart.title = "Motion states on " + std::filesystem::path(source->name()).filename().string() + ": ROC, static = positive";
+  chart.title = "Motion states on " + std::filesystem::path(source.name()).filename().string() + ": ROC, static = positive";
   chart.x_label = "false positive rate (moving called static)";
   chart.y_label = "true positive rate";
   chart.draw_diagonal = true;
@@ -95,20 +85,12 @@ int run(Args args) {
 }
 
 const CommandRegistrar kRoc{
-    {"ablate", "roc",
-     "ROC of the motion-state classifier (static = positive), paper mode (sigma_bkg 0..0.6) and sitepose mode "
-     "(chi2 gate), with AUC (CSV + PNG)",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<Args>();
-       sub.add_option("--sequence", args->source.sequence,
-                      "Sequence directory with labels (boxes with moving flags, masks)");
-       sub.add_option("--scenario", args->source.scenario,
-                      "Scenario to simulate into <out-dir>/sequence instead (default: crowded)");
-       sub.add_option("--frames", args->source.frames, "Frames to simulate (0 = the whole scenario)");
-       sub.add_option("--config", args->config_path, "sitepose YAML config (mode and classifier are set here)");
-       sub.add_option("--out-dir", args->out_dir, "Output folder: roc.csv, roc_auc.csv, roc.png")->required();
-       return [args] { return run(*args); };
-     }}};
+    ablation_command("roc",
+                     "ROC of the motion-state classifier (static = positive), paper mode (sigma_bkg 0..0.6) and "
+                     "sitepose mode (chi2 gate), with AUC (CSV + PNG)",
+                     {"crowded", "Sequence directory with labels (boxes with moving flags, masks)",
+                      "sitepose YAML config (mode and classifier are set here)", "roc.csv, roc_auc.csv, roc.png"},
+                     run)};
 
 }  // namespace
 }  // namespace sitepose::cli

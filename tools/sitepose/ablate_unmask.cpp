@@ -8,7 +8,7 @@
 #include <numeric>
 #include <sstream>
 
-#include "ablation_inputs.hpp"
+#include "ablation_command.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/experiments/charts.hpp"
@@ -19,17 +19,7 @@ namespace {
 
 constexpr const char* kCommand = "ablate unmask";
 
-struct Args {
-  experiments::SourceRequest source;
-  std::string config_path;
-  std::string out_dir;
-};
-
-int run(Args args) {
-  auto inputs = open_ablation_inputs(args.config_path, args.out_dir, args.source, "parked");
-  if (!inputs) return fail(kCommand, inputs.error().message, 2);
-  config::SiteposeConfig& config = inputs->config;
-  const auto& source = inputs->source;
+int run(const AblationArgs& args, config::SiteposeConfig& config, const experiments::LabelledSource& source) {
 
   std::ostringstream csv;
   csv << "variant,mode,ate_rmse_m,ate_max_m,coverage,mean_static_objects_unmasked,mean_features_pass1,"
@@ -42,7 +32,7 @@ int run(Args args) {
       {"static unmasked", config::MaskingMode::kFull}};
   for (const auto& [name, mode] : variants) {
     config.dynamic.mode = mode;
-    auto result = experiments::run_dynamic(*source, config);
+    auto result = experiments::run_dynamic(source, config);
     if (!result) return fail(kCommand, result.error().message, 1);
     double unmasked = 0, f1 = 0, f2 = 0;
     for (const PoseEstimate& p : result->recorder.poses()) {
@@ -65,7 +55,7 @@ int run(Args args) {
   const std::string png_path = args.out_dir + "/unmask.png";
   if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   experiments::ChartOptions chart;
-  chart.title = "Unmasking static objects on " + std::filesystem::path(source->name()).filename().string() + ": ATE RMSE (m)";
+  chart.title = "Unmasking static objects on " + std::filesystem::path(source.name()).filename().string() + ": ATE RMSE (m)";
   if (auto st = experiments::write_png(png_path, experiments::render_bar_chart(labels, ates, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }
@@ -74,17 +64,11 @@ int run(Args args) {
 }
 
 const CommandRegistrar kUnmask{
-    {"ablate", "unmask", "All dynamic-class objects masked vs static ones unmasked (two passes): ATE (CSV + PNG)",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<Args>();
-       sub.add_option("--sequence", args->source.sequence, "Sequence directory with labels (boxes and masks)");
-       sub.add_option("--scenario", args->source.scenario,
-                      "Scenario to simulate into <out-dir>/sequence instead (default: parked)");
-       sub.add_option("--frames", args->source.frames, "Frames to simulate (0 = the whole scenario)");
-       sub.add_option("--config", args->config_path, "sitepose YAML config (the mode is set here)");
-       sub.add_option("--out-dir", args->out_dir, "Output folder: unmask.csv, unmask.png")->required();
-       return [args] { return run(*args); };
-     }}};
+    ablation_command("unmask",
+                     "All dynamic-class objects masked vs static ones unmasked (two passes): ATE (CSV + PNG)",
+                     {"parked", "Sequence directory with labels (boxes and masks)",
+                      "sitepose YAML config (the mode is set here)", "unmask.csv, unmask.png"},
+                     run)};
 
 }  // namespace
 }  // namespace sitepose::cli

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "command_config.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/detect/create_detector.hpp"
@@ -29,15 +30,9 @@ struct Args {
 };
 
 int run(Args args) {
-  config::SiteposeConfig config;
-  if (!args.config_path.empty()) {
-    auto loaded = config::load_config(args.config_path);
-    if (!loaded) return fail(kCommand, loaded.error().message, 2);
-    config = *loaded;
-  }
-  auto mode = config::parse_masking_mode(args.mode);
-  if (!mode) return fail(kCommand, "--mode: " + mode.error().message, 2);
-  config.dynamic.mode = *mode;
+  auto loaded = load_command_config(args.config_path, args.mode);
+  if (!loaded) return fail(kCommand, loaded.error().message, 2);
+  config::SiteposeConfig& config = *loaded;
   config.detector.name = args.detector;
   if (args.source.sequence.empty() && args.source.scenario.empty()) args.source.scenario = "crowded";
   std::string dir = args.source.sequence;

@@ -19,6 +19,7 @@
 
 #include <opencv2/core/utility.hpp>
 
+#include "command_config.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/detect/create_detector.hpp"
@@ -124,15 +125,9 @@ Expected<RunResult> run_once(const std::vector<StereoFrame>& frames, const Stere
 }
 
 int run_bench_pipeline(const BenchPipelineArgs& a) {
-  config::SiteposeConfig config;
-  if (!a.config_path.empty()) {
-    auto loaded = config::load_config(a.config_path);
-    if (!loaded) return fail(kCommand, loaded.error().message, 2);
-    config = *loaded;
-  }
-  auto mode = config::parse_masking_mode(a.mode);
-  if (!mode) return fail(kCommand, "--mode: " + mode.error().message, 2);
-  config.dynamic.mode = *mode;
+  auto loaded = load_command_config(a.config_path, a.mode);
+  if (!loaded) return fail(kCommand, loaded.error().message, 2);
+  config::SiteposeConfig& config = *loaded;
   if (!a.detector.empty()) config.detector.name = a.detector;
   detect::add_inherent_dynamic_classes(config.detector, config.dynamic);
   // 0 keeps OpenCV's default pool, as siteposed does. (A/B on 2 cores at

@@ -89,6 +89,14 @@ void transfer(benchmark::State& state, std::size_t capacity, std::uint64_t items
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * items));
 }
 
+// transfer<Queue> as a Google Benchmark named `name` (wall-clock time, ms).
+template <typename Queue>
+void register_transfer(const char* name, std::size_t capacity, std::uint64_t items) {
+  benchmark::RegisterBenchmark(name, [=](benchmark::State& s) { transfer<Queue>(s, capacity, items); })
+      ->UseRealTime()
+      ->Unit(benchmark::kMillisecond);
+}
+
 // Console output as usual, plus items/s per benchmark for the ratio.
 class RateReporter : public benchmark::ConsoleReporter {
  public:
@@ -136,27 +144,10 @@ int run_bench_ring(std::size_t capacity, std::uint64_t items,
   benchmark::Initialize(&argc, argv.data());
   if (benchmark::ReportUnrecognizedArguments(argc, argv.data())) return 2;
 
-  benchmark::RegisterBenchmark(
-      kRingName,
-      [=](benchmark::State& s) {
-        transfer<pipeline::SpscRing<std::uint64_t, pipeline::FullPolicy::kReject>>(s, capacity,
-                                                                                   items);
-      })
-      ->UseRealTime()
-      ->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark(
-      kRingDropName,
-      [=](benchmark::State& s) {
-        transfer<pipeline::SpscRing<std::uint64_t, pipeline::FullPolicy::kDropOldest>>(s, capacity,
-                                                                                       items);
-      })
-      ->UseRealTime()
-      ->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark(
-      kMutexName,
-      [=](benchmark::State& s) { transfer<MutexQueue<std::uint64_t>>(s, capacity, items); })
-      ->UseRealTime()
-      ->Unit(benchmark::kMillisecond);
+  register_transfer<pipeline::SpscRing<std::uint64_t, pipeline::FullPolicy::kReject>>(kRingName, capacity, items);
+  register_transfer<pipeline::SpscRing<std::uint64_t, pipeline::FullPolicy::kDropOldest>>(kRingDropName, capacity,
+                                                                                         items);
+  register_transfer<MutexQueue<std::uint64_t>>(kMutexName, capacity, items);
 
   std::printf(
       "producer -> consumer on two threads, %llu uint64 items per iteration, capacity %zu\n",

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "command_config.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/experiments/dynamic_run.hpp"
@@ -23,12 +24,9 @@ struct BenchTrackArgs {
 };
 
 int bench_track(const BenchTrackArgs& args) {
-  config::SiteposeConfig config;
-  if (!args.config_path.empty()) {
-    auto loaded = config::load_config(args.config_path);
-    if (!loaded) return fail("bench track", loaded.error().message, 2);
-    config = *loaded;
-  }
+  auto loaded = load_command_config(args.config_path);
+  if (!loaded) return fail("bench track", loaded.error().message, 2);
+  config::SiteposeConfig& config = *loaded;
   config.dynamic.mode = config::MaskingMode::kNone;
   experiments::DynamicRunOptions options;
   options.frames = args.frames;

@@ -1,0 +1,45 @@
+#include "ablation_command.hpp"
+
+#include <filesystem>
+
+#include "command_config.hpp"
+
+namespace sitepose::cli {
+
+void add_ablation_options(CLI::App& sub, AblationArgs& args, const AblationHelp& help) {
+  args.default_scenario = help.default_scenario;
+  sub.add_option("--sequence", args.source.sequence, help.sequence);
+  sub.add_option("--scenario", args.source.scenario,
+                 "Scenario to simulate into <out-dir>/sequence instead (default: " + help.default_scenario + ")");
+  sub.add_option("--frames", args.source.frames, "Frames to simulate (0 = the whole scenario)");
+  sub.add_option("--config", args.config_path, help.config);
+  sub.add_option("--out-dir", args.out_dir, "Output folder: " + help.outputs)->required();
+}
+
+Expected<AblationInputs> open_ablation_inputs(const AblationArgs& args) {
+  AblationInputs inputs;
+  SITEPOSE_TRY(inputs.config, load_command_config(args.config_path));
+  std::error_code ec;
+  std::filesystem::create_directories(args.out_dir, ec);
+  if (ec) return make_error(ErrorCode::kInvalidArgument, "--out-dir " + args.out_dir + ": " + ec.message());
+  experiments::SourceRequest request = args.source;
+  if (request.sequence.empty() && request.scenario.empty()) request.scenario = args.default_scenario;
+  if (request.temp_dir.empty()) request.temp_dir = args.out_dir + "/sequence";
+  SITEPOSE_TRY(inputs.source, experiments::open_ablation_source(request));
+  return inputs;
+}
+
+CommandSpec ablation_command(const std::string& name, const std::string& description, const AblationHelp& help,
+                             AblationRun run) {
+  return {"ablate", name, description, [name, help, run](CLI::App& sub) -> CommandAction {
+            auto args = std::make_shared<AblationArgs>();
+            add_ablation_options(sub, *args, help);
+            return [name, args, run] {
+              auto inputs = open_ablation_inputs(*args);
+              if (!inputs) return fail("ablate " + name, inputs.error().message, 2);
+              return run(*args, inputs->config, *inputs->source);
+            };
+          }};
+}
+
+}  // namespace sitepose::cli
