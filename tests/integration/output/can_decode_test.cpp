@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "mini_json.hpp"
+#include "sitepose/testing/mini_json.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/can_sink.hpp"
 #include "sitepose/output/candump.hpp"

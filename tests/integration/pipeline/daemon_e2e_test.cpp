@@ -10,7 +10,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "../output/mini_json.hpp"
+#include "sitepose/testing/mini_json.hpp"
 #include "daemon_test_util.hpp"
 #include "sitepose/pose_t.hpp"
 #include "sitepose/health_t.hpp"

@@ -5,7 +5,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "../../unit/pipeline/fakes.hpp"
+#include "sitepose/testing/pipeline_fakes.hpp"
 #include "daemon.hpp"
 #include "daemon_test_util.hpp"
 #include "sitepose/output/candump.hpp"
@@ -169,8 +169,8 @@ std::unique_ptr<pipeline::Pipeline> fake_pipeline(int frames, std::vector<std::u
   o.publish_retry_delay_s = 0.0;
   o.publish_max_attempts = 4;
   auto p = pipeline::Pipeline::create(
-      o, std::make_unique<pipeline::testing::ScriptedSource>(pipeline::testing::ScriptedSource::frames(frames), false),
-      std::make_unique<pipeline::PassThroughDetect>(), std::make_unique<pipeline::testing::FakeTracker>(),
+      o, std::make_unique<sitepose::testing::ScriptedSource>(sitepose::testing::ScriptedSource::frames(frames), false),
+      std::make_unique<pipeline::PassThroughDetect>(), std::make_unique<sitepose::testing::FakeTracker>(),
       std::move(outputs));
   EXPECT_TRUE(p);
   return p ? std::move(*p) : nullptr;

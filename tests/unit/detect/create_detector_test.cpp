@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "sitepose/testing/cameras.hpp"
 #include "test_util.hpp"
 
 namespace sitepose::detect {
@@ -61,14 +62,8 @@ TEST(CreateDetector, PluginConfigCarriesTheContext) {
   c.name = "stereo-geometric";
   c.geometric_max_range_m = 21.5;
   DetectorContext context;
-  StereoCamera cam;
-  cam.fx = 350;
+  StereoCamera cam = testing::centred_camera(480, 270, 350.0, 1.0);
   cam.fy = 351;
-  cam.cx = 240;
-  cam.cy = 135;
-  cam.baseline_m = 1.0;
-  cam.width = 480;
-  cam.height = 270;
   context.camera = cam;
   auto yaml = plugin_config_yaml(c, context);
   ASSERT_TRUE(yaml) << yaml.error().message;

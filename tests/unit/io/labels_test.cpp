@@ -4,7 +4,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "temp_dir.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::io {
 namespace {

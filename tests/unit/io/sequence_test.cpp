@@ -7,7 +7,7 @@
 
 #include "sitepose/io/kitti_calib.hpp"
 #include "sitepose/io/trajectory.hpp"
-#include "temp_dir.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::io {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "temp_dir.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::io {
 namespace {

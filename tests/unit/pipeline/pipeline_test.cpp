@@ -5,7 +5,7 @@
 #include <chrono>
 #include <thread>
 
-#include "fakes.hpp"
+#include "sitepose/testing/pipeline_fakes.hpp"
 
 namespace sitepose::pipeline {
 namespace {

@@ -6,22 +6,14 @@
 
 #include "sitepose/slam/dynamic_run.hpp"
 #include "sitepose/slam/slam_system.hpp"
+#include "sitepose/testing/cameras.hpp"
 
 namespace sitepose::slam {
 namespace {
 
 // A 64 x 48 camera: enough for SlamSystem to run where a test looks at the
 // dynamic layer.
-StereoCamera tiny_camera() {
-  StereoCamera camera;
-  camera.fx = camera.fy = 100.0;
-  camera.cx = 32.0;
-  camera.cy = 24.0;
-  camera.baseline_m = 0.5;
-  camera.width = 64;
-  camera.height = 48;
-  return camera;
-}
+StereoCamera tiny_camera() { return testing::centred_camera(64, 48, 100.0, 0.5); }
 
 // One textureless frame (the map never initialises) with `boxes` through a
 // fresh SlamSystem in `mode`.

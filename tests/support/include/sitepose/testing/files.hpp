@@ -8,7 +8,7 @@
 #include <random>
 #include <string>
 
-namespace sitepose::io::testing {
+namespace sitepose::testing {
 
 class TempDir {
  public:
@@ -43,4 +43,4 @@ class TempDir {
   std::filesystem::path path_;
 };
 
-}  // namespace sitepose::io::testing
+}  // namespace sitepose::testing
