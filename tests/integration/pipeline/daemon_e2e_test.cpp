@@ -130,10 +130,7 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
                           SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + (dir / "can.log") + " > " +
                           (dir / "can.json");
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  std::ifstream json_in(dir / "can.json");
-  std::stringstream json_text;
-  json_text << json_in.rdbuf();
-  const std::string json = json_text.str();
+  const std::string json = read_text(dir / "can.json");
   sitepose::testing::JsonParser parser(json);
   auto decoded = parser.parse();
   ASSERT_TRUE(decoded.has_value()) << parser.error();
@@ -292,10 +289,7 @@ TEST(SystemdUnit, VerifiesWithoutAnyMessage) {
   if (std::system("command -v systemd-analyze > /dev/null") != 0) GTEST_SKIP() << "no systemd-analyze";
   TempDir dir("unit");
   // verify checks that ExecStart's binary exists: point it at the build.
-  std::ifstream in(SITEPOSE_SOURCE_DIR "/systemd/siteposed.service");
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string unit = text.str();
+  std::string unit = read_text(SITEPOSE_SOURCE_DIR "/systemd/siteposed.service");
   ASSERT_NE(unit.find("Type=notify"), std::string::npos);
   ASSERT_NE(unit.find("WatchdogSec="), std::string::npos);
   for (auto pos = unit.find("/usr/bin/siteposed"); pos != std::string::npos;

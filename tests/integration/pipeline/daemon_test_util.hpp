@@ -25,6 +25,7 @@
 
 #include "sitepose/eval/evaluate.hpp"
 #include "sitepose/io/trajectory.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::daemon::testing {
 
@@ -54,31 +55,10 @@ inline std::string simulated_sequence(const std::string& scenario, int frames) {
 // static scenario, 30 frames at 6 fps (about 10 s to generate).
 inline std::string shared_sequence() { return simulated_sequence("static", kSequenceFrames); }
 
-class TempDir {
- public:
-  explicit TempDir(const std::string& tag) {
-    path_ = fs::temp_directory_path() / ("siteposed-" + tag + "-" + std::to_string(getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    if (!::testing::Test::HasFailure()) fs::remove_all(path_);
-  }
-  const fs::path& path() const { return path_; }
-  std::string operator/(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
-};
-
-inline void write_file(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
-
-inline std::vector<std::string> read_lines(const std::string& path) {
-  std::vector<std::string> lines;
-  std::ifstream in(path);
-  for (std::string line; std::getline(in, line);) lines.push_back(line);
-  return lines;
-}
+using sitepose::testing::read_lines;
+using sitepose::testing::read_text;
+using sitepose::testing::TempDir;
+using sitepose::testing::write_file;
 
 // Datagrams as systemd's notify socket receives them, each with its time.
 class NotifySocket {

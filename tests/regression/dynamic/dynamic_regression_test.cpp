@@ -3,7 +3,6 @@
 // rendered once and cached in memory; every mode runs on the same frames.
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -15,6 +14,7 @@
 
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/slam/dynamic_run.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::slam {
 namespace {
@@ -294,15 +294,8 @@ machines:
 // tracking never degrades. Returns the re-mask latency (frames), or -1
 // when an assertion failed.
 int remask_latency_frames(const StartingMachine& machine) {
-  const std::string path = ::testing::TempDir() + "/sitepose_remask_" + machine.name + "_" +
-                           std::to_string(::getpid()) + ".yaml";
-  std::FILE* f = std::fopen(path.c_str(), "w");
-  EXPECT_NE(f, nullptr);
-  if (f == nullptr) return -1;
-  std::fputs(start_scenario_yaml(machine).c_str(), f);
-  std::fclose(f);
-  Scenario s(path, 0);
-  std::remove(path.c_str());
+  const testing::TempDir dir("remask");
+  Scenario s(dir.write(std::string(machine.name) + ".yaml", start_scenario_yaml(machine)), 0);
   EXPECT_TRUE(s.error().empty()) << s.error();
   if (!s.error().empty()) return -1;
   const ModeFigures full = s.run(config::MaskingMode::kFull);

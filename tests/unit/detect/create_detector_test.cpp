@@ -32,7 +32,8 @@ TEST(CreateDetector, UnknownBuiltinNameIsBadInput) {
 }
 
 TEST(CreateDetector, EnvironmentDirectoryTakesPrecedence) {
-  const auto dir = test::scratch_dir();
+  const testing::TempDir tmp;
+  const std::filesystem::path& dir = tmp.path();
   // Stand-in "labels" plugin: the garbage test plugin under the built-in name.
   std::filesystem::copy_file(DETECT_TEST_GARBAGE_PLUGIN, dir / "libsitepose_detector_labels.so");
   ::setenv("SITEPOSE_DETECTOR_PLUGIN_DIR", dir.c_str(), 1);

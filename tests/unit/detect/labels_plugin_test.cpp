@@ -4,7 +4,6 @@
 #include <chrono>
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/detect/plugin_loader.hpp"
@@ -20,9 +19,8 @@ class LabelsPlugin : public ::testing::Test {
   static void SetUpTestSuite() {
     // One folder per process: ctest runs the cases of this suite in parallel
     // processes, each with its own SetUpTestSuite.
-    dir_ = new std::string((std::filesystem::temp_directory_path() / "sitepose_detect_test" /
-                            ("labels_sequence_" + std::to_string(::getpid()))).string());
-    std::filesystem::remove_all(*dir_);
+    tmp_ = new testing::TempDir("labels-sequence");
+    dir_ = new std::string((tmp_->path() / "seq").string());
     auto scenario = sim::load_scenario("crowded");
     ASSERT_TRUE(scenario) << scenario.error().message;
     sim::SimOptions o;
@@ -38,8 +36,8 @@ class LabelsPlugin : public ::testing::Test {
   }
   static void TearDownTestSuite() {
     delete sequence_;
-    std::filesystem::remove_all(*dir_);
     delete dir_;
+    delete tmp_;
   }
 
   static Expected<std::unique_ptr<Detector>> make(const config::DetectorConfig& c) {
@@ -53,9 +51,11 @@ class LabelsPlugin : public ::testing::Test {
     return *f;
   }
 
+  static testing::TempDir* tmp_;
   static std::string* dir_;
   static io::Sequence* sequence_;
 };
+testing::TempDir* LabelsPlugin::tmp_ = nullptr;
 std::string* LabelsPlugin::dir_ = nullptr;
 io::Sequence* LabelsPlugin::sequence_ = nullptr;
 

@@ -7,6 +7,7 @@
 #include "sitepose/slam/dynamic_run.hpp"
 #include "sitepose/slam/slam_system.hpp"
 #include "sitepose/testing/cameras.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::slam {
 namespace {
@@ -116,12 +117,10 @@ TEST(RunRecorder, WritesStatesCsvOfDynamicReports) {
   recorder.add(report);
   EXPECT_EQ(recorder.pixel_mask_calls(), 1);
   ASSERT_EQ(recorder.masked_area_ratios().size(), 1u);
-  const std::string path = ::testing::TempDir() + "/states_test.csv";
+  const testing::TempDir dir;
+  const std::string path = dir / "states_test.csv";
   ASSERT_TRUE(recorder.write_states_csv(path));
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_EQ(text.str(), "frame,instance,class,state,score,points\n7,12,truck,static,1.2500,40\n");
+  EXPECT_EQ(testing::read_text(path), "frame,instance,class,state,score,points\n7,12,truck,static,1.2500,40\n");
 }
 
 TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
