@@ -79,8 +79,11 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
   LcmCapture capture;
   lcm.subscribe("SITEPOSE_POSE", &LcmCapture::on_pose, &capture);
   lcm.subscribe("SITEPOSE_HEALTH", &LcmCapture::on_health, &capture);
+  std::atomic<int> empty_polls{0};  // receives that timed out with nothing to read
   std::jthread receiver([&](std::stop_token stop) {
-    while (!stop.stop_requested()) lcm.handleTimeout(50);
+    while (!stop.stop_requested()) {
+      if (lcm.handleTimeout(50) == 0) ++empty_polls;
+    }
   });
 
   NotifySocket notify(dir / "notify.sock");
@@ -89,7 +92,19 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
                {{"NOTIFY_SOCKET", dir / "notify.sock"}, {"WATCHDOG_USEC", "2000000"}, {"WATCHDOG_PID", "self"}},
                dir / "stderr.txt");
   const int status = daemon.wait(90s);
-  std::this_thread::sleep_for(300ms);  // the last datagrams
+  // The daemon sent everything before it exited. Wait until every pose and
+  // a health report are in and a receive that began after the exit found
+  // nothing more (so an extra pose is counted too); STOPPING=1 is the last
+  // notify message.
+  const int empty_at_exit = empty_polls;
+  wait_for(
+      [&] {
+        std::lock_guard lock(capture.mutex);
+        return capture.poses.size() >= static_cast<std::size_t>(kSequenceFrames) && !capture.health.empty() &&
+               empty_polls >= empty_at_exit + 2;
+      },
+      5s);
+  notify.wait_for_message("STOPPING=1", 5s);
   receiver = {};
   const std::string log = [&] {
     std::string s;
@@ -219,8 +234,7 @@ TEST(DaemonEndToEnd, SigtermMidRunStopsWithinTwoSecondsAndLosesNoLine) {
   NotifySocket notify(dir / "notify.sock");
   Child daemon({SITEPOSED_EXE, "--config", dir / "siteposed.yaml"}, {{"NOTIFY_SOCKET", dir / "notify.sock"}},
                dir / "stderr.txt");
-  const auto end = Clock::now() + 60s;
-  while (read_lines(dir / "traj.tum").size() < 8 && Clock::now() < end) std::this_thread::sleep_for(50ms);
+  wait_for([&] { return read_lines(dir / "traj.tum").size() >= 8; }, 60s, 50ms);
   ASSERT_GE(read_lines(dir / "traj.tum").size(), 8u);
   const auto t0 = Clock::now();
   ASSERT_EQ(kill(daemon.pid(), SIGTERM), 0);
@@ -234,7 +248,7 @@ TEST(DaemonEndToEnd, SigtermMidRunStopsWithinTwoSecondsAndLosesNoLine) {
   const auto [published, not_lost] = count_quality_frames(dir / "can.log");
   EXPECT_EQ(static_cast<int>(tum.size()), not_lost) << "TUM lines vs poses published on CAN";
   EXPECT_GE(published, not_lost);
-  EXPECT_FALSE(notify.with("STOPPING=1").empty());
+  EXPECT_TRUE(notify.wait_for_message("STOPPING=1", 5s));
 }
 
 std::pair<int, std::string> run_siteposed(const std::vector<std::string>& args, const TempDir& dir) {

@@ -95,7 +95,8 @@ TEST(DaemonFaults, StalledSourceStopsTheWatchdogAndPublishesLost) {
   ASSERT_TRUE(stalling->stall_begin_);
   const auto stall_begin = *stalling->stall_begin_, stall_end = *stalling->stall_end_;
   daemon->reset();
-  std::this_thread::sleep_for(100ms);
+  // STOPPING=1 is the daemon's last notify message: with it, all are in.
+  notify.wait_for_message("STOPPING=1", 5s);
   unsetenv("NOTIFY_SOCKET");
   unsetenv("WATCHDOG_USEC");
   unsetenv("WATCHDOG_PID");
