@@ -16,6 +16,7 @@
 #include "sitepose/sim/sequence_writer.hpp"
 #include "sitepose/sim/simulator.hpp"
 #include "sitepose/testing/files.hpp"
+#include "sitepose/testing/simulated.hpp"
 
 namespace sitepose::sim {
 namespace {
@@ -23,13 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 
 Simulator small_crowded(int frames) {
-  auto scenario = load_scenario("crowded", std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
-  SITEPOSE_CHECK(scenario.has_value());
-  SimOptions o;
-  o.width = 320;
-  o.height = 180;
-  o.frames = frames;
-  auto sim = Simulator::create(*scenario, o);
+  auto sim = testing::small_simulator("crowded", 320, 180, frames, SITEPOSE_SOURCE_DIR "/config/scenarios");
   SITEPOSE_CHECK(sim.has_value());
   return std::move(*sim);
 }

@@ -9,6 +9,7 @@
 #include "sitepose/detect/plugin_loader.hpp"
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/sim/sequence_writer.hpp"
+#include "sitepose/testing/simulated.hpp"
 #include "test_util.hpp"
 
 namespace sitepose::detect {
@@ -21,13 +22,7 @@ class LabelsPlugin : public ::testing::Test {
     // processes, each with its own SetUpTestSuite.
     tmp_ = new testing::TempDir("labels-sequence");
     dir_ = new std::string((tmp_->path() / "seq").string());
-    auto scenario = sim::load_scenario("crowded");
-    ASSERT_TRUE(scenario) << scenario.error().message;
-    sim::SimOptions o;
-    o.width = 320;
-    o.height = 180;
-    o.frames = 4;
-    auto simulator = sim::Simulator::create(*scenario, o);
+    auto simulator = testing::small_simulator("crowded", 320, 180, 4);
     ASSERT_TRUE(simulator) << simulator.error().message;
     ASSERT_TRUE(sim::write_sequence(*simulator, *dir_));
     auto seq = io::open_sequence(*dir_);
