@@ -2,9 +2,13 @@
 # Command (2) of the README: installs what is missing, builds if needed and
 # runs every test (unit, integration, regression) with ctest.
 # Extra arguments go to ctest, e.g. tools/test.sh -L unit
+# Sweeps (ctest label sweep, minutes each) are left out unless
+# SITEPOSE_SWEEPS=1, e.g. SITEPOSE_SWEEPS=1 tools/test.sh -L sweep
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh
 bash tools/build.sh
 build_dir=${SITEPOSE_BUILD_DIR:-build/release}
-ctest --test-dir "$build_dir" --output-on-failure -j "${SITEPOSE_JOBS:-2}" "$@"
+labels=(-LE sweep)
+if [[ "${SITEPOSE_SWEEPS:-0}" == 1 ]]; then labels=(); fi
+ctest --test-dir "$build_dir" --output-on-failure -j "${SITEPOSE_JOBS:-2}" "${labels[@]}" "$@"

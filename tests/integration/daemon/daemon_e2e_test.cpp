@@ -10,7 +10,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "../output/mini_json.hpp"
+#include "sitepose/testing/mini_json.hpp"
 #include "daemon_test_util.hpp"
 #include "sitepose/pose_t.hpp"
 #include "sitepose/health_t.hpp"
@@ -79,8 +79,11 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
   LcmCapture capture;
   lcm.subscribe("SITEPOSE_POSE", &LcmCapture::on_pose, &capture);
   lcm.subscribe("SITEPOSE_HEALTH", &LcmCapture::on_health, &capture);
+  std::atomic<int> empty_polls{0};  // receives that timed out with nothing to read
   std::jthread receiver([&](std::stop_token stop) {
-    while (!stop.stop_requested()) lcm.handleTimeout(50);
+    while (!stop.stop_requested()) {
+      if (lcm.handleTimeout(50) == 0) ++empty_polls;
+    }
   });
 
   NotifySocket notify(dir / "notify.sock");
@@ -89,7 +92,19 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
                {{"NOTIFY_SOCKET", dir / "notify.sock"}, {"WATCHDOG_USEC", "2000000"}, {"WATCHDOG_PID", "self"}},
                dir / "stderr.txt");
   const int status = daemon.wait(90s);
-  std::this_thread::sleep_for(300ms);  // the last datagrams
+  // The daemon sent everything before it exited. Wait until every pose and
+  // a health report are in and a receive that began after the exit found
+  // nothing more (so an extra pose is counted too); STOPPING=1 is the last
+  // notify message.
+  const int empty_at_exit = empty_polls;
+  wait_for(
+      [&] {
+        std::lock_guard lock(capture.mutex);
+        return capture.poses.size() >= static_cast<std::size_t>(kSequenceFrames) && !capture.health.empty() &&
+               empty_polls >= empty_at_exit + 2;
+      },
+      5s);
+  notify.wait_for_message("STOPPING=1", 5s);
   receiver = {};
   const std::string log = [&] {
     std::string s;
@@ -130,10 +145,7 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
                           SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + (dir / "can.log") + " > " +
                           (dir / "can.json");
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  std::ifstream json_in(dir / "can.json");
-  std::stringstream json_text;
-  json_text << json_in.rdbuf();
-  const std::string json = json_text.str();
+  const std::string json = read_text(dir / "can.json");
   sitepose::testing::JsonParser parser(json);
   auto decoded = parser.parse();
   ASSERT_TRUE(decoded.has_value()) << parser.error();
@@ -222,8 +234,7 @@ TEST(DaemonEndToEnd, SigtermMidRunStopsWithinTwoSecondsAndLosesNoLine) {
   NotifySocket notify(dir / "notify.sock");
   Child daemon({SITEPOSED_EXE, "--config", dir / "siteposed.yaml"}, {{"NOTIFY_SOCKET", dir / "notify.sock"}},
                dir / "stderr.txt");
-  const auto end = Clock::now() + 60s;
-  while (read_lines(dir / "traj.tum").size() < 8 && Clock::now() < end) std::this_thread::sleep_for(50ms);
+  wait_for([&] { return read_lines(dir / "traj.tum").size() >= 8; }, 60s, 50ms);
   ASSERT_GE(read_lines(dir / "traj.tum").size(), 8u);
   const auto t0 = Clock::now();
   ASSERT_EQ(kill(daemon.pid(), SIGTERM), 0);
@@ -237,7 +248,7 @@ TEST(DaemonEndToEnd, SigtermMidRunStopsWithinTwoSecondsAndLosesNoLine) {
   const auto [published, not_lost] = count_quality_frames(dir / "can.log");
   EXPECT_EQ(static_cast<int>(tum.size()), not_lost) << "TUM lines vs poses published on CAN";
   EXPECT_GE(published, not_lost);
-  EXPECT_FALSE(notify.with("STOPPING=1").empty());
+  EXPECT_TRUE(notify.wait_for_message("STOPPING=1", 5s));
 }
 
 std::pair<int, std::string> run_siteposed(const std::vector<std::string>& args, const TempDir& dir) {
@@ -292,10 +303,7 @@ TEST(SystemdUnit, VerifiesWithoutAnyMessage) {
   if (std::system("command -v systemd-analyze > /dev/null") != 0) GTEST_SKIP() << "no systemd-analyze";
   TempDir dir("unit");
   // verify checks that ExecStart's binary exists: point it at the build.
-  std::ifstream in(SITEPOSE_SOURCE_DIR "/systemd/siteposed.service");
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string unit = text.str();
+  std::string unit = read_text(SITEPOSE_SOURCE_DIR "/systemd/siteposed.service");
   ASSERT_NE(unit.find("Type=notify"), std::string::npos);
   ASSERT_NE(unit.find("WatchdogSec="), std::string::npos);
   for (auto pos = unit.find("/usr/bin/siteposed"); pos != std::string::npos;

@@ -5,7 +5,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "../../unit/pipeline/fakes.hpp"
+#include "sitepose/testing/pipeline_fakes.hpp"
 #include "daemon_test_util.hpp"
 #include "sitepose/daemon/daemon.hpp"
 #include "sitepose/output/candump.hpp"
@@ -95,7 +95,8 @@ TEST(DaemonFaults, StalledSourceStopsTheWatchdogAndPublishesLost) {
   ASSERT_TRUE(stalling->stall_begin_);
   const auto stall_begin = *stalling->stall_begin_, stall_end = *stalling->stall_end_;
   daemon->reset();
-  std::this_thread::sleep_for(100ms);
+  // STOPPING=1 is the daemon's last notify message: with it, all are in.
+  notify.wait_for_message("STOPPING=1", 5s);
   unsetenv("NOTIFY_SOCKET");
   unsetenv("WATCHDOG_USEC");
   unsetenv("WATCHDOG_PID");
@@ -169,8 +170,8 @@ std::unique_ptr<pipeline::Pipeline> fake_pipeline(int frames, std::vector<std::u
   o.publish_retry_delay_s = 0.0;
   o.publish_max_attempts = 4;
   auto p = pipeline::Pipeline::create(
-      o, std::make_unique<pipeline::testing::ScriptedSource>(pipeline::testing::ScriptedSource::frames(frames), false),
-      std::make_unique<pipeline::PassThroughDetect>(), std::make_unique<pipeline::testing::FakeTracker>(),
+      o, std::make_unique<sitepose::testing::ScriptedSource>(sitepose::testing::ScriptedSource::frames(frames), false),
+      std::make_unique<pipeline::PassThroughDetect>(), std::make_unique<sitepose::testing::FakeTracker>(),
       std::move(outputs));
   EXPECT_TRUE(p);
   return p ? std::move(*p) : nullptr;

@@ -1,8 +1,8 @@
 #pragma once
 // Helpers of the daemon integration tests: a simulated sequence shared by
-// the tests (generated once with `sitepose sim` into the build tree), temp
-// folders, a systemd notify socket that records what arrives (with the
-// time), child processes with their own environment, and TUM/GT checks.
+// the tests (generated once with `sitepose sim` into the build tree), child
+// processes with their own environment, and TUM/GT checks; temp folders,
+// the notify socket and waiting come from sitepose/testing.
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -25,6 +25,9 @@
 
 #include "sitepose/eval/evaluate.hpp"
 #include "sitepose/io/trajectory.hpp"
+#include "sitepose/testing/files.hpp"
+#include "sitepose/testing/notify_socket.hpp"
+#include "sitepose/testing/wait.hpp"
 
 namespace sitepose::daemon::testing {
 
@@ -54,85 +57,12 @@ inline std::string simulated_sequence(const std::string& scenario, int frames) {
 // static scenario, 30 frames at 6 fps (about 10 s to generate).
 inline std::string shared_sequence() { return simulated_sequence("static", kSequenceFrames); }
 
-class TempDir {
- public:
-  explicit TempDir(const std::string& tag) {
-    path_ = fs::temp_directory_path() / ("siteposed-" + tag + "-" + std::to_string(getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    if (!::testing::Test::HasFailure()) fs::remove_all(path_);
-  }
-  const fs::path& path() const { return path_; }
-  std::string operator/(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
-};
-
-inline void write_file(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
-
-inline std::vector<std::string> read_lines(const std::string& path) {
-  std::vector<std::string> lines;
-  std::ifstream in(path);
-  for (std::string line; std::getline(in, line);) lines.push_back(line);
-  return lines;
-}
-
-// Datagrams as systemd's notify socket receives them, each with its time.
-class NotifySocket {
- public:
-  struct Message {
-    Clock::time_point t;
-    std::string text;
-  };
-  explicit NotifySocket(const std::string& path) : path_(path) {
-    fd_ = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::snprintf(addr.sun_path, sizeof(addr.sun_path), "%s", path.c_str());
-    unlink(path.c_str());
-    ok_ = fd_ >= 0 && bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0;
-    timeval tv{0, 100'000};
-    setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof(tv));
-    reader_ = std::jthread([this](std::stop_token stop) {
-      char buf[4096];
-      while (!stop.stop_requested()) {
-        const ssize_t n = recv(fd_, buf, sizeof(buf), 0);
-        if (n <= 0) continue;  // timeout: look at the stop token again
-        std::lock_guard lock(mutex_);
-        messages_.push_back({Clock::now(), std::string(buf, n)});
-      }
-    });
-  }
-  ~NotifySocket() {
-    reader_ = {};
-    if (fd_ >= 0) close(fd_);
-    unlink(path_.c_str());
-  }
-  bool ok() const { return ok_; }
-  std::vector<Message> messages() {
-    std::lock_guard lock(mutex_);
-    return messages_;
-  }
-  // Messages containing `needle`.
-  std::vector<Message> with(const std::string& needle) {
-    std::vector<Message> out;
-    for (auto& m : messages()) {
-      if (m.text.find(needle) != std::string::npos) out.push_back(m);
-    }
-    return out;
-  }
-
- private:
-  std::string path_;
-  int fd_ = -1;
-  bool ok_ = false;
-  std::mutex mutex_;
-  std::vector<Message> messages_;
-  std::jthread reader_;
-};
+using sitepose::testing::NotifySocket;
+using sitepose::testing::read_lines;
+using sitepose::testing::read_text;
+using sitepose::testing::TempDir;
+using sitepose::testing::wait_for;
+using sitepose::testing::write_file;
 
 // A child process running `argv` with extra environment variables
 // ("WATCHDOG_PID" with value "self" becomes the child's own pid); stderr
@@ -165,17 +95,10 @@ class Child {
   pid_t pid() const { return pid_; }
   // Exit status, -1 on timeout (then killed), 128 + signal when signalled.
   int wait(std::chrono::seconds timeout) {
-    const auto end = Clock::now() + timeout;
-    while (Clock::now() < end) {
-      int status = 0;
-      const pid_t r = waitpid(pid_, &status, WNOHANG);
-      if (r == pid_) {
-        done_ = true;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));  // test harness only
-    }
-    return -1;
+    int status = 0;
+    done_ = wait_for([&] { return waitpid(pid_, &status, WNOHANG) == pid_; }, timeout, std::chrono::milliseconds(20));
+    if (!done_) return -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   }
 
  private:

@@ -10,6 +10,7 @@
 
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/sim/simulator.hpp"
+#include "sitepose/testing/simulated.hpp"
 
 namespace sitepose::detect {
 namespace {
@@ -17,15 +18,6 @@ namespace {
 double iou(const cv::Rect& a, const cv::Rect& b) {
   const double inter = (a & b).area();
   return inter / (a.area() + b.area() - inter);
-}
-
-StereoFrame to_frame(const sim::SimFrame& f) {
-  StereoFrame s;
-  s.seq = f.index;
-  s.t_left_ns = s.t_right_ns = f.t_ns;
-  s.left = f.left;
-  s.right = f.right;
-  return s;
 }
 
 struct Score {
@@ -48,11 +40,7 @@ constexpr double kMinMachineFraction = 0.01;
 
 Expected<Score> run(const std::string& scenario_name, int width, int height,
                     const std::vector<int>& frames, int* id_switches = nullptr) {
-  SITEPOSE_TRY(auto scenario, sim::load_scenario(scenario_name));
-  sim::SimOptions o;
-  o.width = width;
-  o.height = height;
-  SITEPOSE_TRY(auto simulator, sim::Simulator::create(scenario, o));
+  SITEPOSE_TRY(auto simulator, testing::small_simulator(scenario_name, width, height));
   config::DetectorConfig c;
   c.name = "stereo-geometric";
   DetectorContext context;
@@ -63,7 +51,7 @@ Expected<Score> run(const std::string& scenario_name, int width, int height,
   std::map<std::uint16_t, std::uint16_t> id_of_truth;  // sim instance -> detector id
   for (int k : frames) {
     const sim::SimFrame f = simulator.render(k);
-    const StereoFrame frame = to_frame(f);
+    const StereoFrame frame = testing::stereo_frame(f);
     const auto start = std::chrono::steady_clock::now();
     SITEPOSE_TRY(auto dets, detector->detect(frame));
     SITEPOSE_TRY(cv::Mat mask, detector->segment(frame, dets));

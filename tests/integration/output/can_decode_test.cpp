@@ -15,7 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "mini_json.hpp"
+#include "sitepose/testing/files.hpp"
+#include "sitepose/testing/mini_json.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/can_sink.hpp"
 #include "sitepose/output/candump.hpp"
@@ -62,12 +63,6 @@ class CanDecodeTest : public ::testing::Test {
     if (std::system("/usr/bin/python3 -c 'import can' 2>/dev/null") != 0) {
       GTEST_SKIP() << "python3-can is missing for /usr/bin/python3";
     }
-    dir_ = std::filesystem::temp_directory_path() /
-           ("sitepose_can_decode_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir_);
-  }
-  void TearDown() override {
-    if (!dir_.empty()) std::filesystem::remove_all(dir_);
   }
 
   std::string write_log() {
@@ -91,10 +86,7 @@ class CanDecodeTest : public ::testing::Test {
         std::string(kPython) + " " SITEPOSE_SOURCE_DIR "/tools/can_decode.py --dbc " +
         SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + log + " > " + json_path;
     const int rc = std::system(cmd.c_str());
-    std::ifstream in(json_path);
-    std::stringstream text;
-    text << in.rdbuf();
-    const std::string json = text.str();  // the parser keeps a view of it
+    const std::string json = sitepose::testing::read_text(json_path);  // the parser keeps a view of it
     JsonParser parser(json);
     auto parsed = parser.parse();
     EXPECT_TRUE(parsed.has_value()) << parser.error() << "\n" << json.substr(0, 500);
@@ -102,7 +94,8 @@ class CanDecodeTest : public ::testing::Test {
     return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
   }
 
-  std::filesystem::path dir_;
+  sitepose::testing::TempDir tmp_;
+  const std::filesystem::path dir_ = tmp_.path();
 };
 
 void expect_near_or_null(const Json& v, bool expect_null, double expected, double tol,

@@ -32,6 +32,7 @@
 
 #include "sitepose/output/lcm_gnss_subscriber.hpp"
 #include "sitepose/output/lcm_publisher.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::output {
 namespace {
@@ -40,14 +41,10 @@ constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 constexpr int kPoses = 50;
 
 int shell(const std::string& command, std::string* output = nullptr) {
-  const std::string log = ::testing::TempDir() + "/lcm_udpm_cmd.log";
+  const sitepose::testing::TempDir dir("lcm-udpm-cmd");
+  const std::string log = dir / "cmd.log";
   const int rc = std::system((command + " >" + log + " 2>&1").c_str());
-  if (output) {
-    std::ifstream in(log);
-    std::stringstream text;
-    text << in.rdbuf();
-    *output = text.str();
-  }
+  if (output) *output = sitepose::testing::read_text(log);
   return rc;
 }
 

@@ -15,33 +15,24 @@
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/sim/sequence_writer.hpp"
 #include "sitepose/sim/simulator.hpp"
+#include "sitepose/testing/files.hpp"
+#include "sitepose/testing/simulated.hpp"
 
 namespace sitepose::sim {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("sitepose_sim_it_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  return dir;
-}
-
 Simulator small_crowded(int frames) {
-  auto scenario = load_scenario("crowded", std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
-  SITEPOSE_CHECK(scenario.has_value());
-  SimOptions o;
-  o.width = 320;
-  o.height = 180;
-  o.frames = frames;
-  auto sim = Simulator::create(*scenario, o);
+  auto sim = testing::small_simulator("crowded", 320, 180, frames, SITEPOSE_SOURCE_DIR "/config/scenarios");
   SITEPOSE_CHECK(sim.has_value());
   return std::move(*sim);
 }
 
 TEST(SimSequence, WrittenSequenceReadsBackThroughTheFoundationReader) {
   const Simulator sim = small_crowded(6);
-  const fs::path dir = fresh_dir("roundtrip");
+  const testing::TempDir tmp;
+  const fs::path dir = tmp.path() / "seq";
   auto summary = write_sequence(sim, dir.string());
   ASSERT_TRUE(summary) << summary.error().message;
   EXPECT_EQ(summary->frames, 6);
@@ -86,12 +77,9 @@ TEST(SimSequence, WrittenSequenceReadsBackThroughTheFoundationReader) {
       }
     }
   }
-  std::ifstream meta(dir / "meta.json");
-  std::stringstream text;
-  text << meta.rdbuf();
-  EXPECT_NE(text.str().find("\"scenario\": \"crowded\""), std::string::npos);
-  EXPECT_NE(text.str().find("\"occlusion_ratio\": ["), std::string::npos);
-  fs::remove_all(dir);
+  const std::string meta = testing::read_text((dir / "meta.json").string());
+  EXPECT_NE(meta.find("\"scenario\": \"crowded\""), std::string::npos);
+  EXPECT_NE(meta.find("\"occlusion_ratio\": ["), std::string::npos);
 }
 
 TEST(SimSequence, FullSizeFrameCarriesManyOrbCornersOverTheWholeView) {
@@ -118,7 +106,8 @@ int run(const std::string& args) {
 
 TEST(SimCommand, FollowsTheCommandContract) {
   if (!fs::exists(SITEPOSE_SITEPOSE_EXE)) GTEST_SKIP() << "build the `sitepose` target first";
-  const fs::path dir = fresh_dir("cli");
+  const testing::TempDir tmp;
+  const fs::path dir = tmp.path() / "seq";
   EXPECT_EQ(run("sim --list"), 0);
   EXPECT_EQ(run("sim --scenario no_such_scenario --out " + dir.string()), 2);
   EXPECT_EQ(run("sim --scenario static --out " + dir.string() + " --frames 2 --width 160 --height 90"), 0);
@@ -131,7 +120,6 @@ TEST(SimCommand, FollowsTheCommandContract) {
   const fs::path bad = dir / "bad.yaml";
   std::ofstream(bad) << "name: bad\ndescription: d\nduration_s: 1\nego: {speed: 3}\n";
   EXPECT_EQ(run("sim --scenario " + bad.string() + " --out " + (dir / "x").string()), 2);
-  fs::remove_all(dir);
 }
 
 }  // namespace

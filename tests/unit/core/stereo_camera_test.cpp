@@ -2,15 +2,15 @@
 
 #include <gtest/gtest.h>
 
+#include "sitepose/testing/cameras.hpp"
+
 namespace sitepose {
 namespace {
 
-StereoCamera default_camera() {
-  return StereoCamera{700.0, 700.0, 480.0, 270.0, 1.0, 960, 540};
-}
+using testing::test_camera;
 
 TEST(StereoCamera, ProjectUnprojectRoundTrip) {
-  const StereoCamera cam = default_camera();
+  const StereoCamera cam = test_camera();
   for (double u = 0.5; u < 960; u += 97.3) {
     for (double v = 0.5; v < 540; v += 61.7) {
       for (double depth : {0.5, 3.0, 40.0}) {
@@ -25,7 +25,7 @@ TEST(StereoCamera, ProjectUnprojectRoundTrip) {
 }
 
 TEST(StereoCamera, DisparityDepthInverse) {
-  const StereoCamera cam = default_camera();
+  const StereoCamera cam = test_camera();
   EXPECT_DOUBLE_EQ(cam.depth_from_disparity(70.0), 10.0);  // 700 px * 1 m / 70 px
   EXPECT_DOUBLE_EQ(cam.disparity_from_depth(10.0), 70.0);
   const Eigen::Vector3d p(1.5, -0.4, 7.0);
@@ -37,19 +37,19 @@ TEST(StereoCamera, DisparityDepthInverse) {
 }
 
 TEST(StereoCamera, TriangulateRejectsNonPositiveDisparity) {
-  const StereoCamera cam = default_camera();
+  const StereoCamera cam = test_camera();
   EXPECT_FALSE(cam.triangulate({100.0, 100.0}, 100.0).has_value());
   EXPECT_FALSE(cam.triangulate({100.0, 100.0}, 120.0).has_value());
 }
 
 TEST(StereoCamera, ValidateNamesTheProblem) {
-  StereoCamera cam = default_camera();
+  StereoCamera cam = test_camera();
   EXPECT_TRUE(cam.validate().has_value());
   cam.baseline_m = -1.0;
   const auto st = cam.validate();
   ASSERT_FALSE(st.has_value());
   EXPECT_NE(st.error().message.find("baseline_m"), std::string::npos);
-  cam = default_camera();
+  cam = test_camera();
   cam.cx = 2000;
   ASSERT_FALSE(cam.validate().has_value());
   EXPECT_NE(cam.validate().error().message.find("cx"), std::string::npos);

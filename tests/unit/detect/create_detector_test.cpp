@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "sitepose/testing/cameras.hpp"
 #include "test_util.hpp"
 
 namespace sitepose::detect {
@@ -31,7 +32,8 @@ TEST(CreateDetector, UnknownBuiltinNameIsBadInput) {
 }
 
 TEST(CreateDetector, EnvironmentDirectoryTakesPrecedence) {
-  const auto dir = test::scratch_dir();
+  const testing::TempDir tmp;
+  const std::filesystem::path& dir = tmp.path();
   // Stand-in "labels" plugin: the garbage test plugin under the built-in name.
   std::filesystem::copy_file(DETECT_TEST_GARBAGE_PLUGIN, dir / "libsitepose_detector_labels.so");
   ::setenv("SITEPOSE_DETECTOR_PLUGIN_DIR", dir.c_str(), 1);
@@ -61,14 +63,8 @@ TEST(CreateDetector, PluginConfigCarriesTheContext) {
   c.name = "stereo-geometric";
   c.geometric_max_range_m = 21.5;
   DetectorContext context;
-  StereoCamera cam;
-  cam.fx = 350;
+  StereoCamera cam = testing::centred_camera(480, 270, 350.0, 1.0);
   cam.fy = 351;
-  cam.cx = 240;
-  cam.cy = 135;
-  cam.baseline_m = 1.0;
-  cam.width = 480;
-  cam.height = 270;
   context.camera = cam;
   auto yaml = plugin_config_yaml(c, context);
   ASSERT_TRUE(yaml) << yaml.error().message;

@@ -4,12 +4,12 @@
 #include <chrono>
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/detect/plugin_loader.hpp"
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/sim/sequence_writer.hpp"
+#include "sitepose/testing/simulated.hpp"
 #include "test_util.hpp"
 
 namespace sitepose::detect {
@@ -20,16 +20,9 @@ class LabelsPlugin : public ::testing::Test {
   static void SetUpTestSuite() {
     // One folder per process: ctest runs the cases of this suite in parallel
     // processes, each with its own SetUpTestSuite.
-    dir_ = new std::string((std::filesystem::temp_directory_path() / "sitepose_detect_test" /
-                            ("labels_sequence_" + std::to_string(::getpid()))).string());
-    std::filesystem::remove_all(*dir_);
-    auto scenario = sim::load_scenario("crowded");
-    ASSERT_TRUE(scenario) << scenario.error().message;
-    sim::SimOptions o;
-    o.width = 320;
-    o.height = 180;
-    o.frames = 4;
-    auto simulator = sim::Simulator::create(*scenario, o);
+    tmp_ = new testing::TempDir("labels-sequence");
+    dir_ = new std::string((tmp_->path() / "seq").string());
+    auto simulator = testing::small_simulator("crowded", 320, 180, 4);
     ASSERT_TRUE(simulator) << simulator.error().message;
     ASSERT_TRUE(sim::write_sequence(*simulator, *dir_));
     auto seq = io::open_sequence(*dir_);
@@ -38,8 +31,8 @@ class LabelsPlugin : public ::testing::Test {
   }
   static void TearDownTestSuite() {
     delete sequence_;
-    std::filesystem::remove_all(*dir_);
     delete dir_;
+    delete tmp_;
   }
 
   static Expected<std::unique_ptr<Detector>> make(const config::DetectorConfig& c) {
@@ -53,9 +46,11 @@ class LabelsPlugin : public ::testing::Test {
     return *f;
   }
 
+  static testing::TempDir* tmp_;
   static std::string* dir_;
   static io::Sequence* sequence_;
 };
+testing::TempDir* LabelsPlugin::tmp_ = nullptr;
 std::string* LabelsPlugin::dir_ = nullptr;
 io::Sequence* LabelsPlugin::sequence_ = nullptr;
 

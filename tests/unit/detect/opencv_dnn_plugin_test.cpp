@@ -43,7 +43,6 @@ void write_tiny_darknet(const std::filesystem::path& cfg, const std::filesystem:
 class OpencvDnnPlugin : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = test::scratch_dir();
     write_tiny_darknet(dir_ / "tiny.cfg", dir_ / "tiny.weights");
     std::ofstream(dir_ / "names.txt") << "truck\nperson\n";
     config_.name = "opencv-dnn";
@@ -54,7 +53,8 @@ class OpencvDnnPlugin : public ::testing::Test {
     config_.dnn_input_height_px = 8;
     config_.score_threshold = 0.5;
   }
-  std::filesystem::path dir_;
+  testing::TempDir tmp_;
+  const std::filesystem::path dir_ = tmp_.path();
   config::DetectorConfig config_;
 };
 

@@ -21,7 +21,8 @@ TEST(PluginLoader, MissingFileIsNotFoundNamingThePath) {
 }
 
 TEST(PluginLoader, FileThatIsNotALibraryIsRefused) {
-  const auto path = (test::scratch_dir() / "fake.so").string();
+  const testing::TempDir dir;
+  const std::string path = dir / "fake.so";
   std::ofstream(path) << "this is not an ELF file\n";
   auto d = load_detector_plugin(path, "");
   ASSERT_FALSE(d);

@@ -4,19 +4,12 @@
 
 #include <random>
 
+#include "sitepose/testing/cameras.hpp"
+
 namespace sitepose::dynamic {
 namespace {
 
-StereoCamera test_camera() {
-  StereoCamera c;
-  c.fx = c.fy = 700.0;
-  c.cx = 480.0;
-  c.cy = 270.0;
-  c.baseline_m = 1.0;
-  c.width = 960;
-  c.height = 540;
-  return c;
-}
+using testing::test_camera;
 
 // An object: world points on a 3 m x 2 m patch 10 m in front of the origin
 // camera, each with its own random descriptor.

@@ -16,6 +16,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "sitepose/testing/files.hpp"
 #include "test_trajectories.hpp"
 
 namespace sitepose::eval {
@@ -32,24 +33,8 @@ struct RunResult {
   std::string err;
 };
 
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 class CmdEval : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("sitepose_cmd_eval_test_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   RunResult run(const std::string& args) const {
     const fs::path out = dir_ / "stdout.txt";
     const fs::path err = dir_ / "stderr.txt";
@@ -58,8 +43,8 @@ class CmdEval : public ::testing::Test {
     const int raw = std::system(cmd.c_str());
     RunResult r;
     r.exit_status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
+    r.out = sitepose::testing::read_text(out.string());
+    r.err = sitepose::testing::read_text(err.string());
     return r;
   }
 
@@ -97,7 +82,8 @@ class CmdEval : public ::testing::Test {
            " --est " + (dir_ / "est.txt").string();
   }
 
-  fs::path dir_;
+  sitepose::testing::TempDir tmp_;
+  const fs::path dir_ = tmp_.path();
 };
 
 // Value of a numeric JSON field at `path` like "ate_m.rmse" (one level of

@@ -7,7 +7,7 @@
 #include <opencv2/features2d.hpp>
 #include <set>
 
-#include "test_images.hpp"
+#include "sitepose/testing/images.hpp"
 
 namespace sitepose::features::detail {
 namespace {
@@ -30,7 +30,7 @@ const auto kNothingMasked = [](float, float) { return false; };
 TEST(CellThresholds, StrongCellsMatchWholeImageFast) {
   // Contrast everywhere: every cell is served at the initial threshold, so
   // the result is exactly FAST(20) over the area.
-  const cv::Mat image = sitepose::features::test::make_texture(cv::Size(400, 300), 11);
+  const cv::Mat image = testing::make_texture(cv::Size(400, 300), 11);
   const cv::Rect area(16, 16, 368, 268);
   const auto kept = detect_fast_per_cell(image, area, 35, 20, 7, kNothingMasked);
   std::vector<cv::KeyPoint> whole;
@@ -43,8 +43,8 @@ TEST(CellThresholds, WeakCellsFallBackToTheMinimumThreshold) {
   // Left half strong, right half so faint that nothing passes 20: the right
   // half must hold exactly what FAST(7) finds there over the whole image
   // (the per-cell search has an apron, so suppression matches).
-  const cv::Mat texture = sitepose::features::test::make_texture(cv::Size(400, 300), 12);
-  const cv::Mat image = sitepose::features::test::with_contrast(texture, cv::Rect(0, 0, 200, 300), 0.1);
+  const cv::Mat texture = testing::make_texture(cv::Size(400, 300), 12);
+  const cv::Mat image = testing::with_contrast(texture, cv::Rect(0, 0, 200, 300), 0.1);
   const cv::Rect area(16, 16, 368, 268);
   const auto kept = detect_fast_per_cell(image, area, 46, 20, 7, kNothingMasked);
   std::vector<cv::KeyPoint> strong;
@@ -60,7 +60,7 @@ TEST(CellThresholds, WeakCellsFallBackToTheMinimumThreshold) {
 }
 
 TEST(CellThresholds, MaskedStrongCornersMakeTheCellFallBack) {
-  const cv::Mat image = sitepose::features::test::make_texture(cv::Size(200, 200), 13);
+  const cv::Mat image = testing::make_texture(cv::Size(200, 200), 13);
   const cv::Rect area(16, 16, 168, 168);
   // Mask every strong candidate: all cells fall back, and no masked pixel
   // survives.

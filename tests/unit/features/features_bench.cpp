@@ -7,7 +7,8 @@
 #include <future>
 
 #include "sitepose/features/stereo_extractor.hpp"
-#include "test_images.hpp"
+#include "sitepose/testing/cameras.hpp"
+#include "sitepose/testing/images.hpp"
 
 namespace sitepose::features {
 namespace {
@@ -17,14 +18,9 @@ struct Scene {
   cv::Mat right;
   StereoCamera camera;
   Scene() {
-    left = test::make_shapes_scene(cv::Size(960, 540), 31);
-    right = test::render_right(left, {180, 360, 540}, {10.3, 33.7, 50.0});
-    camera.fx = camera.fy = 700.0;
-    camera.cx = 480.0;
-    camera.cy = 270.0;
-    camera.baseline_m = 0.5;
-    camera.width = 960;
-    camera.height = 540;
+    left = testing::make_shapes_scene(cv::Size(960, 540), 31);
+    right = testing::render_right(left, {180, 360, 540}, {10.3, 33.7, 50.0});
+    camera = testing::centred_camera(960, 540, 700.0, 0.5);
   }
 };
 

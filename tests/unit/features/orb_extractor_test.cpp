@@ -8,7 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sitepose/features/hamming.hpp"
-#include "test_images.hpp"
+#include "sitepose/testing/images.hpp"
 
 namespace sitepose::features {
 namespace {
@@ -41,7 +41,7 @@ std::vector<int> grid_counts(const std::vector<cv::KeyPoint>& kps, cv::Size size
 TEST(OrbExtractor, ReturnsBudgetWithConsistentFields) {
   config::OrbConfig cfg;
   OrbExtractor extractor(cfg);
-  const cv::Mat image = test::make_texture(kSize, 1);
+  const cv::Mat image = testing::make_texture(kSize, 1);
   const OrbFeatures f = extract_ok(extractor, image);
   const int n = static_cast<int>(f.keypoints.size());
   EXPECT_LE(n, cfg.n_features);
@@ -89,7 +89,7 @@ TEST(OrbExtractor, LevelScaleTables) {
 
 TEST(OrbExtractor, NoKeypointOnAMaskedPixel) {
   OrbExtractor extractor(config::OrbConfig{});
-  const cv::Mat image = test::make_texture(kSize, 2);
+  const cv::Mat image = testing::make_texture(kSize, 2);
   cv::Mat mask = cv::Mat::zeros(kSize, CV_8UC1);
   cv::RNG rng(7);
   for (int i = 0; i < 25; ++i) {
@@ -120,7 +120,7 @@ TEST(OrbExtractor, NoKeypointOnAMaskedPixel) {
 TEST(OrbExtractor, MaskMovesBudgetToUnmaskedHalf) {
   config::OrbConfig cfg;
   OrbExtractor extractor(cfg);
-  const cv::Mat image = test::make_texture(kSize, 3);
+  const cv::Mat image = testing::make_texture(kSize, 3);
   cv::Mat mask = cv::Mat::zeros(kSize, CV_8UC1);
   mask(cv::Rect(0, 0, kSize.width / 2, kSize.height)).setTo(255);
 
@@ -143,7 +143,7 @@ TEST(OrbExtractor, SpreadsOverTheGridWherePlainFastClusters) {
   OrbExtractor extractor(cfg);
   // Strong texture only in the top-left quadrant, weak (but detectable by
   // the minimum threshold) elsewhere.
-  const cv::Mat image = test::with_contrast(test::make_texture(kSize, 4),
+  const cv::Mat image = testing::with_contrast(testing::make_texture(kSize, 4),
                                             cv::Rect(0, 0, kSize.width / 2, kSize.height / 2), 0.12);
   const OrbFeatures f = extract_ok(extractor, image);
   const std::vector<int> ours = grid_counts(f.keypoints, kSize, 4, 4);
@@ -164,7 +164,7 @@ TEST(OrbExtractor, FallbackThresholdFindsFeaturesInTexturePoorImage) {
   config::OrbConfig cfg;
   OrbExtractor extractor(cfg);
   // Contrast so low that hardly any corner passes 20, many pass 7.
-  const cv::Mat image = test::with_contrast(test::make_texture(kSize, 5), cv::Rect(), 0.1);
+  const cv::Mat image = testing::with_contrast(testing::make_texture(kSize, 5), cv::Rect(), 0.1);
   std::vector<cv::KeyPoint> strong;
   cv::FAST(image, strong, cfg.ini_fast_threshold, true);
   const OrbFeatures f = extract_ok(extractor, image);
@@ -220,7 +220,7 @@ int median(std::vector<int> v) {
 
 TEST(OrbExtractor, DescriptorsOfShiftedSceneMatch) {
   OrbExtractor extractor(config::OrbConfig{});
-  const cv::Mat canvas = test::make_texture(cv::Size(1000, 600), 6);
+  const cv::Mat canvas = testing::make_texture(cv::Size(1000, 600), 6);
   const cv::Mat a = canvas(cv::Rect(24, 30, 960, 540)).clone();
   // Scene moves by (+24, +12): whole pixels on levels 0 and 1 (24 / 1.2,
   // 12 / 1.2), so keypoints there land on exactly corresponding pixels.
@@ -241,7 +241,7 @@ TEST(OrbExtractor, DescriptorsOfShiftedSceneMatch) {
 
 TEST(OrbExtractor, DescriptorsAreSteeredByOrientation) {
   OrbExtractor extractor(config::OrbConfig{});
-  const cv::Mat image = test::make_texture(kSize, 8, 6, 1.5);
+  const cv::Mat image = testing::make_texture(kSize, 8, 6, 1.5);
   const cv::Point2f center(480, 270);
   const double rotation_deg = 40.0;
   const cv::Mat rot = cv::getRotationMatrix2D(center, rotation_deg, 1.0);
@@ -271,7 +271,7 @@ TEST(OrbExtractor, DescriptorsAreSteeredByOrientation) {
 
 TEST(OrbExtractor, RejectsBadInputWithAReason) {
   OrbExtractor extractor(config::OrbConfig{});
-  const cv::Mat image = test::make_texture(kSize, 9);
+  const cv::Mat image = testing::make_texture(kSize, 9);
   const auto color = extractor.extract(cv::Mat(kSize, CV_8UC3, cv::Scalar::all(0)));
   ASSERT_FALSE(color.has_value());
   EXPECT_EQ(color.error().code, ErrorCode::kInvalidArgument);

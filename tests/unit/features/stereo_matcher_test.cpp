@@ -6,7 +6,8 @@
 #include <cstdio>
 
 #include "sitepose/features/stereo_extractor.hpp"
-#include "test_images.hpp"
+#include "sitepose/testing/cameras.hpp"
+#include "sitepose/testing/images.hpp"
 
 namespace sitepose::features {
 namespace {
@@ -18,16 +19,7 @@ constexpr double kBf = 350.0;  // fx 700 px, baseline 0.5 m
 const std::vector<int> kBandEnds = {180, 360, 540};
 const std::vector<double> kBandDisparity = {10.3, 33.7, 80.0};
 
-StereoCamera camera() {
-  StereoCamera cam;
-  cam.fx = cam.fy = 700.0;
-  cam.cx = 480.0;
-  cam.cy = 270.0;
-  cam.baseline_m = kBf / 700.0;
-  cam.width = kSize.width;
-  cam.height = kSize.height;
-  return cam;
-}
+StereoCamera camera() { return testing::centred_camera(kSize.width, kSize.height, 700.0, kBf / 700.0); }
 
 config::StereoMatchConfig stereo_config() {
   config::StereoMatchConfig cfg;
@@ -54,8 +46,8 @@ struct Pair {
 
 Pair make_pair(std::uint64_t seed) {
   Pair p;
-  p.left = test::make_shapes_scene(kSize, seed);
-  p.right = test::render_right(p.left, kBandEnds, kBandDisparity);
+  p.left = testing::make_shapes_scene(kSize, seed);
+  p.right = testing::render_right(p.left, kBandEnds, kBandDisparity);
   return p;
 }
 
@@ -283,7 +275,7 @@ TEST(StereoMatcher, RejectsBadConfigAndInputs) {
   EXPECT_FALSE(StereoExtractor::create(config::OrbConfig{}, stereo_config(), no_baseline).has_value());
 
   StereoExtractor extractor(config::OrbConfig{}, stereo_config(), camera());
-  const cv::Mat left = test::make_texture(kSize, 26);
+  const cv::Mat left = testing::make_texture(kSize, 26);
   const auto mismatched = extractor.extract(left, left(cv::Rect(0, 0, 480, 540)).clone());
   ASSERT_FALSE(mismatched.has_value());
   EXPECT_EQ(mismatched.error().code, ErrorCode::kInvalidArgument);

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "sitepose/testing/files.hpp"
+
 namespace sitepose::geo {
 namespace {
 
@@ -148,17 +150,14 @@ TEST(Nmea, FileWithoutRmcOrMissingFileFails) {
   ASSERT_FALSE(missing.has_value());
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
 
-  const std::string path = ::testing::TempDir() + "/geo_nmea_test.nmea";
-  {
-    std::ofstream out(path);
-    out << sentence("GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4,230394,003.1,W") << "\n"
-        << sentence("GPGGA,123519,4807.038,N,01131.000,E,4,08,0.9,545.4,M,46.9,M,,") << "\n";
-  }
+  const testing::TempDir dir;
+  const std::string path =
+      dir.write("fixes.nmea", sentence("GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4,230394,003.1,W") + "\n" +
+                                  sentence("GPGGA,123519,4807.038,N,01131.000,E,4,08,0.9,545.4,M,46.9,M,,") + "\n");
   auto file = read_nmea_file(path, {});
   ASSERT_TRUE(file.has_value()) << file.error().message;
   ASSERT_EQ(file->fixes.size(), 1u);
   EXPECT_EQ(file->fixes[0].t_ns, 8847 * 86400 * kNs + (12 * 3600 + 35 * 60 + 19) * kNs);
-  std::remove(path.c_str());
 }
 
 }  // namespace

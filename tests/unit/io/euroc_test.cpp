@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sitepose/io/sequence.hpp"
-#include "temp_dir.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::io {
 namespace {

@@ -4,7 +4,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "temp_dir.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::io {
 namespace {
@@ -85,23 +85,23 @@ TEST(InstanceMask, Reads16BitAndRejects8Bit) {
   TempDir dir;
   cv::Mat mask16(48, 64, CV_16UC1, cv::Scalar(0));
   mask16(cv::Rect(10, 10, 5, 5)).setTo(1000);  // ids above 255 survive only in 16 bit
-  ASSERT_TRUE(cv::imwrite(dir.file("m16.png"), mask16));
-  auto good = read_instance_mask(dir.file("m16.png"));
+  ASSERT_TRUE(cv::imwrite(dir / "m16.png", mask16));
+  auto good = read_instance_mask(dir / "m16.png");
   ASSERT_TRUE(good) << good.error().message;
   EXPECT_EQ(good->type(), CV_16UC1);
   EXPECT_EQ(good->at<std::uint16_t>(12, 12), 1000);
   EXPECT_EQ(good->at<std::uint16_t>(0, 0), 0);
 
   cv::Mat mask8(48, 64, CV_8UC1, cv::Scalar(3));
-  ASSERT_TRUE(cv::imwrite(dir.file("m8.png"), mask8));
-  auto bad = read_instance_mask(dir.file("m8.png"));
+  ASSERT_TRUE(cv::imwrite(dir / "m8.png", mask8));
+  auto bad = read_instance_mask(dir / "m8.png");
   ASSERT_FALSE(bad);
   EXPECT_EQ(bad.error().code, ErrorCode::kParseError);
   EXPECT_NE(bad.error().message.find("m8.png: expected a 16-bit single-channel PNG"), std::string::npos)
       << bad.error().message;
   EXPECT_NE(bad.error().message.find("got 8-bit"), std::string::npos);
 
-  auto missing = read_instance_mask(dir.file("none.png"));
+  auto missing = read_instance_mask(dir / "none.png");
   ASSERT_FALSE(missing);
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
 }

@@ -7,7 +7,7 @@
 
 #include "sitepose/io/kitti_calib.hpp"
 #include "sitepose/io/trajectory.hpp"
-#include "temp_dir.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::io {
 namespace {
@@ -176,7 +176,7 @@ TEST(SiteposeSequence, KittiLayoutWithExplicitGtPath) {
     EXPECT_FALSE((*no_gt)->has_gt());
     EXPECT_EQ((*no_gt)->gt_poses().size(), 3u);
   }
-  const std::string gt_path = dir.file("00.txt");
+  const std::string gt_path = dir / "00.txt";
   ASSERT_TRUE(write_kitti_poses(gt_path, {gt_pose(0), gt_pose(5), gt_pose(7)}));
   SequenceOptions options;
   options.gt_path = gt_path;
@@ -201,7 +201,7 @@ TEST(SiteposeSequence, CountMismatchRejected) {
   EXPECT_NE(seq.error().message.find("has 2 times"), std::string::npos);
 
   dir.write("seq/times.txt", "0.0\n0.1\n0.2\n");
-  ASSERT_TRUE(write_kitti_poses(dir.file("seq/poses.txt"), {gt_pose(0)}));
+  ASSERT_TRUE(write_kitti_poses(dir / "seq/poses.txt", {gt_pose(0)}));
   auto poses = open_sequence(root);
   ASSERT_FALSE(poses);
   EXPECT_NE(poses.error().message.find("poses.txt has 1 poses"), std::string::npos) << poses.error().message;
@@ -328,11 +328,11 @@ TEST(SiteposeSequence, BadBoxesLineFailsOpen) {
 
 TEST(OpenSequence, RejectsMissingAndUnknownFolders) {
   TempDir dir;
-  auto missing = open_sequence(dir.file("nope"));
+  auto missing = open_sequence(dir / "nope");
   ASSERT_FALSE(missing);
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
   fs::create_directories(dir.path() / "empty");
-  auto unknown = open_sequence(dir.file("empty"));
+  auto unknown = open_sequence(dir / "empty");
   ASSERT_FALSE(unknown);
   EXPECT_NE(unknown.error().message.find("not a sequence: expected image_0/"), std::string::npos);
 }

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "temp_dir.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::io {
 namespace {
@@ -27,7 +27,7 @@ TEST(TumTrajectory, WriteReadRoundTrip) {
   TempDir dir;
   Trajectory trajectory;
   for (int i = 0; i < 20; ++i) trajectory.push_back({1700000000.0 + 0.1 * i + 1e-9 * i, test_pose(i)});
-  const std::string path = dir.file("traj.tum");
+  const std::string path = dir / "traj.tum";
   ASSERT_TRUE(write_tum_trajectory(path, trajectory));
   auto read = read_tum_trajectory(path);
   ASSERT_TRUE(read) << read.error().message;
@@ -91,7 +91,7 @@ TEST(TumTrajectory, NonUnitQuaternionAndUnorderedTimesRejected) {
 
 TEST(TumTrajectory, MissingFileIsNotFound) {
   TempDir dir;
-  auto read = read_tum_trajectory(dir.file("nope.tum"));
+  auto read = read_tum_trajectory(dir / "nope.tum");
   ASSERT_FALSE(read);
   EXPECT_EQ(read.error().code, ErrorCode::kNotFound);
   EXPECT_NE(read.error().message.find("nope.tum"), std::string::npos);
@@ -100,14 +100,14 @@ TEST(TumTrajectory, MissingFileIsNotFound) {
 TEST(TumTrajectory, WriteRefusesNonFinite) {
   TempDir dir;
   Trajectory trajectory{{std::nan(""), SE3()}};
-  const Status s = write_tum_trajectory(dir.file("x.tum"), trajectory);
+  const Status s = write_tum_trajectory(dir / "x.tum", trajectory);
   ASSERT_FALSE(s);
   EXPECT_EQ(s.error().code, ErrorCode::kInvalidArgument);
 }
 
 TEST(TumTrajectory, WriteToMissingFolderFails) {
   TempDir dir;
-  const Status s = write_tum_trajectory(dir.file("no/such/dir/x.tum"), {{0.0, SE3()}});
+  const Status s = write_tum_trajectory(dir / "no/such/dir/x.tum", {{0.0, SE3()}});
   ASSERT_FALSE(s);
   EXPECT_EQ(s.error().code, ErrorCode::kIoError);
   EXPECT_NE(s.error().message.find("no/such/dir/x.tum"), std::string::npos);
@@ -117,7 +117,7 @@ TEST(KittiPoses, WriteReadRoundTrip) {
   TempDir dir;
   std::vector<SE3> poses;
   for (int i = 0; i < 15; ++i) poses.push_back(test_pose(i));
-  const std::string path = dir.file("poses.txt");
+  const std::string path = dir / "poses.txt";
   ASSERT_TRUE(write_kitti_poses(path, poses));
   auto read = read_kitti_poses(path);
   ASSERT_TRUE(read) << read.error().message;
@@ -183,16 +183,16 @@ TEST(Times, ReadsAndValidates) {
 TEST(KittiTrajectory, ZipsPosesAndTimes) {
   TempDir dir;
   std::vector<SE3> poses{test_pose(1), test_pose(2), test_pose(3)};
-  ASSERT_TRUE(write_kitti_poses(dir.file("poses.txt"), poses));
+  ASSERT_TRUE(write_kitti_poses(dir / "poses.txt", poses));
   dir.write("times.txt", "0.0\n0.1\n0.2\n");
-  auto traj = read_kitti_trajectory(dir.file("poses.txt"), dir.file("times.txt"));
+  auto traj = read_kitti_trajectory(dir / "poses.txt", dir / "times.txt");
   ASSERT_TRUE(traj) << traj.error().message;
   ASSERT_EQ(traj->size(), 3u);
   EXPECT_DOUBLE_EQ((*traj)[2].t_s, 0.2);
   expect_pose_near((*traj)[2].T_world_cam, poses[2], 1e-7);
 
   dir.write("times2.txt", "0.0\n0.1\n");
-  auto mismatch = read_kitti_trajectory(dir.file("poses.txt"), dir.file("times2.txt"));
+  auto mismatch = read_kitti_trajectory(dir / "poses.txt", dir / "times2.txt");
   ASSERT_FALSE(mismatch);
   EXPECT_NE(mismatch.error().message.find("has 3 poses"), std::string::npos);
   EXPECT_NE(mismatch.error().message.find("has 2 times"), std::string::npos);

@@ -7,7 +7,7 @@
 #include <random>
 #include <set>
 
-#include "synthetic_world.hpp"
+#include "sitepose/testing/map_world.hpp"
 
 namespace sitepose::mapping {
 namespace {

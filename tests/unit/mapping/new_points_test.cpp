@@ -7,7 +7,7 @@
 
 #include "sitepose/mapping/fuse.hpp"
 #include "sitepose/mapping/keyframe_culling.hpp"
-#include "synthetic_world.hpp"
+#include "sitepose/testing/map_world.hpp"
 
 namespace sitepose::mapping {
 namespace {

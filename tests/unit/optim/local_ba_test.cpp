@@ -5,7 +5,7 @@
 #include <cmath>
 #include <random>
 
-#include "synthetic_scene.hpp"
+#include "sitepose/testing/pose_scene.hpp"
 
 namespace sitepose::optim {
 namespace {
@@ -60,7 +60,7 @@ Errors errors(const std::vector<SE3>& T_cam_world, const std::vector<Eigen::Vect
 
 TEST(LocalBa, ReducesPoseAndPointErrorsAndKeepsFixedKeyframes) {
   const MapScene s = make_map_scene(0.05, 3);
-  const LocalBa ba(test_camera(), config::MappingConfig{}, config::TrackingConfig{});
+  const LocalBa ba(hd_camera(), config::MappingConfig{}, config::TrackingConfig{});
   auto result = ba.solve(s.input, nullptr);
   ASSERT_TRUE(result.has_value()) << result.error().message;
   EXPECT_FALSE(result->aborted);
@@ -119,7 +119,7 @@ TEST(LocalBa, AllKeyframesFixedRefinesPointsOnly) {
   MapScene s = make_map_scene(0.0, 7);
   s.input.T_cam_world = s.T_cam_world_true;
   for (std::uint8_t& fixed : s.input.keyframe_fixed) fixed = 1;
-  const LocalBa ba(test_camera(), config::MappingConfig{}, config::TrackingConfig{});
+  const LocalBa ba(hd_camera(), config::MappingConfig{}, config::TrackingConfig{});
   auto result = ba.solve(s.input, nullptr);
   ASSERT_TRUE(result.has_value()) << result.error().message;
   EXPECT_EQ(result->stages_run, 2);
@@ -134,7 +134,7 @@ TEST(LocalBa, AllKeyframesFixedRefinesPointsOnly) {
 
 TEST(LocalBa, StopFlagSetBeforehandReturnsInputUnchanged) {
   const MapScene s = make_map_scene(0.0, 4);
-  const LocalBa ba(test_camera(), config::MappingConfig{}, config::TrackingConfig{});
+  const LocalBa ba(hd_camera(), config::MappingConfig{}, config::TrackingConfig{});
   const std::atomic<bool> stop{true};
   auto result = ba.solve(s.input, &stop);
   ASSERT_TRUE(result.has_value());
@@ -153,7 +153,7 @@ TEST(LocalBa, RespectsIterationBudget) {
   const MapScene s = make_map_scene(0.0, 5);
   config::MappingConfig mapping;
   mapping.local_ba_iterations = 2;  // stage 1: 1 iteration, stage 2: 2
-  const LocalBa ba(test_camera(), mapping, config::TrackingConfig{});
+  const LocalBa ba(hd_camera(), mapping, config::TrackingConfig{});
   auto result = ba.solve(s.input, nullptr);
   ASSERT_TRUE(result.has_value());
   EXPECT_EQ(result->stages_run, 2);
@@ -163,7 +163,7 @@ TEST(LocalBa, RespectsIterationBudget) {
 
 TEST(LocalBa, InvalidInputNamesTheEntry) {
   MapScene s = make_map_scene(0.0, 6);
-  const LocalBa ba(test_camera(), config::MappingConfig{}, config::TrackingConfig{});
+  const LocalBa ba(hd_camera(), config::MappingConfig{}, config::TrackingConfig{});
   s.input.observations[4].point_index = 100000;
   auto bad_point = ba.solve(s.input, nullptr);
   ASSERT_FALSE(bad_point.has_value());

@@ -10,7 +10,7 @@
 
 #include "sitepose/optim/local_ba.hpp"
 #include "sitepose/optim/motion_only_ba.hpp"
-#include "synthetic_scene.hpp"
+#include "sitepose/testing/pose_scene.hpp"
 
 namespace sitepose::optim {
 namespace {
@@ -19,7 +19,7 @@ using namespace testing;  // NOLINT: test helpers
 
 std::vector<PoseObservation> frame_observations(int n, double outlier_fraction, SE3* T_world_cam) {
   std::mt19937 rng(99);
-  const StereoCamera camera = test_camera();
+  const StereoCamera camera = hd_camera();
   *T_world_cam = test_pose_world_cam();
   const SE3 T_cam_world = T_world_cam->inverse();
   std::uniform_int_distribution<int> level(0, 7);
@@ -45,7 +45,7 @@ void BM_MotionOnlyBa(benchmark::State& state) {
   std::mt19937 rng(5);
   // A constant-velocity prediction is typically a few cm / tenths of a degree off.
   const SE3 init = perturb(T_world_cam, 0.05, 0.5 * kDegToRad, rng).inverse();
-  const MotionOnlyBa ba(test_camera(), config::TrackingConfig{});
+  const MotionOnlyBa ba(hd_camera(), config::TrackingConfig{});
   int iterations = 0;
   for (auto _ : state) {
     auto result = ba.solve(init, obs);
@@ -60,7 +60,7 @@ BENCHMARK(BM_MotionOnlyBa)->Arg(100)->Arg(300)->Arg(500)->Arg(1000)->Unit(benchm
 // gross outliers; both stages with the default 5 + 10 iterations.
 void BM_LocalBa(benchmark::State& state) {
   const MapScene scene = make_map_scene(0.05, 3);
-  const LocalBa ba(test_camera(), config::MappingConfig{}, config::TrackingConfig{});
+  const LocalBa ba(hd_camera(), config::MappingConfig{}, config::TrackingConfig{});
   int iterations = 0;
   for (auto _ : state) {
     auto result = ba.solve(scene.input, nullptr);

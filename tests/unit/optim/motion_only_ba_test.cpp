@@ -5,7 +5,7 @@
 #include <cmath>
 #include <random>
 
-#include "synthetic_scene.hpp"
+#include "sitepose/testing/pose_scene.hpp"
 
 namespace sitepose::optim {
 namespace {
@@ -21,7 +21,7 @@ struct Scene {
 Scene make_scene(int n_points, double outlier_fraction, bool mono_only, std::uint32_t seed,
                  double max_depth_m = 40.0) {
   std::mt19937 rng(seed);
-  const StereoCamera camera = test_camera();
+  const StereoCamera camera = hd_camera();
   Scene s;
   s.T_world_cam_true = test_pose_world_cam();
   const SE3 T_cam_world = s.T_world_cam_true.inverse();
@@ -48,7 +48,7 @@ TEST(MotionOnlyBa, RecoversPerturbedPoseWithGrossOutliers) {
   const Scene s = make_scene(500, 0.25, /*mono_only=*/false, 11);
   std::mt19937 rng(12);
   const SE3 T_world_cam_init = perturb(s.T_world_cam_true, 0.2, 3.0 * kDegToRad, rng);
-  const MotionOnlyBa ba(test_camera(), default_tracking());
+  const MotionOnlyBa ba(hd_camera(), default_tracking());
   auto result = ba.solve(T_world_cam_init.inverse(), s.observations);
   ASSERT_TRUE(result.has_value()) << result.error().message;
   const SE3 T_world_cam = result->T_world_cam();
@@ -89,7 +89,7 @@ TEST(MotionOnlyBa, WithoutRobustRoundsOutliersSpoilThePose) {
   const SE3 T_world_cam_init = perturb(s.T_world_cam_true, 0.2, 3.0 * kDegToRad, rng);
   config::TrackingConfig one_round = default_tracking();
   one_round.motion_ba_rounds = 1;
-  const MotionOnlyBa ba(test_camera(), one_round);
+  const MotionOnlyBa ba(hd_camera(), one_round);
   auto result = ba.solve(T_world_cam_init.inverse(), s.observations);
   ASSERT_TRUE(result.has_value());
   EXPECT_GT(translation_error_m(result->T_world_cam(), s.T_world_cam_true), 0.01);
@@ -99,7 +99,7 @@ TEST(MotionOnlyBa, MonocularObservationsOnly) {
   const Scene s = make_scene(400, 0.2, /*mono_only=*/true, 21, /*max_depth_m=*/25.0);
   std::mt19937 rng(22);
   const SE3 T_world_cam_init = perturb(s.T_world_cam_true, 0.2, 3.0 * kDegToRad, rng);
-  const MotionOnlyBa ba(test_camera(), default_tracking());
+  const MotionOnlyBa ba(hd_camera(), default_tracking());
   auto result = ba.solve(T_world_cam_init.inverse(), s.observations);
   ASSERT_TRUE(result.has_value());
   EXPECT_EQ(result->num_inliers_stereo, 0);
@@ -121,7 +121,7 @@ TEST(MotionOnlyBa, PointsBehindTheCameraAreOutliers) {
     const Eigen::Vector3d p_cam = T_cam_world * s.observations[i].p_world;
     s.observations[i].p_world = s.T_world_cam_true * Eigen::Vector3d(-p_cam);
   }
-  const MotionOnlyBa ba(test_camera(), default_tracking());
+  const MotionOnlyBa ba(hd_camera(), default_tracking());
   auto result = ba.solve(T_cam_world, s.observations);
   ASSERT_TRUE(result.has_value());
   for (int i = 0; i < 5; ++i) {
@@ -133,7 +133,7 @@ TEST(MotionOnlyBa, PointsBehindTheCameraAreOutliers) {
 
 TEST(MotionOnlyBa, TooFewObservationsKeepsPoseAndReportsCount) {
   const Scene s = make_scene(6, 0.0, false, 41);
-  const MotionOnlyBa ba(test_camera(), default_tracking());
+  const MotionOnlyBa ba(hd_camera(), default_tracking());
   const SE3 T_cam_world_init = s.T_world_cam_true.inverse();
   auto result = ba.solve(T_cam_world_init, s.observations);
   ASSERT_TRUE(result.has_value());
@@ -150,7 +150,7 @@ TEST(MotionOnlyBa, TooFewObservationsKeepsPoseAndReportsCount) {
 TEST(MotionOnlyBa, InvalidObservationIsAnError) {
   Scene s = make_scene(20, 0.0, false, 51);
   s.observations[7].sigma2_px2 = 0.0;
-  const MotionOnlyBa ba(test_camera(), default_tracking());
+  const MotionOnlyBa ba(hd_camera(), default_tracking());
   auto result = ba.solve(s.T_world_cam_true.inverse(), s.observations);
   ASSERT_FALSE(result.has_value());
   EXPECT_EQ(result.error().code, ErrorCode::kInvalidArgument);
@@ -173,7 +173,7 @@ struct MonteCarloCovariance {
 };
 
 MonteCarloCovariance monte_carlo_covariance(const config::TrackingConfig& tracking, int trials) {
-  const StereoCamera camera = test_camera();
+  const StereoCamera camera = hd_camera();
   const Scene scene = make_scene(80, 0.0, false, 61);
   const SE3 T_cam_world = scene.T_world_cam_true.inverse();
   std::vector<PoseObservation> exact = scene.observations;

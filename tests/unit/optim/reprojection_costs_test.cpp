@@ -8,12 +8,12 @@
 #include <random>
 
 #include "sitepose/optim/pose_parameterization.hpp"
-#include "synthetic_scene.hpp"
+#include "sitepose/testing/pose_scene.hpp"
 
 namespace sitepose::optim {
 namespace {
 
-using testing::test_camera;
+using testing::hd_camera;
 
 constexpr double kStep = 1e-6;
 
@@ -85,7 +85,7 @@ struct CostCase {
 std::vector<CostCase> random_cases(int count) {
   std::mt19937 rng(7);
   std::normal_distribution<double> n(0.0, 1.0);
-  const StereoCamera camera = test_camera();
+  const StereoCamera camera = hd_camera();
   std::vector<CostCase> cases;
   for (int i = 0; i < count; ++i) {
     Vector6d xi;
@@ -104,34 +104,34 @@ std::vector<CostCase> random_cases(int count) {
 
 TEST(ReprojectionCosts, StereoPoseCostJacobianMatchesNumeric) {
   for (const CostCase& c : random_cases(20)) {
-    const StereoPoseCost cost(test_camera(), c.p_world, c.observed, c.sigma2);
+    const StereoPoseCost cost(hd_camera(), c.p_world, c.observed, c.sigma2);
     expect_jacobians_match(cost, c.pose, c.p_world);
   }
 }
 
 TEST(ReprojectionCosts, MonoPoseCostJacobianMatchesNumeric) {
   for (const CostCase& c : random_cases(20)) {
-    const MonoPoseCost cost(test_camera(), c.p_world, c.observed.head<2>(), c.sigma2);
+    const MonoPoseCost cost(hd_camera(), c.p_world, c.observed.head<2>(), c.sigma2);
     expect_jacobians_match(cost, c.pose, c.p_world);
   }
 }
 
 TEST(ReprojectionCosts, StereoReprojectionCostJacobiansMatchNumeric) {
   for (const CostCase& c : random_cases(20)) {
-    const StereoReprojectionCost cost(test_camera(), c.observed, c.sigma2);
+    const StereoReprojectionCost cost(hd_camera(), c.observed, c.sigma2);
     expect_jacobians_match(cost, c.pose, c.p_world);
   }
 }
 
 TEST(ReprojectionCosts, MonoReprojectionCostJacobiansMatchNumeric) {
   for (const CostCase& c : random_cases(20)) {
-    const MonoReprojectionCost cost(test_camera(), c.observed.head<2>(), c.sigma2);
+    const MonoReprojectionCost cost(hd_camera(), c.observed.head<2>(), c.sigma2);
     expect_jacobians_match(cost, c.pose, c.p_world);
   }
 }
 
 TEST(ReprojectionCosts, ResidualIsWhitenedObservationMinusProjection) {
-  const StereoCamera camera = test_camera();
+  const StereoCamera camera = hd_camera();
   const SE3 T_cam_world = testing::test_pose_world_cam().inverse();
   const Eigen::Vector3d p_cam(1.0, -0.5, 8.0);
   const Eigen::Vector3d p_world = T_cam_world.inverse() * p_cam;
@@ -151,7 +151,7 @@ TEST(ReprojectionCosts, ResidualIsWhitenedObservationMinusProjection) {
 }
 
 TEST(ReprojectionCosts, PointBehindCameraFailsEvaluation) {
-  const StereoCamera camera = test_camera();
+  const StereoCamera camera = hd_camera();
   const PoseBlock pose = to_pose_block(SE3::identity());
   const Eigen::Vector3d p_world(0.0, 0.0, -2.0);
   const MonoPoseCost cost(camera, p_world, Eigen::Vector2d(640.0, 360.0), 1.0);

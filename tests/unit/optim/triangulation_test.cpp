@@ -4,13 +4,13 @@
 
 #include <random>
 
-#include "synthetic_scene.hpp"
+#include "sitepose/testing/pose_scene.hpp"
 
 namespace sitepose::optim {
 namespace {
 
 using testing::random_point_cam;
-using testing::test_camera;
+using testing::hd_camera;
 using testing::test_pose_world_cam;
 
 Eigen::Vector3d ray_of(const SE3& T_cam_world, const Eigen::Vector3d& p_world) {
@@ -20,7 +20,7 @@ Eigen::Vector3d ray_of(const SE3& T_cam_world, const Eigen::Vector3d& p_world) {
 
 TEST(Triangulation, TwoViewRoundTrip) {
   std::mt19937 rng(1);
-  const StereoCamera camera = test_camera();
+  const StereoCamera camera = hd_camera();
   const SE3 T_world_cam1 = test_pose_world_cam();
   Vector6d xi;
   xi << 1.0, 0.1, 0.5, 0.02, -0.1, 0.03;
@@ -79,7 +79,7 @@ TEST(Triangulation, PointBehindASecondCameraIsRejected) {
 }
 
 TEST(StereoPoint, RoundTripMatchesCameraTriangulation) {
-  const StereoCamera camera = test_camera();
+  const StereoCamera camera = hd_camera();
   const Eigen::Vector3d p_cam(2.0, -1.0, 12.0);
   const Eigen::Vector3d z = camera.project_stereo(p_cam);
   const auto point = stereo_point_in_camera(camera, z.head<2>(), z.z(), stereo_pixel_covariance(1, 1, 1));
@@ -96,7 +96,7 @@ TEST(StereoPoint, RoundTripMatchesCameraTriangulation) {
 // Covariance of the stereo point against Monte Carlo, in the camera frame and,
 // with pose noise, in the world frame.
 TEST(StereoPoint, CovarianceMatchesMonteCarlo) {
-  const StereoCamera camera = test_camera();
+  const StereoCamera camera = hd_camera();
   const Eigen::Vector3d p_cam(3.0, -1.5, 10.0);  // disparity 35 px
   const Eigen::Vector3d z = camera.project_stereo(p_cam);
   const Eigen::Matrix3d pixel_cov = stereo_pixel_covariance(1.2, 0.8, 1.0);

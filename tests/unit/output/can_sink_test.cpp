@@ -11,6 +11,7 @@
 #include <filesystem>
 
 #include "sitepose/output/candump.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::output {
 namespace {
@@ -36,8 +37,8 @@ struct SocketPair {
 };
 
 TEST(CandumpSink, FileSinkWritesReadableLogAndCounts) {
-  const auto path =
-      (std::filesystem::temp_directory_path() / "sitepose_can_sink_test.log").string();
+  const sitepose::testing::TempDir dir;
+  const std::string path = dir / "can_sink.log";
   {
     auto sink = CandumpSink::open_file(path, "can0");
     ASSERT_TRUE(sink.has_value()) << sink.error().message;
@@ -57,7 +58,6 @@ TEST(CandumpSink, FileSinkWritesReadableLogAndCounts) {
     EXPECT_EQ((*records)[1].t_ns, 1'700'000'000'000'100'000LL);
     EXPECT_EQ((*records)[1].interface, "can0");
   }
-  std::filesystem::remove(path);
 }
 
 TEST(CandumpSink, OpenFailureNamesPath) {

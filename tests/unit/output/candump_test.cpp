@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "sitepose/testing/files.hpp"
+
 namespace sitepose::output {
 namespace {
 
@@ -94,8 +96,8 @@ TEST(Candump, ParseRejectsMalformedLinesSayingWhy) {
 }
 
 TEST(Candump, ReadsAFileAndNamesTheBadLine) {
-  const auto dir = std::filesystem::temp_directory_path() / "sitepose_candump_test";
-  std::filesystem::create_directories(dir);
+  const sitepose::testing::TempDir tmp;
+  const std::filesystem::path& dir = tmp.path();
   const std::string good = (dir / "good.log").string();
   {
     std::ofstream out(good);
@@ -118,7 +120,6 @@ TEST(Candump, ReadsAFileAndNamesTheBadLine) {
   const auto missing = read_candump_file((dir / "missing.log").string());
   ASSERT_FALSE(missing.has_value());
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

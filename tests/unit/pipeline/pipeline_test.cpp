@@ -5,7 +5,8 @@
 #include <chrono>
 #include <thread>
 
-#include "fakes.hpp"
+#include "sitepose/testing/pipeline_fakes.hpp"
+#include "sitepose/testing/wait.hpp"
 
 namespace sitepose::pipeline {
 namespace {
@@ -199,7 +200,8 @@ TEST(Pipeline, StopEndsPromptlyAndPublishesEveryTrackedPose) {
                            outputs_of(std::make_unique<RecordingOutput>("rec", rec)));
     ASSERT_TRUE(p);
     p->start();
-    std::this_thread::sleep_for(150ms);
+    // Stop mid-run, once a few frames went through.
+    testing::wait_for([&] { return p->frames_tracked() > 5; }, 10s);
     const auto t0 = std::chrono::steady_clock::now();
     p->stop();
     ASSERT_TRUE(p->wait());

@@ -9,6 +9,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
 
+#include "sitepose/testing/files.hpp"
+
 namespace sitepose::pipeline {
 namespace {
 
@@ -19,8 +21,6 @@ using namespace std::chrono_literals;
 class ReplaySourceTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("sitepose-replay-test-" + std::to_string(getpid()));
-    fs::remove_all(dir_);
     fs::create_directories(dir_ / "image_0");
     fs::create_directories(dir_ / "image_1");
     for (int i = 0; i < 3; ++i) {
@@ -34,8 +34,6 @@ class ReplaySourceTest : public ::testing::Test {
                                          "P1: 20 0 16 -10 0 20 12 0 0 0 1 0\n";
     std::ofstream(dir_ / "times.txt") << "10.0\n10.05\n10.1\n";
   }
-  void TearDown() override { fs::remove_all(dir_); }
-
   std::unique_ptr<ReplaySource> open(ReplayRate rate, bool loop) {
     ReplayOptions o;
     o.sequence_dir = dir_.string();
@@ -46,7 +44,8 @@ class ReplaySourceTest : public ::testing::Test {
     return s ? std::move(s).value() : nullptr;
   }
 
-  fs::path dir_;
+  testing::TempDir tmp_;
+  const fs::path dir_ = tmp_.path();
 };
 
 SteadyTime far_future() { return SteadyClock::now() + 10s; }

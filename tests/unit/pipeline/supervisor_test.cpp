@@ -1,15 +1,14 @@
 #include "sitepose/pipeline/supervisor.hpp"
 
 #include <gtest/gtest.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
 
 #include <cstdlib>
 #include <string>
 
 #include "sitepose/pipeline/latency_histogram.hpp"
 #include "sitepose/pipeline/systemd_notify.hpp"
+#include "sitepose/testing/files.hpp"
+#include "sitepose/testing/notify_socket.hpp"
 
 namespace sitepose::pipeline {
 namespace {
@@ -105,39 +104,9 @@ TEST(LatencyHistogram, PercentilesWithinTheBucketResolution) {
 
 // sd_notify end to end through libsystemd to a datagram socket, as systemd
 // would receive it.
-class NotifySocket {
- public:
-  NotifySocket() {
-    fd_ = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    path_ = "/tmp/sitepose-notify-test-" + std::to_string(getpid());
-    unlink(path_.c_str());
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::snprintf(addr.sun_path, sizeof(addr.sun_path), "%s", path_.c_str());
-    ok_ = fd_ >= 0 && bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0;
-    timeval tv{1, 0};
-    setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof(tv));
-  }
-  ~NotifySocket() {
-    if (fd_ >= 0) close(fd_);
-    unlink(path_.c_str());
-  }
-  bool ok() const { return ok_; }
-  const std::string& path() const { return path_; }
-  std::string receive() {
-    char buf[4096];
-    const ssize_t n = recv(fd_, buf, sizeof(buf), 0);
-    return n > 0 ? std::string(buf, n) : std::string();
-  }
-
- private:
-  int fd_ = -1;
-  bool ok_ = false;
-  std::string path_;
-};
-
 TEST(SystemdNotifier, SendsToNotifySocketAndReadsTheWatchdog) {
-  NotifySocket sock;
+  const testing::TempDir dir("notify");
+  testing::NotifySocket sock(dir / "notify.sock");
   ASSERT_TRUE(sock.ok());
   setenv("NOTIFY_SOCKET", sock.path().c_str(), 1);
   setenv("WATCHDOG_USEC", "2000000", 1);
@@ -147,11 +116,11 @@ TEST(SystemdNotifier, SendsToNotifySocketAndReadsTheWatchdog) {
   ASSERT_TRUE(n.watchdog_interval_ns());
   EXPECT_EQ(*n.watchdog_interval_ns(), 2'000'000'000);
   ASSERT_TRUE(n.ready("tracking\nstarted"));
-  EXPECT_EQ(sock.receive(), "READY=1\nSTATUS=tracking started");
+  EXPECT_EQ(sock.next(), "READY=1\nSTATUS=tracking started");
   ASSERT_TRUE(n.watchdog());
-  EXPECT_EQ(sock.receive(), "WATCHDOG=1");
+  EXPECT_EQ(sock.next(), "WATCHDOG=1");
   ASSERT_TRUE(n.stopping("bye"));
-  EXPECT_EQ(sock.receive(), "STOPPING=1\nSTATUS=bye");
+  EXPECT_EQ(sock.next(), "STOPPING=1\nSTATUS=bye");
   EXPECT_EQ(n.sent(), 3u);
 
   // Another process's watchdog is not ours.
@@ -160,7 +129,7 @@ TEST(SystemdNotifier, SendsToNotifySocketAndReadsTheWatchdog) {
   EXPECT_FALSE(other.watchdog_interval_ns());
 
   // A socket that is gone: errors are returned and counted.
-  setenv("NOTIFY_SOCKET", "/tmp/sitepose-no-such-socket", 1);
+  setenv("NOTIFY_SOCKET", (dir / "no-such.sock").c_str(), 1);
   SystemdNotifier broken;
   EXPECT_FALSE(broken.status("x"));
   EXPECT_EQ(broken.failures(), 1u);

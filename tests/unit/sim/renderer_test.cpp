@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "sitepose/testing/cameras.hpp"
+
 namespace sitepose::sim {
 namespace {
 
@@ -11,7 +13,7 @@ TexturePtr flat(int level) {
   return std::make_shared<const Texture>(cv::Mat(4, 4, CV_8UC1, cv::Scalar(level)), TextureWrap::kClamp);
 }
 
-StereoCamera small_camera() { return StereoCamera{300.0, 300.0, 160.0, 90.0, 1.0, 320, 180}; }
+StereoCamera small_camera() { return testing::centred_camera(320, 180, 300.0, 1.0); }
 
 // A camera looking along site -y, pitched down, away from the origin: the
 // tests must not pass only for an identity pose.

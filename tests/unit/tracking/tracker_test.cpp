@@ -9,6 +9,7 @@
 
 #include "sitepose/mapping/local_mapper.hpp"
 #include "sitepose/sim/simulator.hpp"
+#include "sitepose/testing/simulated.hpp"
 
 namespace sitepose::tracking {
 namespace {
@@ -17,21 +18,14 @@ namespace {
 struct SmallSite {
   sim::Simulator simulator;
   static SmallSite make(const char* scenario_name, int frames) {
-    auto scenario = sim::load_scenario(std::string(SITEPOSE_SCENARIO_DIR) + "/" + scenario_name + ".yaml");
-    SITEPOSE_CHECK(scenario.has_value());
-    sim::SimOptions options;
-    options.frames = frames;
-    options.width = 480;
-    options.height = 270;
-    auto simulator = sim::Simulator::create(*scenario, options);
+    auto simulator = testing::small_simulator(scenario_name, 480, 270, frames, SITEPOSE_SCENARIO_DIR);
     SITEPOSE_CHECK(simulator.has_value());
     return SmallSite{std::move(*simulator)};
   }
   StereoFrame frame(int i, sim::SimFrame* truth = nullptr) const {
     sim::SimFrame f = simulator.render(i);
-    StereoFrame frame{i, f.t_ns, f.t_ns, f.left, f.right, "test"};
     if (truth != nullptr) *truth = f;
-    return frame;
+    return testing::stereo_frame(f, "test");
   }
 };
 

@@ -1,6 +1,7 @@
 #pragma once
-// Synthetic stereo scenes for the optim tests: a camera, world points seen
-// from a known pose, and noisy observations with ORB-like level sigmas.
+// Synthetic stereo scenes for pose and bundle-adjustment tests: world points
+// seen from a known pose through hd_camera(), and noisy observations with
+// ORB-like level sigmas. Needs sitepose::optim.
 
 #include <cmath>
 #include <numbers>
@@ -14,20 +15,9 @@
 #include "sitepose/optim/local_ba.hpp"
 #include "sitepose/optim/motion_only_ba.hpp"
 #include "sitepose/optim/reprojection_costs.hpp"
+#include "sitepose/testing/cameras.hpp"
 
-namespace sitepose::optim::testing {
-
-inline StereoCamera test_camera() {
-  StereoCamera camera;
-  camera.fx = 700.0;
-  camera.fy = 700.0;
-  camera.cx = 640.0;
-  camera.cy = 360.0;
-  camera.baseline_m = 0.5;
-  camera.width = 1280;
-  camera.height = 720;
-  return camera;
-}
+namespace sitepose::testing {
 
 inline constexpr double kDegToRad = std::numbers::pi / 180.0;
 inline constexpr double kScaleFactor = 1.2;  // ORB pyramid, as OrbConfig
@@ -51,19 +41,19 @@ inline Eigen::Vector3d random_point_cam(const StereoCamera& camera, double min_d
 
 // Exact (noise-free) observation of p_world from T_cam_world; stereo when
 // closer than kCloseDepthM (or always mono when mono_only).
-inline PoseObservation exact_observation(const StereoCamera& camera, const SE3& T_cam_world,
+inline optim::PoseObservation exact_observation(const StereoCamera& camera, const SE3& T_cam_world,
                                          const Eigen::Vector3d& p_world, int level, bool mono_only) {
   const Eigen::Vector3d p_cam = T_cam_world * p_world;
-  PoseObservation o;
+  optim::PoseObservation o;
   o.p_world = p_world;
   o.uv_left_px = camera.project(p_cam);
   o.u_right_px = (!mono_only && p_cam.z() < kCloseDepthM) ? camera.project_right_u(p_cam) : -1.0;
-  o.sigma2_px2 = level_sigma2_px2(kScaleFactor, level);
+  o.sigma2_px2 = optim::level_sigma2_px2(kScaleFactor, level);
   return o;
 }
 
 // Gaussian pixel noise of the observation's own sigma on every coordinate.
-inline void add_noise(PoseObservation& o, std::mt19937& rng) {
+inline void add_noise(optim::PoseObservation& o, std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, std::sqrt(o.sigma2_px2));
   o.uv_left_px.x() += n(rng);
   o.uv_left_px.y() += n(rng);
@@ -71,7 +61,7 @@ inline void add_noise(PoseObservation& o, std::mt19937& rng) {
 }
 
 // Replace the measurement with a random pixel (and disparity for stereo).
-inline void make_gross_outlier(const StereoCamera& camera, PoseObservation& o, std::mt19937& rng) {
+inline void make_gross_outlier(const StereoCamera& camera, optim::PoseObservation& o, std::mt19937& rng) {
   std::uniform_real_distribution<double> u(0.0, camera.width);
   std::uniform_real_distribution<double> v(0.0, camera.height);
   std::uniform_real_distribution<double> d(1.0, 80.0);
@@ -100,7 +90,7 @@ inline double rotation_error_rad(const SE3& a, const SE3& b) {
 struct MapScene {
   std::vector<SE3> T_cam_world_true;
   std::vector<Eigen::Vector3d> p_world_true;
-  LocalBaInput input;  // perturbed poses / points, noisy observations
+  optim::LocalBaInput input;  // perturbed poses / points, noisy observations
   std::vector<std::uint8_t> gross_outlier;  // per observation
 };
 
@@ -110,7 +100,7 @@ struct MapScene {
 // axis (about the depth noise of a single stereo match at 10-15 m).
 inline MapScene make_map_scene(double outlier_fraction, std::uint32_t seed) {
   std::mt19937 rng(seed);
-  const StereoCamera camera = test_camera();
+  const StereoCamera camera = hd_camera();
   MapScene s;
   constexpr int kKeyframes = 8;
   const SE3 T_world_start = test_pose_world_cam();
@@ -129,7 +119,7 @@ inline MapScene make_map_scene(double outlier_fraction, std::uint32_t seed) {
     for (int p = 0; p < static_cast<int>(s.p_world_true.size()); ++p) {
       const Eigen::Vector3d p_cam = s.T_cam_world_true[k] * s.p_world_true[p];
       if (p_cam.z() < 1.0 || !camera.in_image(camera.project(p_cam), 5.0)) continue;
-      PoseObservation o = exact_observation(camera, s.T_cam_world_true[k], s.p_world_true[p], level(rng),
+      optim::PoseObservation o = exact_observation(camera, s.T_cam_world_true[k], s.p_world_true[p], level(rng),
                                             /*mono_only=*/false);
       const bool outlier = unit(rng) < outlier_fraction;
       if (outlier) {
@@ -155,4 +145,4 @@ inline MapScene make_map_scene(double outlier_fraction, std::uint32_t seed) {
   return s;
 }
 
-}  // namespace sitepose::optim::testing
+}  // namespace sitepose::testing

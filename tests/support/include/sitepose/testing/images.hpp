@@ -1,12 +1,13 @@
 #pragma once
-// Generated test images for the features tests (no data files).
+// Generated test images: textures, shape scenes, rectified right images of
+// known disparity (no data files). Needs OpenCV imgproc.
 
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-namespace sitepose::features::test {
+namespace sitepose::testing {
 
 // Dense corner texture: random grey blocks of block_px, slightly blurred so
 // sub-pixel resampling is well defined. Deterministic for a seed.
@@ -74,4 +75,4 @@ inline cv::Mat render_right(const cv::Mat& left, const std::vector<int>& band_en
   return right;
 }
 
-}  // namespace sitepose::features::test
+}  // namespace sitepose::testing

@@ -1,9 +1,9 @@
 #pragma once
-// Synthetic stereo world for the mapping tests: random points on planes at
+// Synthetic stereo world for map-building tests: random points on planes at
 // 5-30 m with an ORB-like descriptor each, and a simulated tracker that
 // inserts keyframes into a SharedMap the way the real one does (tracked
 // points by association, then new stereo points of close keypoints,
-// ORB-SLAM2 Tracking::CreateNewKeyFrame).
+// ORB-SLAM2 Tracking::CreateNewKeyFrame). Needs sitepose::map.
 
 #include <algorithm>
 #include <cmath>
@@ -15,20 +15,9 @@
 
 #include "sitepose/core/stereo_camera.hpp"
 #include "sitepose/map/shared_map.hpp"
+#include "sitepose/testing/cameras.hpp"
 
-namespace sitepose::mapping::testing {
-
-inline StereoCamera test_camera() {
-  StereoCamera c;
-  c.fx = 700.0;
-  c.fy = 700.0;
-  c.cx = 480.0;
-  c.cy = 270.0;
-  c.baseline_m = 1.0;
-  c.width = 960;
-  c.height = 540;
-  return c;
-}
+namespace sitepose::testing {
 
 // Camera looking along world +z at (x, 0, 0): the machine drives along x.
 inline SE3 pose_at_x(double x_m, double yaw_rad = 0.0) {
@@ -271,4 +260,4 @@ inline std::string check_consistency(const map::MapData& m) {
   return {};
 }
 
-}  // namespace sitepose::mapping::testing
+}  // namespace sitepose::testing
