@@ -29,6 +29,15 @@ J1939NodeOptions options(std::uint32_t identity, bool arbitrary = true) {
   return o;
 }
 
+// A node that claimed 0x1C at t = 0 and has sent its first heartbeat.
+J1939Node claimed_node(std::uint32_t identity) {
+  J1939Node node(options(identity));
+  node.start(0);
+  node.on_time(250 * kMs);
+  (void)node.take_outgoing();
+  return node;
+}
+
 std::uint32_t pgn_of(const CanFrame& f) { return split_j1939_id(f.id).pgn; }
 std::uint8_t sa_of(const CanFrame& f) { return static_cast<std::uint8_t>(f.id & 0xFF); }
 
@@ -187,10 +196,7 @@ TEST(J1939Node, LoserWithoutArbitraryAddressSendsCannotClaimAndGoesSilent) {
 }
 
 TEST(J1939Node, AnswersRequestsForWhatItSendsAndRefusesTheRest) {
-  J1939Node node(options(7));
-  node.start(0);
-  node.on_time(250 * kMs);
-  (void)node.take_outgoing();
+  J1939Node node = claimed_node(7);
   // Before any data: "cannot respond" to a request to this node, nothing to a global one.
   node.on_frame(encode_request(kPgnVehiclePosition, 0x80, 0x1C), 300 * kMs);
   auto out = node.take_outgoing();
@@ -228,10 +234,7 @@ TEST(J1939Node, AnswersRequestsForWhatItSendsAndRefusesTheRest) {
 }
 
 TEST(J1939Node, ProductInformationIsA134ByteFastPacket) {
-  J1939Node node(options(7));
-  node.start(0);
-  node.on_time(250 * kMs);
-  (void)node.take_outgoing();
+  J1939Node node = claimed_node(7);
   node.on_frame(encode_request(kPgnProductInformation, 0x80, 0x1C), 300 * kMs);
   const auto out = node.take_outgoing();
   ASSERT_EQ(out.size(), 20u);  // 6 + 19 * 7 >= 134

@@ -228,13 +228,27 @@ TEST(SocketCanSink, EnobufsIsRetriedAfterABackoffWithoutLoss) {
   ASSERT_TRUE(wait_until([&] { return bus.count(is_pose_frame) == 50u * 13u; }));
 }
 
-TEST(SocketCanSink, BusOffDropsTheQueueRefusesPosesAndRecoversWhenTheControllerRestarts) {
+// A sink on a socketpair whose sends go through `faults`, claimed and up.
+struct FaultySink {
+  FaultySink() : sink(open_sink(sink_options(), testing::faulty_ops(pair.sink(), faults))) {}
   SocketPair pair;
   Faults faults;
-  auto sink = open_sink(sink_options(), testing::faulty_ops(pair.sink(), faults));
+  std::unique_ptr<SocketCanSink> sink;
+  output::CanPoseEncoder encoder{output::CanOutputOptions{}};
+};
+
+// After a recovery the node claims its address again before any pose.
+bool claims_again(int bus_fd) {
+  return testing::read_until(bus_fd, [](const CanFrame& f) {
+           return output::parse_address_claimed(f).has_value();
+         }).has_value();
+}
+
+TEST(SocketCanSink, BusOffDropsTheQueueRefusesPosesAndRecoversWhenTheControllerRestarts) {
+  FaultySink f;
+  auto& [pair, faults, sink, encoder] = f;
   ASSERT_TRUE(sink);
   ASSERT_TRUE(wait_until([&] { return is_up(*sink); }));
-  output::CanPoseEncoder encoder(output::CanOutputOptions{});
   // The controller goes bus-off: its queue stops (the kernel returns
   // ENOBUFS) and an error frame says why.
   faults.set_persistent(ENOBUFS);
@@ -257,10 +271,7 @@ TEST(SocketCanSink, BusOffDropsTheQueueRefusesPosesAndRecoversWhenTheControllerR
   ErrorFrameInfo restarted;
   restarted.restarted = true;
   ASSERT_TRUE(testing::write_frame(pair.bus(), make_error_frame(restarted)));
-  // The node claims its address again before sending poses.
-  ASSERT_TRUE(testing::read_until(pair.bus(), [](const CanFrame& f) {
-    return output::parse_address_claimed(f).has_value();
-  }));
+  ASSERT_TRUE(claims_again(pair.bus()));
   ASSERT_TRUE(wait_until([&] { return is_up(*sink); }));
   ASSERT_TRUE(publish(*sink, encoder.encode(pose_inputs(2))).has_value());
   ASSERT_TRUE(wait_until([&] { return sink->stats().poses_sent == 1u; }));
@@ -272,12 +283,10 @@ TEST(SocketCanSink, BusOffDropsTheQueueRefusesPosesAndRecoversWhenTheControllerR
 }
 
 TEST(SocketCanSink, InterfaceDownIsProbedWithAClaimUntilItComesBack) {
-  SocketPair pair;
-  Faults faults;
-  auto sink = open_sink(sink_options(), testing::faulty_ops(pair.sink(), faults));
+  FaultySink f;
+  auto& [pair, faults, sink, encoder] = f;
   ASSERT_TRUE(sink);
   ASSERT_TRUE(wait_until([&] { return is_up(*sink); }));
-  output::CanPoseEncoder encoder(output::CanOutputOptions{});
   faults.set_persistent(ENETDOWN);
   ASSERT_TRUE(publish(*sink, encoder.encode(pose_inputs(0))).has_value());
   ASSERT_TRUE(wait_until([&] { return sink->stats().state == CanLinkState::kDown; }));
@@ -288,9 +297,7 @@ TEST(SocketCanSink, InterfaceDownIsProbedWithAClaimUntilItComesBack) {
   while (testing::read_frame(pair.bus(), 1ms)) {
   }
   faults.set_persistent(0);
-  ASSERT_TRUE(testing::read_until(pair.bus(), [](const CanFrame& f) {
-    return output::parse_address_claimed(f).has_value();
-  }));
+  ASSERT_TRUE(claims_again(pair.bus()));
   ASSERT_TRUE(wait_until([&] { return is_up(*sink); }));
   ASSERT_TRUE(publish(*sink, encoder.encode(pose_inputs(2))).has_value());
   sink->close();
