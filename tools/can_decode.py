@@ -7,7 +7,8 @@ parses the DBC with its own small regex parser, reassembles NMEA 2000 fast
 packets (messages with the SiteposeFastPacket attribute), decodes every
 signal (little-endian `@1` only; `+` unsigned, `-` signed), maps the
 "not available" codes (all bits 1 unsigned, largest positive signed) to null,
-and checks the E2E CRC-8 SAE J1850 of messages with a SiteposeE2EDataId.
+checks the E2E CRC-8 SAE J1850 of messages with a SiteposeE2EDataId, and
+reports every value outside its signal's DBC [minimum|maximum] as an error.
 
 Messages are matched by PGN (priority and source address ignored), as a J1939
 receiver does.
@@ -77,6 +78,8 @@ def parse_dbc(path):
                     "signed": m.group(5) == "-",
                     "scale": float(m.group(6)),
                     "offset": float(m.group(7)),
+                    "minimum": float(m.group(8)),
+                    "maximum": float(m.group(9)),
                     "unit": m.group(10),
                 })
                 continue
@@ -131,7 +134,15 @@ def decode_payload(msg, payload):
             signals[sig["name"]] = None
         else:
             signals[sig["name"]] = r * sig["scale"] + sig["offset"]
-    out = {"name": msg["name"], "signals": signals, "raw": raw}
+    out = {"name": msg["name"], "signals": signals, "raw": raw, "range_errors": []}
+    for sig in msg["signals"]:
+        v = signals[sig["name"]]
+        # Half a step of slack: the DBC's bounds are printed rounded.
+        slack = abs(sig["scale"]) / 2
+        if v is not None and not sig["minimum"] - slack <= v <= sig["maximum"] + slack:
+            out["range_errors"].append(
+                f"{msg['name']}.{sig['name']} = {v} outside the DBC range "
+                f"[{sig['minimum']}|{sig['maximum']}]")
     if msg["e2e_data_id"] is not None:
         data_id = msg["e2e_data_id"]
         expected = crc8_sae_j1850([data_id & 0xFF, data_id >> 8] + list(payload[1:]))
@@ -213,6 +224,7 @@ def main():
             errors.append(f"{frame.timestamp:.6f}: {msg['name']} has {len(payload)} bytes, DBC says {msg['length']}")
             continue
         out = decode_payload(msg, payload)
+        errors.extend(f"{frame.timestamp:.6f}: {e}" for e in out.pop("range_errors"))
         out.update({
             "t": frame.timestamp,
             "channel": frame.channel,

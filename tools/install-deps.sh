@@ -21,6 +21,8 @@ packages=(
   libsystemd-dev systemd libv4l-dev
   # test helpers: network namespaces, CAN log decoding
   iproute2 python3 python3-can python3-numpy
+  # packaging: dpkg-shlibdeps (dpkg-dev) for Depends:, lintian checks the .deb
+  dpkg-dev lintian
 )
 
 need_install=()

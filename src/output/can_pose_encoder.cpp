@@ -2,6 +2,7 @@
 
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "sitepose/output/nmea2000.hpp"
 
@@ -25,6 +26,23 @@ Status check_can_output_options(const CanOutputOptions& o) {
                       "can: every frame is disabled; enable at least one");
   }
   return ok_status();
+}
+
+std::vector<std::uint32_t> transmitted_pgns(const CanOutputOptions& o) {
+  const std::pair<bool, std::uint32_t> frames[] = {
+      {o.n2k_position_rapid_update, kPgnPositionRapidUpdate},
+      {o.n2k_cog_sog_rapid_update, kPgnCogSogRapidUpdate},
+      {o.n2k_vessel_heading, kPgnVesselHeading},
+      {o.n2k_gnss_position_data, kPgnGnssPositionData},
+      {o.j1939_vehicle_position, kPgnVehiclePosition},
+      {o.j1939_vehicle_direction_speed, kPgnVehicleDirectionSpeed},
+      {o.sitepose_pose_quality, kPgnSiteposePoseQuality},
+  };
+  std::vector<std::uint32_t> pgns;
+  for (const auto& [enabled, pgn] : frames) {
+    if (enabled) pgns.push_back(pgn);
+  }
+  return pgns;
 }
 
 CanPoseEncoder::CanPoseEncoder(const CanOutputOptions& options) : options_(options) {

@@ -1,6 +1,8 @@
 #include "sitepose/output/nmea2000.hpp"
 
+#include <algorithm>
 #include <string>
+#include <utility>
 
 #include "detail/field_codec.hpp"
 #include "detail/frame_id.hpp"
@@ -80,6 +82,60 @@ std::vector<CanFrame> encode_n2k_gnss_position_data(const GnssPositionData& v,
                                    payload, sequence_counter & 0x7);
   SITEPOSE_CHECK(frames.has_value());  // 43 bytes and a 3-bit counter always fit
   return std::move(frames).value();
+}
+
+CanFrame encode_n2k_heartbeat(std::int64_t interval_ns, std::uint8_t sequence_counter,
+                              N2kControllerState controller, N2kEquipmentStatus equipment,
+                              std::uint8_t source_address, std::uint8_t priority) {
+  CanFrame f = detail::full_frame(detail::pdu2_id(kPgnHeartbeat, priority, source_address));
+  f.data.fill(0xFF);
+  const double interval_s = interval_ns > 0 ? static_cast<double>(interval_ns) * 1e-9 : detail::kNaN;
+  put_le(f.data, 0, to_raw(interval_s, detail::n2k_u16(100.0)), 2);
+  f.data[2] = sequence_counter > 252 ? 252 : sequence_counter;
+  f.data[3] = static_cast<std::uint8_t>(0xC0 | (static_cast<std::uint8_t>(controller) & 0x3) |
+                                        (0x3 << 2) |
+                                        ((static_cast<std::uint8_t>(equipment) & 0x3) << 4));
+  return f;
+}
+
+Status check_n2k_product_information(const N2kProductInformation& info) {
+  const std::pair<const char*, const std::string*> strings[] = {
+      {"model_id", &info.model_id},
+      {"software_version", &info.software_version},
+      {"model_version", &info.model_version},
+      {"serial_code", &info.serial_code}};
+  for (const auto& [field, value] : strings) {
+    if (value->size() > kProductInformationStringBytes) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        std::string("product information ") + field + ": " +
+                            std::to_string(value->size()) + " bytes, at most 32");
+    }
+    for (const char c : *value) {
+      if (c < 0x20 || c > 0x7E) {
+        return make_error(ErrorCode::kInvalidArgument,
+                          std::string("product information ") + field +
+                              ": only printable ASCII characters");
+      }
+    }
+  }
+  return ok_status();
+}
+
+std::vector<std::uint8_t> encode_n2k_product_information_payload(
+    const N2kProductInformation& info) {
+  SITEPOSE_CHECK(check_n2k_product_information(info).has_value());
+  std::vector<std::uint8_t> p(kProductInformationBytes, 0xFF);
+  put_le(p, 0, info.database_version, 2);
+  put_le(p, 2, info.product_code, 2);
+  std::size_t at = 4;
+  for (const std::string* s :
+       {&info.model_id, &info.software_version, &info.model_version, &info.serial_code}) {
+    std::copy(s->begin(), s->end(), p.begin() + static_cast<std::ptrdiff_t>(at));
+    at += kProductInformationStringBytes;
+  }
+  p[at++] = info.certification_level;
+  p[at] = info.load_equivalency;
+  return p;
 }
 
 Expected<std::vector<CanFrame>> fast_packet_frames(std::uint32_t can_id,

@@ -39,6 +39,9 @@ struct CanOutputOptions {
 // no frame is enabled.
 Status check_can_output_options(const CanOutputOptions& options);
 
+// The PGNs the enabled frames use, in the order encode() sends them.
+std::vector<std::uint32_t> transmitted_pgns(const CanOutputOptions& options);
+
 // One pose in global terms, as the geo anchoring delivers it.
 struct CanPoseInputs {
   std::int64_t utc_t_ns = 0;  // capture time, ns since the Unix epoch (UTC)

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <limits>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "sitepose/core/expected.hpp"
@@ -97,6 +98,41 @@ std::vector<CanFrame> encode_n2k_gnss_position_data(const GnssPositionData& v,
                                                     std::uint8_t sequence_counter,
                                                     std::uint8_t source_address,
                                                     std::uint8_t priority = 3);
+
+// PGN 126993 Heartbeat, 8 bytes, priority 7: data transmit offset (the
+// interval until the next heartbeat; <= 0: not available) u16 0.01 s; sequence counter u8 (0..252,
+// wraps); byte 3: controller 1 state bits 0-1, controller 2 state bits 2-3
+// (not available: 3), equipment status bits 4-5, bits 6-7 reserved (1);
+// bytes 4-7 reserved (0xFF).
+inline constexpr std::uint32_t kPgnHeartbeat = 126993;  // 0x1F011
+enum class N2kControllerState : std::uint8_t { kErrorActive = 0, kErrorPassive = 1, kBusOff = 2 };
+enum class N2kEquipmentStatus : std::uint8_t { kOperational = 0, kFault = 1 };
+CanFrame encode_n2k_heartbeat(std::int64_t interval_ns, std::uint8_t sequence_counter,
+                              N2kControllerState controller, N2kEquipmentStatus equipment,
+                              std::uint8_t source_address, std::uint8_t priority = 7);
+
+// PGN 126996 Product Information, 134 bytes as a fast packet, priority 6:
+// NMEA 2000 database version u16 0.001; product code u16; model id,
+// software version, model version and serial code, 32 bytes each (ASCII,
+// padded with 0xFF); certification level u8; load equivalency u8 (50 mA).
+inline constexpr std::uint32_t kPgnProductInformation = 126996;  // 0x1F014
+inline constexpr std::size_t kProductInformationBytes = 134;
+inline constexpr std::size_t kProductInformationStringBytes = 32;
+struct N2kProductInformation {
+  std::uint16_t database_version = 2100;  // 2.100
+  std::uint16_t product_code = 0xFFFF;     // not available unless one is assigned
+  std::string model_id = "sitepose";
+  std::string software_version;
+  std::string model_version;
+  std::string serial_code;
+  std::uint8_t certification_level = 0xFF;  // not certified: not available
+  std::uint8_t load_equivalency = 1;        // units of 50 mA (powered apart from the bus)
+};
+// Fails naming the field when a string is longer than 32 bytes or holds a
+// byte outside printable ASCII.
+Status check_n2k_product_information(const N2kProductInformation& info);
+// `info` must pass the check (checked: programmer error).
+std::vector<std::uint8_t> encode_n2k_product_information_payload(const N2kProductInformation& info);
 
 // NMEA 2000 fast packet: frame 0 = [seq << 5 | 0, total length, 6 bytes],
 // frame k = [seq << 5 | k, 7 bytes]; the last frame is padded with 0xFF; every

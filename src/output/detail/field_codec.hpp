@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <span>
 
@@ -50,6 +51,7 @@ inline double wrap_two_pi(double angle_rad) {
 }
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // J1939-71 ranges: raw values above 0xFA.. are error / not-available codes.
 inline constexpr FieldSpec j1939_u8(double raw_per_unit, double off) {

@@ -1,0 +1,128 @@
+// Frames written by the SocketCAN sink through the fd seam, logged as
+// candump lines on the receiving side and decoded with the DBC by the
+// independent decoder (tools/can_decode.py), decode to the values sent -
+// including an altitude at the 129029 field's limit, inside the DBC range.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "can_test_support.hpp"
+#include "mini_json.hpp"
+#include "sitepose/drivers/socketcan/socketcan_sink.hpp"
+#include "sitepose/output/can_pose_encoder.hpp"
+#include "sitepose/output/can_sink.hpp"
+
+namespace sitepose::drivers::socketcan {
+namespace {
+
+using sitepose::testing::Json;
+using sitepose::testing::JsonParser;
+
+constexpr char kPython[] = "/usr/bin/python3";
+constexpr int kPoses = 12;
+
+output::CanPoseInputs pose(int k) {
+  output::CanPoseInputs in;
+  in.utc_t_ns = 1'700'000'000'000'000'000LL + k * 100'000'000LL;
+  in.latitude_deg = 48.1 + k * 1.1e-5;
+  in.longitude_deg = -11.5 - k * 2.3e-5;
+  // The last pose: an altitude the 129029 field clamps to its largest valid value.
+  in.altitude_m = k == kPoses - 1 ? 1e13 : 500.0 + k * 0.37;
+  in.heading_rad = 0.2 * k;
+  in.course_over_ground_rad = 0.1;
+  in.speed_over_ground_mps = 2.0;
+  in.quality.state = TrackingState::kOk;
+  in.quality.features_used = 200 + k;
+  return in;
+}
+
+TEST(SocketCanDbc, FramesFromTheSinkDecodeToTheValuesSent) {
+  if (::access(kPython, X_OK) != 0) GTEST_SKIP() << kPython << " is missing";
+  if (std::system("/usr/bin/python3 -c 'import can' 2>/dev/null") != 0) {
+    GTEST_SKIP() << "python3-can is missing for /usr/bin/python3";
+  }
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("sitepose_socketcan_dbc_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string log = (dir / "bus.log").string();
+
+  testing::SocketPair pair;
+  testing::FrameCollector bus(pair.bus());
+  SocketCanSinkOptions o;
+  o.interface = "test0";
+  o.node.preferred_address = 0x2A;
+  o.node.claim_settle_ns = 10'000'000;
+  o.node.heartbeat_interval_ns = 0;
+  auto sink = SocketCanSink::open(o, fd_socket_ops(pair.sink()));
+  ASSERT_TRUE(sink.has_value()) << sink.error().message;
+  ASSERT_TRUE(testing::wait_until([&] { return (*sink)->stats().state == CanLinkState::kUp; }));
+  output::CanPoseEncoder encoder(output::CanOutputOptions{});
+  for (int k = 0; k < kPoses; ++k) {
+    for (const auto& f : encoder.encode(pose(k))) ASSERT_TRUE((*sink)->send(0, f).has_value());
+    // Refused while the queue is full: flush again, as the pipeline retries.
+    ASSERT_TRUE(testing::wait_until([&] { return (*sink)->flush().has_value(); }));
+  }
+  (*sink)->close();
+  ASSERT_EQ((*sink)->stats().poses_sent, static_cast<std::uint64_t>(kPoses));
+  ASSERT_TRUE(testing::wait_until([&] { return bus.count([](const output::CanFrame&) { return true; }) >=
+                                                static_cast<std::size_t>(13 * kPoses); }));
+
+  // The receiving side: every pose frame into a candump log (network
+  // management frames are not in the DBC).
+  {
+    auto logger = output::CandumpSink::open_file(log, "can0");
+    ASSERT_TRUE(logger.has_value());
+    std::int64_t t_ns = 1'700'000'000'000'000'000LL;
+    for (const output::CanFrame& f : bus.frames()) {
+      if (output::split_j1939_id(f.id).pgn == output::kPgnAddressClaimed) continue;
+      ASSERT_TRUE((*logger)->send(t_ns += 1000, f).has_value());
+    }
+    ASSERT_TRUE((*logger)->flush().has_value());
+  }
+  const std::string json_path = (dir / "decoded.json").string();
+  const std::string cmd = std::string(kPython) + " " SITEPOSE_SOURCE_DIR "/tools/can_decode.py --dbc " +
+                          SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + log + " > " + json_path;
+  const int rc = std::system(cmd.c_str());
+  std::ifstream in(json_path);
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string json = text.str();
+  JsonParser parser(json);
+  auto out = parser.parse();
+  ASSERT_TRUE(out.has_value()) << parser.error();
+  EXPECT_TRUE((*out)["errors"].array().empty()) << json.substr(0, 2000);
+  EXPECT_EQ(WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, 0);
+  const auto& msgs = (*out)["messages"].array();
+  ASSERT_EQ(msgs.size(), static_cast<std::size_t>(7 * kPoses));
+  for (int k = 0; k < kPoses; ++k) {
+    const output::CanPoseInputs p = pose(k);
+    const std::string at = "pose " + std::to_string(k);
+    for (int m = 0; m < 7; ++m) EXPECT_EQ(msgs[7 * k + m]["source_address"].number(), 0x2A) << at;
+    const Json& rapid = msgs[7 * k]["signals"];
+    EXPECT_NEAR(rapid["Latitude"].number(), p.latitude_deg, 0.5e-7 + 1e-12) << at;
+    EXPECT_NEAR(rapid["Longitude"].number(), p.longitude_deg, 0.5e-7 + 1e-12) << at;
+    const Json& gnss = msgs[7 * k + 3];
+    ASSERT_EQ(gnss["name"].string(), "N2kGnssPositionData") << at;
+    const double alt = gnss["signals"]["Altitude"].number();
+    if (k == kPoses - 1) {
+      EXPECT_NEAR(alt, 9223372036854.775804, 0.01) << at;  // clamped, inside the DBC range
+    } else {
+      EXPECT_NEAR(alt, p.altitude_m, 0.5e-6 + 1e-9) << at;
+    }
+    const Json& vp = msgs[7 * k + 4]["signals"];
+    EXPECT_NEAR(vp["Latitude"].number(), p.latitude_deg, 0.5e-7 + 1e-9) << at;
+    EXPECT_NEAR(vp["Longitude"].number(), p.longitude_deg, 0.5e-7 + 1e-9) << at;
+    EXPECT_TRUE(msgs[7 * k + 6]["e2e"]["crc_ok"].boolean()) << at;
+    EXPECT_EQ(msgs[7 * k + 6]["signals"]["FeaturesUsed"].number(), p.quality.features_used) << at;
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace sitepose::drivers::socketcan
