@@ -396,9 +396,9 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
   bool tracked = false;
   if (anchor != nullptr) {
     // Pass 2: pass 1's pose and pass 1's local map. Only the local-map
-    // search runs, which re-finds about 80 % of pass 1's matches (fast,
-    // seed 7). Giving pass 1's matches to the optimisation was worse on
-    // average; carry_over_matches() adds them to the committed frame.
+    // search runs, matching every keypoint afresh. Pass 1's matches are not
+    // given to the optimisation (that was worse on average);
+    // carry_over_matches() adds them to the committed frame.
     result.T_cam_world = anchor->T_cam_world;
     tracked = true;
   } else if (has_last_ && state_ != TrackingState::kLost) {
