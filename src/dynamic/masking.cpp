@@ -117,4 +117,9 @@ Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& ob
   return out;
 }
 
+cv::Mat extraction_mask(const MaskResult& mask) {
+  if (mask.instance_labels.empty()) return {};
+  return mask.instance_labels != 0;
+}
+
 }  // namespace sitepose::dynamic

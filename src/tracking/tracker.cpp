@@ -1,22 +1,17 @@
 #include "sitepose/tracking/tracker.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <future>
 #include <set>
 
 #include <opencv2/calib3d.hpp>
 
+#include "sitepose/core/stopwatch.hpp"
 #include "sitepose/features/hamming.hpp"
 #include "sitepose/optim/reprojection_costs.hpp"
 
 namespace sitepose::tracking {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 // ORB-SLAM2 thresholds, named (METHOD.md "Core tracker").
 constexpr int kMinMatchesMotionModel = 20;   // else widen the window / relocalise
@@ -70,7 +65,7 @@ std::optional<SE3> Tracker::last_T_world_cam() const {
 
 Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat& instance_labels,
                                          const cv::Mat& extraction_mask) {
-  const auto start = Clock::now();
+  const auto start = SteadyClock::now();
   if (frame.left.empty() || frame.right.empty() || frame.left.size() != frame.right.size() ||
       frame.left.type() != CV_8UC1 || frame.right.type() != CV_8UC1) {
     return make_error(ErrorCode::kInvalidArgument,
@@ -97,11 +92,11 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
   // background gets the full budget and the masked area a share of its own.
   // One stereo matching over the union.
   auto right_future = std::async(std::launch::async, [&] {
-    const auto t = Clock::now();
+    const auto t = SteadyClock::now();
     auto right = right_extractor_.extract(frame.right);
     return std::make_pair(std::move(right), ms_since(t));
   });
-  const auto t_left = Clock::now();
+  const auto t_left = SteadyClock::now();
   const bool split_budget = !extraction_mask.empty() && cv::countNonZero(extraction_mask) > 0;
   auto left = left_extractor_.extract(frame.left, split_budget ? extraction_mask : cv::Mat());
   Expected<features::OrbFeatures> objects = features::OrbFeatures{};
@@ -124,7 +119,7 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
       cv::vconcat(left->descriptors, objects->descriptors, left->descriptors);
     }
   }
-  const auto t_match = Clock::now();
+  const auto t_match = SteadyClock::now();
   SITEPOSE_TRY(auto stereo, matcher_.match(*left, *right));
   out.timings.stereo_match_ms = ms_since(t_match);
   out.features.keypoints = std::move(left->keypoints);
@@ -157,7 +152,7 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
 
 void Tracker::optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
                             const std::vector<int>& match_of_keypoint, PassResult& result) const {
-  const auto start = Clock::now();
+  const auto start = SteadyClock::now();
   std::vector<optim::PoseObservation> observations;
   std::vector<int> keypoint_of_observation;
   for (int k = 0; k < frame.size(); ++k) {
@@ -364,9 +359,23 @@ std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
   return out;
 }
 
+std::vector<std::optional<Eigen::Vector3d>> Tracker::matched_map_points(const PreparedFrame& frame,
+                                                                        const std::vector<std::uint8_t>& usable,
+                                                                        const PassResult& anchor,
+                                                                        double radius_px) const {
+  const std::vector<map::PointId> point_of_keypoint = search_local_map(frame, usable, anchor, radius_px);
+  std::vector<std::optional<Eigen::Vector3d>> out(frame.size());
+  map_.read([&](const map::MapData& map) {
+    for (int k = 0; k < frame.size(); ++k) {
+      if (const map::MapPoint* p = map.good_point(point_of_keypoint[k]); p != nullptr) out[k] = p->p_world;
+    }
+  });
+  return out;
+}
+
 void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                               const PassResult* anchor, PassResult& result) const {
-  const auto start = Clock::now();
+  const auto start = SteadyClock::now();
   std::vector<int> match;
   const std::vector<PointView> points =
       anchor != nullptr ? local_points(frame, anchor->point_of_keypoint, false, match)
@@ -382,7 +391,7 @@ void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std:
 
 PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                              const PassResult* anchor) const {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   PassResult result;
   result.point_of_keypoint.assign(frame.size(), map::kNoPoint);
   result.n_usable_keypoints = static_cast<int>(std::count(usable.begin(), usable.end(), 1));
@@ -392,7 +401,7 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     result.failure = "map not initialised";
     return result;
   }
-  const auto t_motion = Clock::now();
+  const auto t_motion = SteadyClock::now();
   bool tracked = false;
   if (anchor != nullptr) {
     // Pass 2: pass 1's pose and pass 1's local map. Only the local-map

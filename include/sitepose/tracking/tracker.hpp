@@ -112,6 +112,12 @@ class Tracker {
   std::vector<map::PointId> search_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                                              const PassResult& anchor, double radius_px) const;
 
+  // search_local_map(), then per keypoint the world position of the point it
+  // matched (nullopt where none, or the point is no longer good).
+  std::vector<std::optional<Eigen::Vector3d>> matched_map_points(const PreparedFrame& frame,
+                                                                 const std::vector<std::uint8_t>& usable,
+                                                                 const PassResult& anchor, double radius_px) const;
+
   // prepare + estimate(all keypoints) + commit: plain stereo SLAM (mode none).
   Expected<PoseEstimate> track(const StereoFrame& frame);
 
