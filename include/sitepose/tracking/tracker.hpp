@@ -127,6 +127,10 @@ class Tracker {
   std::optional<SE3> last_T_world_cam() const;
 
  private:
+  // ORB extraction of both images (left and right concurrently, the masked
+  // area with its own budget) and stereo matching.
+  Expected<features::StereoFeatures> extract(const StereoFrame& frame, const cv::Mat& extraction_mask,
+                                             PrepareTimings& timings);
   // Motion model or relocalisation, then the local map; see estimate().
   bool track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                           const SE3& predicted, PassResult& result) const;
