@@ -8,10 +8,9 @@ namespace sitepose::dynamic {
 namespace {
 // Pixel masks grow by this much: a FAST corner on an object's silhouette
 // moves with the object even when its centre pixel is background (the
-// authors used no dilation; box masks have the margin built in). Measured
-// on the parallel scenario (ATE, hierarchical vs bbox 5.5 mm): 8 px 5.8 mm,
-// 16 px 6.1 mm, 4 px 4.5 mm; more dilation throws away the background next
-// to the machines that the pixel mask is there to keep.
+// authors used no dilation; box masks have the margin built in). More
+// dilation throws away the background next to the machines that the pixel
+// mask is there to keep.
 constexpr int kPixelMaskDilationPx = 4;
 }  // namespace
 
@@ -116,6 +115,11 @@ Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& ob
   out.masked_ratio = static_cast<double>(cv::countNonZero(out.instance_labels)) /
                      std::max(1, image_size.area());
   return out;
+}
+
+cv::Mat extraction_mask(const MaskResult& mask) {
+  if (mask.instance_labels.empty()) return {};
+  return mask.instance_labels != 0;
 }
 
 }  // namespace sitepose::dynamic

@@ -1,20 +1,15 @@
 #include "sitepose/dynamic/motion_classifier.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
+#include "sitepose/core/stopwatch.hpp"
 #include "sitepose/features/hamming.hpp"
 #include "sitepose/optim/triangulation.hpp"
 #include "detail/point_displacement.hpp"
 
 namespace sitepose::dynamic {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 // Descriptor matching between the objects of RF and CF (METHOD.md: the
 // authors' ratio test 0.7; ORB-SLAM2's TH_LOW 50 bits as the upper bound).
@@ -118,6 +113,74 @@ bool judge_sitepose(const std::vector<PointDisplacement>& points, const config::
   return v.raw == MotionState::kUnknown;
 }
 
+std::vector<double> errors_m_of(const std::vector<PointDisplacement>& points) {
+  std::vector<double> out;
+  out.reserve(points.size());
+  for (const PointDisplacement& p : points) out.push_back(p.d.norm());
+  return out;
+}
+
+// CF's pose covariance as the noise model uses it (scaled by the clamped
+// variance factor); nullopt when unknown.
+std::optional<Matrix6d> scaled_pose_covariance(const ObjectFeatures& frame) {
+  if (!frame.covariance) return std::nullopt;
+  return *frame.covariance * clamped_variance_factor(frame.variance_factor);
+}
+
+// Per CF keypoint its RF keypoint, or -1: the nearest RF descriptor under the
+// ratio test, one CF keypoint per RF keypoint (the closer wins); then the
+// mutual check: the RF keypoint's own nearest CF keypoint must be the same
+// one (few-point objects were called moving on mismatches otherwise).
+std::vector<int> match_keypoints(const ObjectFeatures& current, const ObjectFeatures& ref) {
+  const int n_cf = static_cast<int>(current.uv_px.size());
+  const int n_rf = static_cast<int>(ref.uv_px.size());
+  const auto cf_descriptor = [&](int c) { return current.descriptors.ptr<std::uint8_t>(c); };
+  const auto rf_descriptor = [&](int r) { return ref.descriptors.ptr<std::uint8_t>(r); };
+  std::vector<int> match(n_cf, -1);
+  std::vector<int> best_distance_of_ref(n_rf, features::kDescriptorBits + 1);
+  std::vector<int> cf_of_ref(n_rf, -1);
+  for (int c = 0; c < n_cf; ++c) {
+    const features::NearestTwo nearest = features::nearest_two(cf_descriptor(c), n_rf, rf_descriptor);
+    const int r = nearest.index;
+    if (r < 0 || nearest.distance > kMaxMatchDistance || nearest.distance > kMatchRatio * nearest.second_distance) {
+      continue;
+    }
+    if (nearest.distance < best_distance_of_ref[r]) {
+      if (cf_of_ref[r] >= 0) match[cf_of_ref[r]] = -1;
+      best_distance_of_ref[r] = nearest.distance;
+      cf_of_ref[r] = c;
+      match[c] = r;
+    }
+  }
+  for (int c = 0; c < n_cf; ++c) {
+    if (match[c] >= 0 && features::nearest_two(rf_descriptor(match[c]), n_cf, cf_descriptor).index != c) {
+      match[c] = -1;
+    }
+  }
+  return match;
+}
+
+// RF object of each CF object: votes of matched keypoints per (CF object, RF
+// object); greedily the pair with most votes, each object used once.
+std::map<std::uint16_t, std::uint16_t> associate_objects(const ObjectFeatures& current, const ObjectFeatures* ref,
+                                                         const std::vector<int>& match) {
+  std::map<std::pair<std::uint16_t, std::uint16_t>, int> votes;
+  for (std::size_t c = 0; c < match.size(); ++c) {
+    if (match[c] >= 0) ++votes[{current.instance[c], ref->instance[match[c]]}];
+  }
+  std::vector<std::pair<int, std::pair<std::uint16_t, std::uint16_t>>> ranked;
+  for (const auto& [pair, n] : votes) ranked.push_back({n, pair});
+  std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::map<std::uint16_t, std::uint16_t> ref_of_current;
+  std::map<std::uint16_t, bool> ref_used;
+  for (const auto& [n, pair] : ranked) {
+    if (ref_of_current.count(pair.first) != 0 || ref_used[pair.second]) continue;
+    ref_of_current[pair.first] = pair.second;
+    ref_used[pair.second] = true;
+  }
+  return ref_of_current;
+}
+
 }  // namespace
 
 ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
@@ -143,6 +206,17 @@ ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
     out.octave.push_back(frame.octave[k]);
     out.instance.push_back(frame.instance[k]);
     frame.features.descriptors.row(k).copyTo(out.descriptors.row(static_cast<int>(i)));
+  }
+  return out;
+}
+
+std::vector<ClassifiedObject> unclassified_objects(const std::vector<ObjectBox>& boxes) {
+  std::vector<ClassifiedObject> out;
+  for (const ObjectBox& b : boxes) {
+    ClassifiedObject o;
+    o.verdict.instance = b.instance;
+    o.verdict.class_name = b.class_name;
+    out.push_back(std::move(o));
   }
   return out;
 }
@@ -267,135 +341,78 @@ MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, M
 
 std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& current) {
   timings_ = {};
-  std::vector<ClassifiedObject> out(current.boxes.size());
-  for (std::size_t b = 0; b < current.boxes.size(); ++b) {
-    out[b].verdict.instance = current.boxes[b].instance;
-    out[b].verdict.class_name = current.boxes[b].class_name;
-  }
-  const auto t_match = Clock::now();
+  std::vector<ClassifiedObject> out = unclassified_objects(current.boxes);
+  const auto t_match = SteadyClock::now();
   const ObjectFeatures* ref = select_reference(current);
-  // CF keypoint -> RF keypoint (ratio test, one CF keypoint per RF keypoint).
-  std::vector<int> match(current.uv_px.size(), -1);
-  if (ref != nullptr && !ref->uv_px.empty()) {
-    std::vector<int> best_distance_of_ref(ref->uv_px.size(), 257);
-    std::vector<int> cf_of_ref(ref->uv_px.size(), -1);
-    for (int c = 0; c < static_cast<int>(current.uv_px.size()); ++c) {
-      const std::uint8_t* d = current.descriptors.ptr<std::uint8_t>(c);
-      int best = 257, second = 257, best_r = -1;
-      for (int r = 0; r < static_cast<int>(ref->uv_px.size()); ++r) {
-        const int dist = features::hamming_distance(d, ref->descriptors.ptr<std::uint8_t>(r));
-        if (dist < best) {
-          second = best;
-          best = dist;
-          best_r = r;
-        } else if (dist < second) {
-          second = dist;
-        }
-      }
-      if (best_r < 0 || best > kMaxMatchDistance || best > kMatchRatio * second) continue;
-      if (best < best_distance_of_ref[best_r]) {
-        if (cf_of_ref[best_r] >= 0) match[cf_of_ref[best_r]] = -1;
-        best_distance_of_ref[best_r] = best;
-        cf_of_ref[best_r] = c;
-        match[c] = best_r;
-      }
-    }
-    // Mutual check: the RF keypoint's own best CF keypoint must be the same
-    // one (few-point objects were called moving on mismatches otherwise).
-    for (int c = 0; c < static_cast<int>(match.size()); ++c) {
-      const int r = match[c];
-      if (r < 0) continue;
-      const std::uint8_t* d = ref->descriptors.ptr<std::uint8_t>(r);
-      int best = 257, best_c = -1;
-      for (int c2 = 0; c2 < static_cast<int>(current.uv_px.size()); ++c2) {
-        const int dist = features::hamming_distance(d, current.descriptors.ptr<std::uint8_t>(c2));
-        if (dist < best) {
-          best = dist;
-          best_c = c2;
-        }
-      }
-      if (best_c != c) match[c] = -1;
-    }
-  }
-  // Association: votes of matched keypoints per (CF object, RF object);
-  // greedily the pair with most matches, each object used once.
-  std::map<std::pair<std::uint16_t, std::uint16_t>, int> votes;
-  for (std::size_t c = 0; c < match.size(); ++c) {
-    if (match[c] >= 0) ++votes[{current.instance[c], ref->instance[match[c]]}];
-  }
-  std::vector<std::pair<int, std::pair<std::uint16_t, std::uint16_t>>> ranked;
-  for (const auto& [pair, n] : votes) ranked.push_back({n, pair});
-  std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-  std::map<std::uint16_t, std::uint16_t> ref_of_current;
-  std::map<std::uint16_t, bool> ref_used;
-  for (const auto& [n, pair] : ranked) {
-    if (ref_of_current.count(pair.first) != 0 || ref_used[pair.second]) continue;
-    ref_of_current[pair.first] = pair.second;
-    ref_used[pair.second] = true;
-  }
+  const std::vector<int> match = ref != nullptr ? match_keypoints(current, *ref)
+                                                : std::vector<int>(current.uv_px.size(), -1);
+  const std::map<std::uint16_t, std::uint16_t> ref_of_current = associate_objects(current, ref, match);
   timings_.match_ms = ms_since(t_match);
 
-  const auto t_test = Clock::now();
-  const bool paper = config_.classifier == config::ClassifierMode::kPaper;
-  std::optional<Matrix6d> scaled_cov_cf;
-  if (current.covariance) {
-    scaled_cov_cf = *current.covariance * clamped_variance_factor(current.variance_factor);
-  }
-  const Matrix6d* cov_cf = scaled_cov_cf ? &*scaled_cov_cf : nullptr;
-  // RF's pose error is left out: RF and CF are tracked against the same map
-  // points, so their errors are strongly correlated and adding both
-  // covariances overstates the relative error (measured: a machine 8 cm
-  // from where it was looked static).
-  const Matrix6d* cov_rf = nullptr;
-  for (ClassifiedObject& object : out) {
-    ObjectVerdict& v = object.verdict;
-    bool conflicting = false;  // evidence against "static" without a moving verdict
-    const auto it = ref_of_current.find(v.instance);
-    if (it != ref_of_current.end()) {
-      v.reference_instance = it->second;
-      v.reference_seq = ref->seq;
-      std::vector<double> stats;                // paper mode: errors (m)
-      std::vector<PointDisplacement> points;    // sitepose mode
-      for (std::size_t c = 0; c < match.size(); ++c) {
-        if (match[c] < 0 || current.instance[c] != v.instance) continue;
-        const int r = match[c];
-        if (ref->instance[r] != it->second) continue;
-        const auto w_cf = to_world(current.uv_px[c], current.u_right_px[c], current.octave[c],
-                                   current.variance_factor, current.T_world_cam, cov_cf);
-        const auto w_rf = to_world(ref->uv_px[r], ref->u_right_px[r], ref->octave[r], ref->variance_factor,
-                                   ref->T_world_cam, cov_rf);
-        if (!w_cf || !w_rf) continue;
-        const Eigen::Vector3d d = w_cf->p - w_rf->p;
-        if (d.norm() > kMaxPointErrorM) continue;
-        if (paper) {
-          stats.push_back(d.norm());
-        } else {
-          PointDisplacement p;
-          p.d = d;
-          p.covariance = w_cf->covariance + w_rf->covariance;
-          p.mahalanobis2 = d.dot(p.covariance.ldlt().solve(d));
-          p.pixel_covariance = w_cf->pixel_covariance + w_rf->pixel_covariance;
-          points.push_back(p);
-        }
-      }
-      if (paper) {
-        stats = judge_paper(std::move(stats), config_, v);
-      } else {
-        conflicting = judge_sitepose(points, config_, v, stats);
-      }
-      object.statistics = std::move(stats);
-    }
-    const bool long_enough =
-        ref != nullptr && static_cast<double>(current.t_ns - ref->t_ns) * 1e-9 >= kMinStaticEvidenceS;
-    v.state = paper ? v.raw : smooth(v.instance, current.seq, v.raw, long_enough, conflicting);
-  }
-  // Forget instances not seen for a ring's length.
-  for (auto it = tracks_.begin(); it != tracks_.end();) {
-    it = current.seq - it->second.last_seq > static_cast<std::int64_t>(capacity_) ? tracks_.erase(it)
-                                                                                   : std::next(it);
-  }
+  const auto t_test = SteadyClock::now();
+  const Pairing pairing{current, ref, match, scaled_pose_covariance(current)};
+  for (ClassifiedObject& object : out) judge(pairing, ref_of_current, object);
+  forget_unseen_tracks(current.seq);
   timings_.test_ms = ms_since(t_test);
   return out;
+}
+
+std::vector<PointDisplacement> MotionClassifier::displacements(const Pairing& pairing, std::uint16_t instance,
+                                                               std::uint16_t ref_instance) const {
+  const ObjectFeatures& current = pairing.current;
+  const ObjectFeatures& ref = *pairing.ref;
+  const Matrix6d* cov_cf = pairing.pose_covariance ? &*pairing.pose_covariance : nullptr;
+  std::vector<PointDisplacement> points;
+  for (std::size_t c = 0; c < pairing.match.size(); ++c) {
+    if (pairing.match[c] < 0 || current.instance[c] != instance) continue;
+    const int r = pairing.match[c];
+    if (ref.instance[r] != ref_instance) continue;
+    const auto w_cf = to_world(current.uv_px[c], current.u_right_px[c], current.octave[c], current.variance_factor,
+                               current.T_world_cam, cov_cf);
+    // RF's pose error is left out: RF and CF are tracked against the same map
+    // points, so their errors are strongly correlated and adding both
+    // covariances overstates the relative error (a machine 8 cm from where it
+    // was looked static).
+    const auto w_rf = to_world(ref.uv_px[r], ref.u_right_px[r], ref.octave[r], ref.variance_factor,
+                               ref.T_world_cam, nullptr);
+    if (!w_cf || !w_rf) continue;
+    const Eigen::Vector3d d = w_cf->p - w_rf->p;
+    if (d.norm() > kMaxPointErrorM) continue;
+    PointDisplacement p;
+    p.d = d;
+    p.covariance = w_cf->covariance + w_rf->covariance;
+    p.pixel_covariance = w_cf->pixel_covariance + w_rf->pixel_covariance;
+    points.push_back(p);
+  }
+  return points;
+}
+
+void MotionClassifier::judge(const Pairing& pairing, const std::map<std::uint16_t, std::uint16_t>& ref_of_current,
+                             ClassifiedObject& object) {
+  ObjectVerdict& v = object.verdict;
+  const bool paper = config_.classifier == config::ClassifierMode::kPaper;
+  bool conflicting = false;  // evidence against "static" without a moving verdict
+  if (const auto it = ref_of_current.find(v.instance); it != ref_of_current.end()) {
+    v.reference_instance = it->second;
+    v.reference_seq = pairing.ref->seq;
+    std::vector<PointDisplacement> points = displacements(pairing, v.instance, it->second);
+    if (paper) {
+      object.statistics = judge_paper(errors_m_of(points), config_, v);
+    } else {
+      for (PointDisplacement& p : points) p.mahalanobis2 = p.d.dot(p.covariance.ldlt().solve(p.d));
+      conflicting = judge_sitepose(points, config_, v, object.statistics);
+    }
+  }
+  const bool long_enough =
+      pairing.ref != nullptr &&
+      static_cast<double>(pairing.current.t_ns - pairing.ref->t_ns) * 1e-9 >= kMinStaticEvidenceS;
+  v.state = paper ? v.raw : smooth(v.instance, pairing.current.seq, v.raw, long_enough, conflicting);
+}
+
+void MotionClassifier::forget_unseen_tracks(std::int64_t seq) {
+  for (auto it = tracks_.begin(); it != tracks_.end();) {
+    it = seq - it->second.last_seq > static_cast<std::int64_t>(capacity_) ? tracks_.erase(it) : std::next(it);
+  }
 }
 
 }  // namespace sitepose::dynamic

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
@@ -73,6 +74,187 @@ double zero_mean_sad(const cv::Mat& left, int xl, const cv::Mat& right, int xr, 
   return double(total) / (double(n) * n);
 }
 
+Status check_inputs(const OrbFeatures& left, const OrbFeatures& right) {
+  const ImagePyramid& lp = left.pyramid;
+  const ImagePyramid& rp = right.pyramid;
+  if (lp.n_levels() == 0 || lp.n_levels() != rp.n_levels() ||
+      lp.levels[0].size() != rp.levels[0].size()) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "stereo matching: left and right pyramids differ (levels " +
+                          std::to_string(lp.n_levels()) + " vs " + std::to_string(rp.n_levels()) +
+                          ", level-0 size " + std::to_string(lp.n_levels() ? lp.levels[0].cols : 0) + "x" +
+                          std::to_string(lp.n_levels() ? lp.levels[0].rows : 0) + " vs " +
+                          std::to_string(rp.n_levels() ? rp.levels[0].cols : 0) + "x" +
+                          std::to_string(rp.n_levels() ? rp.levels[0].rows : 0) + ")");
+  }
+  const int n_left = static_cast<int>(left.keypoints.size());
+  if (left.descriptors.rows != n_left || static_cast<int>(right.keypoints.size()) != right.descriptors.rows) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "stereo matching: descriptor rows do not match keypoint counts (left " +
+                          std::to_string(left.descriptors.rows) + "/" + std::to_string(n_left) + ", right " +
+                          std::to_string(right.descriptors.rows) + "/" +
+                          std::to_string(right.keypoints.size()) + ")");
+  }
+  return ok_status();
+}
+
+// The matching of one pair, keypoint by keypoint (StereoMatcher::match).
+class PairMatcher {
+ public:
+  PairMatcher(const config::StereoMatchConfig& config, double bf_px_m, const OrbFeatures& left,
+              const OrbFeatures& right)
+      : config_(config),
+        bf_px_m_(bf_px_m),
+        left_(left),
+        right_(right),
+        rows_(left.pyramid.levels[0].rows),
+        // Nominal level scale, recovered from the pyramid (level 1 ratio) so
+        // the matcher needs no OrbConfig; exact per-level ratios are used for
+        // pixels.
+        index_(right.keypoints, rows_, config.row_band_px,
+               left.pyramid.n_levels() > 1 ? left.pyramid.ratio_x[1] : 1.0) {}
+
+  // Left keypoint i: its right column and depth into `out`, or the reason it
+  // has none counted in out.stats; a match's SAD cost into sad_of_match.
+  void match(int i, StereoMatches& out, std::vector<std::pair<double, int>>& sad_of_match) {
+    int best_distance = kDescriptorBits + 1;
+    const int best_j = nearest_right(i, best_distance, out.ambiguous[i]);
+    if (best_j < 0) {
+      ++out.stats.n_no_candidate;
+      return;
+    }
+    if (best_distance > config_.max_descriptor_distance) {
+      ++out.stats.n_descriptor_too_far;
+      return;
+    }
+    double sad = 0.0;
+    const std::optional<double> u_right = refine(i, best_j, sad, out.stats);
+    if (!u_right) return;
+    const double disparity = left_.keypoints[i].pt.x - *u_right;
+    if (disparity < config_.min_disparity_px || disparity > config_.max_disparity_px) {
+      ++out.stats.n_out_of_range;
+      return;
+    }
+    out.u_right[i] = *u_right;
+    out.depth_m[i] = bf_px_m_ / disparity;
+    sad_of_match.emplace_back(sad, i);
+  }
+
+ private:
+  static constexpr int kL = kSadSearchRadiusPx;
+
+  // The right keypoint nearest by descriptor to left keypoint i among those
+  // in its row band, on levels +-1 and in the disparity range (-1 if none);
+  // `ambiguous` as kAmbiguityRatio says.
+  int nearest_right(int i, int& best_distance, std::uint8_t& ambiguous) {
+    const cv::KeyPoint& kl = left_.keypoints[i];
+    const int level = kl.octave;
+    const int row = std::clamp(static_cast<int>(std::lround(kl.pt.y)), 0, rows_ - 1);
+    const double min_u = kl.pt.x - config_.max_disparity_px;
+    const double max_u = kl.pt.x - config_.min_disparity_px;
+    int best_j = -1;
+    const std::uint8_t* dl = left_.descriptors.ptr<std::uint8_t>(i);
+    candidates_.clear();
+    for (int k = index_.begin[row]; k < index_.begin[row + 1]; ++k) {
+      const int j = index_.ids[k];
+      const cv::KeyPoint& kr = right_.keypoints[j];
+      if (kr.octave < level - 1 || kr.octave > level + 1) continue;
+      if (kr.pt.x < min_u || kr.pt.x > max_u) continue;
+      const int distance = hamming_distance(dl, right_.descriptors.ptr<std::uint8_t>(j));
+      candidates_.push_back({kr.pt.x, distance});
+      if (distance < best_distance) {
+        best_distance = distance;
+        best_j = j;
+      }
+    }
+    if (best_j >= 0) {
+      // Second best among candidates away from the best one (the same
+      // corner is often detected twice, a pixel apart).
+      const double best_u = right_.keypoints[best_j].pt.x;
+      int second_distance = kDescriptorBits + 1;
+      for (const auto& [u, distance] : candidates_) {
+        if (std::abs(u - best_u) >= kAmbiguityMinSeparationPx) second_distance = std::min(second_distance, distance);
+      }
+      ambiguous = best_distance >= kAmbiguityRatio * second_distance ? 1 : 0;
+    }
+    return best_j;
+  }
+
+  // Sub-pixel right column (level 0) of left keypoint i on its own level,
+  // around right keypoint j: zero-mean SAD over +-kL shifts and a parabola
+  // through the minimum; `sad` = the minimum's cost. nullopt (counted in
+  // stats) when the window leaves the image or the refinement fails.
+  std::optional<double> refine(int i, int j, double& sad, StereoMatchStats& stats) {
+    const cv::KeyPoint& kl = left_.keypoints[i];
+    const int level = kl.octave;
+    const ImagePyramid& lp = left_.pyramid;
+    const ImagePyramid& rp = right_.pyramid;
+    const cv::Mat& limg = lp.levels[level];
+    const cv::Mat& rimg = rp.levels[level];
+    const int w = config_.sad_half_window_px;
+    const cv::Point2d pl = lp.from_level0(level, cv::Point2d(kl.pt.x, kl.pt.y));
+    const int xl = static_cast<int>(std::lround(pl.x));
+    const int yl = static_cast<int>(std::lround(pl.y));
+    const cv::Point2d pr = rp.from_level0(level, cv::Point2d(right_.keypoints[j].pt.x, kl.pt.y));
+    const int xr0 = static_cast<int>(std::lround(pr.x));
+    if (yl - w < 0 || yl + w >= limg.rows || xl - w < 0 || xl + w >= limg.cols || xr0 - kL - w < 0 ||
+        xr0 + kL + w >= rimg.cols) {
+      ++stats.n_window_outside;
+      return std::nullopt;
+    }
+    std::array<double, 2 * kL + 1>& costs = costs_;
+    int best_shift = 0;
+    // The first comparisons read costs[kL] before this keypoint writes it,
+    // i.e. the last refined keypoint's cost at shift 0 (as it always did;
+    // changing it changes the matches).
+    for (int s = -kL; s <= kL; ++s) {
+      costs[s + kL] = zero_mean_sad(limg, xl, rimg, xr0 + s, yl, w);
+      if (costs[s + kL] < costs[best_shift + kL]) best_shift = s;
+    }
+    if (best_shift == -kL || best_shift == kL) {
+      ++stats.n_refinement_failed;
+      return std::nullopt;
+    }
+    const auto offset = detail::parabola_vertex_offset(costs[best_shift + kL - 1], costs[best_shift + kL],
+                                                       costs[best_shift + kL + 1]);
+    if (!offset) {
+      ++stats.n_refinement_failed;
+      return std::nullopt;
+    }
+    sad = costs[best_shift + kL];
+    const double xr_level = xr0 + best_shift + *offset;
+    return rp.to_level0(level, cv::Point2d(xr_level, pl.y)).x;
+  }
+
+  const config::StereoMatchConfig& config_;
+  double bf_px_m_;
+  const OrbFeatures& left_;
+  const OrbFeatures& right_;
+  int rows_;
+  RowIndex index_;
+  // Right column and Hamming distance of each candidate of the current left
+  // keypoint (reused; the ambiguity check needs them after the best is known).
+  std::vector<std::pair<float, int>> candidates_;
+  // SAD cost per shift of the last refined keypoint.
+  std::array<double, 2 * kL + 1> costs_{};
+};
+
+// Rejects the matches whose SAD exceeds sad_outlier_threshold(); counts the rest as matched.
+void reject_sad_outliers(const std::vector<std::pair<double, int>>& sad_of_match, StereoMatches& out) {
+  std::vector<double> sads(sad_of_match.size());
+  for (size_t k = 0; k < sad_of_match.size(); ++k) sads[k] = sad_of_match[k].first;
+  const double threshold = sad_outlier_threshold(std::move(sads));
+  for (const auto& [sad, i] : sad_of_match) {
+    if (sad > threshold) {
+      out.u_right[i] = kNoMatch;
+      out.depth_m[i] = kNoMatch;
+      ++out.stats.n_sad_outlier;
+    } else {
+      ++out.stats.n_matched;
+    }
+  }
+}
+
 }  // namespace
 
 Status validate(const config::StereoMatchConfig& c) {
@@ -120,143 +302,19 @@ double sad_outlier_threshold(std::vector<double> sad_costs) {
 }
 
 Expected<StereoMatches> StereoMatcher::match(const OrbFeatures& left, const OrbFeatures& right) const {
-  const ImagePyramid& lp = left.pyramid;
-  const ImagePyramid& rp = right.pyramid;
-  if (lp.n_levels() == 0 || lp.n_levels() != rp.n_levels() ||
-      lp.levels[0].size() != rp.levels[0].size()) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "stereo matching: left and right pyramids differ (levels " +
-                          std::to_string(lp.n_levels()) + " vs " + std::to_string(rp.n_levels()) +
-                          ", level-0 size " + std::to_string(lp.n_levels() ? lp.levels[0].cols : 0) + "x" +
-                          std::to_string(lp.n_levels() ? lp.levels[0].rows : 0) + " vs " +
-                          std::to_string(rp.n_levels() ? rp.levels[0].cols : 0) + "x" +
-                          std::to_string(rp.n_levels() ? rp.levels[0].rows : 0) + ")");
-  }
+  SITEPOSE_TRY_STATUS(check_inputs(left, right));
   const int n_left = static_cast<int>(left.keypoints.size());
-  if (left.descriptors.rows != n_left || static_cast<int>(right.keypoints.size()) != right.descriptors.rows) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "stereo matching: descriptor rows do not match keypoint counts (left " +
-                          std::to_string(left.descriptors.rows) + "/" + std::to_string(n_left) + ", right " +
-                          std::to_string(right.descriptors.rows) + "/" +
-                          std::to_string(right.keypoints.size()) + ")");
-  }
-
   StereoMatches out;
   out.u_right.assign(n_left, kNoMatch);
   out.ambiguous.assign(n_left, 0);
   out.depth_m.assign(n_left, kNoMatch);
   out.stats.n_left = n_left;
   if (n_left == 0) return out;
-
-  // Nominal level scale, recovered from the pyramid (level 1 ratio) so the
-  // matcher needs no OrbConfig; exact per-level ratios are used for pixels.
-  const double scale_factor = lp.n_levels() > 1 ? lp.ratio_x[1] : 1.0;
-  const int rows = lp.levels[0].rows;
-  const RowIndex index(right.keypoints, rows, config_.row_band_px, scale_factor);
-  const int w = config_.sad_half_window_px;
-  constexpr int kL = kSadSearchRadiusPx;
-
+  PairMatcher pair(config_, bf_px_m_, left, right);
   std::vector<std::pair<double, int>> sad_of_match;
   sad_of_match.reserve(n_left);
-  std::array<double, 2 * kL + 1> costs{};
-  // Right column and Hamming distance of each candidate of the current left
-  // keypoint (reused; the ambiguity check needs them after the best is known).
-  std::vector<std::pair<float, int>> candidates;
-
-  for (int i = 0; i < n_left; ++i) {
-    const cv::KeyPoint& kl = left.keypoints[i];
-    const int level = kl.octave;
-    const int row = std::clamp(static_cast<int>(std::lround(kl.pt.y)), 0, rows - 1);
-    const double min_u = kl.pt.x - config_.max_disparity_px;
-    const double max_u = kl.pt.x - config_.min_disparity_px;
-
-    int best_distance = kDescriptorBits + 1;
-    int best_j = -1;
-    const std::uint8_t* dl = left.descriptors.ptr<std::uint8_t>(i);
-    candidates.clear();
-    for (int k = index.begin[row]; k < index.begin[row + 1]; ++k) {
-      const int j = index.ids[k];
-      const cv::KeyPoint& kr = right.keypoints[j];
-      if (kr.octave < level - 1 || kr.octave > level + 1) continue;
-      if (kr.pt.x < min_u || kr.pt.x > max_u) continue;
-      const int distance = hamming_distance(dl, right.descriptors.ptr<std::uint8_t>(j));
-      candidates.push_back({kr.pt.x, distance});
-      if (distance < best_distance) {
-        best_distance = distance;
-        best_j = j;
-      }
-    }
-    if (best_j >= 0) {
-      // Second best among candidates away from the best one (the same
-      // corner is often detected twice, a pixel apart).
-      const double best_u = right.keypoints[best_j].pt.x;
-      int second_distance = kDescriptorBits + 1;
-      for (const auto& [u, distance] : candidates) {
-        if (std::abs(u - best_u) >= kAmbiguityMinSeparationPx) second_distance = std::min(second_distance, distance);
-      }
-      out.ambiguous[i] = best_distance >= kAmbiguityRatio * second_distance ? 1 : 0;
-    }
-    if (best_j < 0) {
-      ++out.stats.n_no_candidate;
-      continue;
-    }
-    if (best_distance > config_.max_descriptor_distance) {
-      ++out.stats.n_descriptor_too_far;
-      continue;
-    }
-
-    // Refine on the left keypoint's level around the right candidate.
-    const cv::Mat& limg = lp.levels[level];
-    const cv::Mat& rimg = rp.levels[level];
-    const cv::Point2d pl = lp.from_level0(level, cv::Point2d(kl.pt.x, kl.pt.y));
-    const int xl = static_cast<int>(std::lround(pl.x));
-    const int yl = static_cast<int>(std::lround(pl.y));
-    const cv::Point2d pr = rp.from_level0(level, cv::Point2d(right.keypoints[best_j].pt.x, kl.pt.y));
-    const int xr0 = static_cast<int>(std::lround(pr.x));
-    if (yl - w < 0 || yl + w >= limg.rows || xl - w < 0 || xl + w >= limg.cols || xr0 - kL - w < 0 ||
-        xr0 + kL + w >= rimg.cols) {
-      ++out.stats.n_window_outside;
-      continue;
-    }
-    int best_shift = 0;
-    for (int s = -kL; s <= kL; ++s) {
-      costs[s + kL] = zero_mean_sad(limg, xl, rimg, xr0 + s, yl, w);
-      if (costs[s + kL] < costs[best_shift + kL]) best_shift = s;
-    }
-    if (best_shift == -kL || best_shift == kL) {
-      ++out.stats.n_refinement_failed;
-      continue;
-    }
-    const auto offset = detail::parabola_vertex_offset(costs[best_shift + kL - 1], costs[best_shift + kL],
-                                                       costs[best_shift + kL + 1]);
-    if (!offset) {
-      ++out.stats.n_refinement_failed;
-      continue;
-    }
-    const double xr_level = xr0 + best_shift + *offset;
-    const double u_right = rp.to_level0(level, cv::Point2d(xr_level, pl.y)).x;
-    const double disparity = kl.pt.x - u_right;
-    if (disparity < config_.min_disparity_px || disparity > config_.max_disparity_px) {
-      ++out.stats.n_out_of_range;
-      continue;
-    }
-    out.u_right[i] = u_right;
-    out.depth_m[i] = bf_px_m_ / disparity;
-    sad_of_match.emplace_back(costs[best_shift + kL], i);
-  }
-
-  std::vector<double> sads(sad_of_match.size());
-  for (size_t k = 0; k < sad_of_match.size(); ++k) sads[k] = sad_of_match[k].first;
-  const double threshold = sad_outlier_threshold(std::move(sads));
-  for (const auto& [sad, i] : sad_of_match) {
-    if (sad > threshold) {
-      out.u_right[i] = kNoMatch;
-      out.depth_m[i] = kNoMatch;
-      ++out.stats.n_sad_outlier;
-    } else {
-      ++out.stats.n_matched;
-    }
-  }
+  for (int i = 0; i < n_left; ++i) pair.match(i, out, sad_of_match);
+  reject_sad_outliers(sad_of_match, out);
   return out;
 }
 

@@ -46,23 +46,10 @@ double chi2_at(const ceres::CostFunction& cost, const double* pose) {
   return s;
 }
 
-}  // namespace
+using Costs = std::vector<std::unique_ptr<ceres::CostFunction>>;
 
-MotionOnlyBa::MotionOnlyBa(const StereoCamera& camera, const config::TrackingConfig& tracking)
-    : camera_(camera),
-      rounds_(tracking.motion_ba_rounds),
-      iterations_per_round_(tracking.motion_ba_iterations),
-      chi2_mono_(tracking.chi2_mono),
-      chi2_stereo_(tracking.chi2_stereo) {
-  // The config loader enforces these; reaching here without them is a bug.
-  SITEPOSE_CHECK(rounds_ >= 1 && iterations_per_round_ >= 1);
-  SITEPOSE_CHECK(chi2_mono_ > 0.0 && chi2_stereo_ > 0.0);
-}
-
-Expected<MotionBaResult> MotionOnlyBa::solve(const SE3& T_cam_world_init,
-                                             std::span<const PoseObservation> observations) const {
-  const std::size_t n = observations.size();
-  for (std::size_t i = 0; i < n; ++i) {
+Status validate(std::span<const PoseObservation> observations) {
+  for (std::size_t i = 0; i < observations.size(); ++i) {
     const PoseObservation& o = observations[i];
     if (!all_finite(o)) {
       return make_error(ErrorCode::kInvalidArgument,
@@ -75,58 +62,62 @@ Expected<MotionBaResult> MotionOnlyBa::solve(const SE3& T_cam_world_init,
                             std::to_string(o.sigma2_px2) + "; expected > 0");
     }
   }
+  return ok_status();
+}
 
-  PoseBlock pose = to_pose_block(T_cam_world_init);
-  std::vector<std::unique_ptr<ceres::CostFunction>> costs;
-  costs.reserve(n);
-  for (const PoseObservation& o : observations) costs.push_back(make_cost(camera_, o));
+// The rounds of optimise -> re-label outliers (ORB-SLAM2's PoseOptimization).
+struct Rounds {
+  int rounds = 0;
+  int iterations_per_round = 0;
+  double chi2_mono = 0.0;
+  double chi2_stereo = 0.0;
+};
 
-  MotionBaResult result;
-  result.inlier.assign(n, 1);
-  result.chi2.assign(n, 0.0);
-  auto classify = [&] {
-    for (std::size_t i = 0; i < n; ++i) {
-      const double chi2 = chi2_at(*costs[i], pose.data());
-      const double gate = observations[i].is_stereo() ? chi2_stereo_ : chi2_mono_;
-      result.chi2[i] = chi2;
-      result.inlier[i] = chi2 <= gate ? 1 : 0;  // inf (behind camera) fails the gate
-    }
-  };
-  // Observations behind the predicted pose cannot start in the problem:
-  // Ceres needs a finite cost at the initial point.
-  for (std::size_t i = 0; i < n; ++i) {
-    if (std::isinf(chi2_at(*costs[i], pose.data()))) result.inlier[i] = 0;
+// chi2 and inlier flag of every observation at `pose` (+inf, behind the
+// camera, fails the gate).
+void classify_at(const Costs& costs, std::span<const PoseObservation> observations, const PoseBlock& pose,
+                 const Rounds& settings, MotionBaResult& result) {
+  for (std::size_t i = 0; i < observations.size(); ++i) {
+    const double chi2 = chi2_at(*costs[i], pose.data());
+    const double gate = observations[i].is_stereo() ? settings.chi2_stereo : settings.chi2_mono;
+    result.chi2[i] = chi2;
+    result.inlier[i] = chi2 <= gate ? 1 : 0;
   }
+}
 
+// Optimises `pose` over the inliers, round after round, re-labelling after
+// each; stops early when fewer than kMinObservationsToOptimise are left.
+Status optimise_in_rounds(const Costs& costs, std::span<const PoseObservation> observations, const Rounds& settings,
+                          PoseBlock& pose, MotionBaResult& result) {
   Se3LeftManifold manifold;
-  ceres::HuberLoss huber_mono(std::sqrt(chi2_mono_));
-  ceres::HuberLoss huber_stereo(std::sqrt(chi2_stereo_));
+  ceres::HuberLoss huber_mono(std::sqrt(settings.chi2_mono));
+  ceres::HuberLoss huber_stereo(std::sqrt(settings.chi2_stereo));
   ceres::Problem::Options problem_options;
   problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  // Inputs were validated above; skip Ceres's per-block checks (speed).
+  // Inputs were validated; skip Ceres's per-block checks (speed).
   problem_options.disable_all_safety_checks = true;
 
   ceres::Solver::Options solver_options;
   // 6 unknowns: the 6x6 normal equations are cheapest (DENSE_QR measured ~5 % slower).
   solver_options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  solver_options.max_num_iterations = iterations_per_round_;
+  solver_options.max_num_iterations = settings.iterations_per_round;
   solver_options.num_threads = 1;
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
 
-  for (int round = 0; round < rounds_; ++round) {
+  for (int round = 0; round < settings.rounds; ++round) {
     int active = 0;
     for (std::uint8_t f : result.inlier) active += f;
     if (active < kMinObservationsToOptimise) break;
-    const bool robust = round + 1 < rounds_;
+    const bool robust = round + 1 < settings.rounds;
     // Rebuilt each round: outliers leave, and the last round has no kernel.
     // Cost functions are shared, so a rebuild only re-links ~n pointers
     // (measured ~70 us CPU per round for 500 observations, ~15 % of a solve).
     ceres::Problem problem(problem_options);
     problem.AddParameterBlock(pose.data(), 7, &manifold);
-    for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t i = 0; i < observations.size(); ++i) {
       if (!result.inlier[i]) continue;
       ceres::LossFunction* loss = nullptr;
       if (robust) {
@@ -143,14 +134,19 @@ Expected<MotionBaResult> MotionOnlyBa::solve(const SE3& T_cam_world_init,
     }
     result.iterations += static_cast<int>(summary.iterations.size()) - 1;
     ++result.rounds_run;
-    classify();
+    classify_at(costs, observations, pose, settings, result);
   }
-  if (result.rounds_run == 0) classify();
+  if (result.rounds_run == 0) classify_at(costs, observations, pose, settings, result);
+  return ok_status();
+}
 
-  result.T_cam_world = from_pose_block(pose.data());
+// Inlier counts and chi2 statistics at `pose`, the a-posteriori variance
+// factor and the Hessian covariance of the inliers.
+void summarise_inliers(const Costs& costs, std::span<const PoseObservation> observations, const PoseBlock& pose,
+                       MotionBaResult& result) {
   Matrix6d H = Matrix6d::Zero();
   int inlier_residuals = 0;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < observations.size(); ++i) {
     if (!result.inlier[i]) continue;
     const PoseObservation& o = observations[i];
     ++result.num_inliers;
@@ -178,6 +174,42 @@ Expected<MotionBaResult> MotionOnlyBa::solve(const SE3& T_cam_world_init,
                                    eig.eigenvectors().transpose();
     result.covariance_world_cam = left_covariance_of_inverse(result.T_cam_world, cov_cam_world);
   }
+}
+
+}  // namespace
+
+MotionOnlyBa::MotionOnlyBa(const StereoCamera& camera, const config::TrackingConfig& tracking)
+    : camera_(camera),
+      rounds_(tracking.motion_ba_rounds),
+      iterations_per_round_(tracking.motion_ba_iterations),
+      chi2_mono_(tracking.chi2_mono),
+      chi2_stereo_(tracking.chi2_stereo) {
+  // The config loader enforces these; reaching here without them is a bug.
+  SITEPOSE_CHECK(rounds_ >= 1 && iterations_per_round_ >= 1);
+  SITEPOSE_CHECK(chi2_mono_ > 0.0 && chi2_stereo_ > 0.0);
+}
+
+Expected<MotionBaResult> MotionOnlyBa::solve(const SE3& T_cam_world_init,
+                                             std::span<const PoseObservation> observations) const {
+  SITEPOSE_TRY_STATUS(validate(observations));
+  const std::size_t n = observations.size();
+  PoseBlock pose = to_pose_block(T_cam_world_init);
+  Costs costs;
+  costs.reserve(n);
+  for (const PoseObservation& o : observations) costs.push_back(make_cost(camera_, o));
+
+  MotionBaResult result;
+  result.inlier.assign(n, 1);
+  result.chi2.assign(n, 0.0);
+  // Observations behind the predicted pose cannot start in the problem:
+  // Ceres needs a finite cost at the initial point.
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::isinf(chi2_at(*costs[i], pose.data()))) result.inlier[i] = 0;
+  }
+  const Rounds settings{rounds_, iterations_per_round_, chi2_mono_, chi2_stereo_};
+  SITEPOSE_TRY_STATUS(optimise_in_rounds(costs, observations, settings, pose, result));
+  result.T_cam_world = from_pose_block(pose.data());
+  summarise_inliers(costs, observations, pose, result);
   return result;
 }
 

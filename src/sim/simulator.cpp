@@ -42,17 +42,13 @@ bool same_pose(const SE3& a, const SE3& b) {
          rotation_angle_rad(a.rotation().inverse() * b.rotation()) <= kSamePoseEpsilon;
 }
 
-}  // namespace
-
-Expected<Simulator> Simulator::create(const Scenario& scenario_in, const SimOptions& options) {
-  Simulator sim;
-  sim.scenario_ = scenario_in;
-  Scenario& s = sim.scenario_;
+// The options applied to `s` (a new image size keeps the field of view);
+// returns the number of frames. kInvalidArgument names a bad override.
+Expected<int> apply_options(const SimOptions& options, Scenario& s) {
   if (options.seed) {
     if (*options.seed < 0) return make_error(ErrorCode::kInvalidArgument, "seed = " + std::to_string(*options.seed) + ": must be >= 0");
     s.seed = *options.seed;
   }
-  // A new image size keeps the field of view: focal lengths scale with it.
   if (options.width) {
     s.camera.fx *= static_cast<double>(*options.width) / s.camera.width;
     s.camera.width = *options.width;
@@ -71,39 +67,37 @@ Expected<Simulator> Simulator::create(const Scenario& scenario_in, const SimOpti
     }
     s.fps = *options.fps;
   }
-  sim.frames_ = s.frame_count();
+  int frames = s.frame_count();
   if (options.frames) {
     if (*options.frames < 1) return make_error(ErrorCode::kInvalidArgument, "frames = " + std::to_string(*options.frames) + ": must be >= 1");
-    sim.frames_ = *options.frames;
+    frames = *options.frames;
   }
   if (s.realism.motion_blur_samples % 2 == 0) {
     return make_error(ErrorCode::kInvalidArgument,
                       "realism.motion_blur_samples = " + std::to_string(s.realism.motion_blur_samples) +
                           ": must be odd (labels come from the middle sample)");
   }
-  sim.camera_ = StereoCamera{s.camera.fx, s.camera.fy, s.camera.width / 2.0, s.camera.height / 2.0,
-                             s.camera.baseline_m, s.camera.width, s.camera.height};
-  SITEPOSE_TRY_STATUS(sim.camera_.validate());
+  return frames;
+}
 
-  // Ego speed profile: segments back to back, then a stop.
+// Ego speed profile: segments back to back, then a stop.
+SpeedProfile ego_speed_profile(const EgoSpec& ego) {
   std::vector<SpeedChange> changes;
   double t = 0.0;
-  for (const EgoSegment& seg : s.ego.segments) {
+  for (const EgoSegment& seg : ego.segments) {
     changes.push_back({t, seg.speed_mps});
     t += seg.duration_s;
   }
   changes.push_back({t, 0.0});
-  sim.ego_profile_ = SpeedProfile(changes, s.ego.accel_mps2);
+  return SpeedProfile(changes, ego.accel_mps2);
+}
 
-  Rng rng(mix64(static_cast<std::uint64_t>(s.seed)) ^ 0x5173ull);
-  for (double& p : sim.vib_phase_) p = rng.uniform(0, 2 * std::numbers::pi);
-  for (double& p : sim.exposure_phase_) p = rng.uniform(0, 2 * std::numbers::pi);
-
-  // The background covers the lane stretch the camera travels over.
-  const double duration = std::max(1.0, (sim.frames_ - 1) / s.fps);
+// The background over the lane stretch the camera travels in `frames`.
+MeshPtr site_background(const Scenario& s, const SpeedProfile& ego_profile, int frames) {
+  const double duration = std::max(1.0, (frames - 1) / s.fps);
   double x_min = 0.0, x_max = 0.0;
   for (int k = 0; k <= 400; ++k) {
-    const double x = sim.ego_profile_.distance_m(duration * k / 400.0);
+    const double x = ego_profile.distance_m(duration * k / 400.0);
     x_min = std::min(x_min, x);
     x_max = std::max(x_max, x);
   }
@@ -116,8 +110,42 @@ Expected<Simulator> Simulator::create(const Scenario& scenario_in, const SimOpti
   layout.tyre_tracks = s.world.tyre_tracks;
   Rng world_rng(mix64(static_cast<std::uint64_t>(s.seed) * 7919ull + 1ull));
   // Shift the site so the background pattern does not depend on the start.
-  sim.background_ = std::make_shared<const Mesh>(detail::make_background(world_rng, layout));
+  return std::make_shared<const Mesh>(detail::make_background(world_rng, layout));
+}
 
+// A machine's speed along its path: start, then its stops.
+SpeedProfile machine_speed_profile(const MachineSpec& m) {
+  std::vector<SpeedChange> mc{{m.start_s, m.speed_mps}};
+  for (const StopSpec& stop : m.stops) {
+    mc.push_back({std::max(stop.at_s, m.start_s), 0.0});
+    mc.push_back({std::max(stop.at_s, m.start_s) + stop.duration_s, m.speed_mps});
+  }
+  return SpeedProfile(mc, m.accel_mps2);
+}
+
+}  // namespace
+
+Expected<Simulator> Simulator::create(const Scenario& scenario_in, const SimOptions& options) {
+  Simulator sim;
+  sim.scenario_ = scenario_in;
+  SITEPOSE_TRY(sim.frames_, apply_options(options, sim.scenario_));
+  const Scenario& s = sim.scenario_;
+  sim.camera_ = StereoCamera{s.camera.fx, s.camera.fy, s.camera.width / 2.0, s.camera.height / 2.0,
+                             s.camera.baseline_m, s.camera.width, s.camera.height};
+  SITEPOSE_TRY_STATUS(sim.camera_.validate());
+  sim.ego_profile_ = ego_speed_profile(s.ego);
+  Rng rng(mix64(static_cast<std::uint64_t>(s.seed)) ^ 0x5173ull);
+  for (double& p : sim.vib_phase_) p = rng.uniform(0, 2 * std::numbers::pi);
+  for (double& p : sim.exposure_phase_) p = rng.uniform(0, 2 * std::numbers::pi);
+  sim.background_ = site_background(s, sim.ego_profile_, sim.frames_);
+  sim.add_objects();
+  sim.T_site_world_ = sim.T_site_cam(0.0);
+  if (s.realism.distorted) sim.make_distortion_maps();
+  return sim;
+}
+
+void Simulator::add_objects() {
+  const Scenario& s = scenario_;
   std::uint16_t next_id = 1;
   for (const MachineSpec& m : s.machines) {
     Object o;
@@ -136,14 +164,9 @@ Expected<Simulator> Simulator::create(const Scenario& scenario_in, const SimOpti
       o.has_path = true;
       o.path = Polyline(pts);
       o.reverse = m.reverse;
-      std::vector<SpeedChange> mc{{m.start_s, m.speed_mps}};
-      for (const StopSpec& stop : m.stops) {
-        mc.push_back({std::max(stop.at_s, m.start_s), 0.0});
-        mc.push_back({std::max(stop.at_s, m.start_s) + stop.duration_s, m.speed_mps});
-      }
-      o.profile = SpeedProfile(mc, m.accel_mps2);
+      o.profile = machine_speed_profile(m);
     }
-    sim.objects_.push_back(std::move(o));
+    objects_.push_back(std::move(o));
   }
   Rng cone_rng(mix64(static_cast<std::uint64_t>(s.seed) * 31337ull));
   const MeshPtr cone = std::make_shared<const Mesh>(detail::make_cone(cone_rng));
@@ -153,33 +176,31 @@ Expected<Simulator> Simulator::create(const Scenario& scenario_in, const SimOpti
     o.class_name = "cone";
     o.mesh = cone;
     o.parked = planar_pose(c.x_m, c.y_m, 0.0);
-    sim.objects_.push_back(std::move(o));
+    objects_.push_back(std::move(o));
   }
+}
 
-  sim.T_site_world_ = sim.T_site_cam(0.0);
-
-  if (s.realism.distorted) {
-    // For every pixel of the distorted image, where it lies in the rectified one.
-    std::vector<cv::Point2f> pixels;
-    pixels.reserve(static_cast<size_t>(s.camera.width) * s.camera.height);
-    for (int v = 0; v < s.camera.height; ++v)
-      for (int u = 0; u < s.camera.width; ++u) pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
-    const cv::Matx33d K(sim.camera_.fx, 0, sim.camera_.cx, 0, sim.camera_.fy, sim.camera_.cy, 0, 0, 1);
-    const cv::Vec4d D(s.realism.distortion.k1, s.realism.distortion.k2, s.realism.distortion.p1,
-                      s.realism.distortion.p2);
-    std::vector<cv::Point2f> ideal;
-    cv::undistortPoints(pixels, ideal, K, D, cv::noArray(), K);
-    sim.distort_map_x_.create(s.camera.height, s.camera.width, CV_32FC1);
-    sim.distort_map_y_.create(s.camera.height, s.camera.width, CV_32FC1);
-    for (int v = 0; v < s.camera.height; ++v) {
-      for (int u = 0; u < s.camera.width; ++u) {
-        const cv::Point2f& p = ideal[static_cast<size_t>(v) * s.camera.width + u];
-        sim.distort_map_x_.at<float>(v, u) = p.x;
-        sim.distort_map_y_.at<float>(v, u) = p.y;
-      }
+void Simulator::make_distortion_maps() {
+  const Scenario& s = scenario_;
+  // For every pixel of the distorted image, where it lies in the rectified one.
+  std::vector<cv::Point2f> pixels;
+  pixels.reserve(static_cast<size_t>(s.camera.width) * s.camera.height);
+  for (int v = 0; v < s.camera.height; ++v)
+    for (int u = 0; u < s.camera.width; ++u) pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
+  const cv::Matx33d K(camera_.fx, 0, camera_.cx, 0, camera_.fy, camera_.cy, 0, 0, 1);
+  const cv::Vec4d D(s.realism.distortion.k1, s.realism.distortion.k2, s.realism.distortion.p1,
+                    s.realism.distortion.p2);
+  std::vector<cv::Point2f> ideal;
+  cv::undistortPoints(pixels, ideal, K, D, cv::noArray(), K);
+  distort_map_x_.create(s.camera.height, s.camera.width, CV_32FC1);
+  distort_map_y_.create(s.camera.height, s.camera.width, CV_32FC1);
+  for (int v = 0; v < s.camera.height; ++v) {
+    for (int u = 0; u < s.camera.width; ++u) {
+      const cv::Point2f& p = ideal[static_cast<size_t>(v) * s.camera.width + u];
+      distort_map_x_.at<float>(v, u) = p.x;
+      distort_map_y_.at<float>(v, u) = p.y;
     }
   }
-  return sim;
 }
 
 SE3 Simulator::T_site_cam(double t_s) const {

@@ -1,22 +1,17 @@
 #include "sitepose/tracking/tracker.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <future>
 #include <set>
 
 #include <opencv2/calib3d.hpp>
 
+#include "sitepose/core/stopwatch.hpp"
 #include "sitepose/features/hamming.hpp"
 #include "sitepose/optim/reprojection_costs.hpp"
 
 namespace sitepose::tracking {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 // ORB-SLAM2 thresholds, named (METHOD.md "Core tracker").
 constexpr int kMinMatchesMotionModel = 20;   // else widen the window / relocalise
@@ -48,6 +43,132 @@ config::OrbConfig object_orb_config(const config::OrbConfig& orb) {
   return object;
 }
 
+Status check_frame(const StereoFrame& frame, const cv::Mat& instance_labels, const StereoCamera& camera) {
+  if (frame.left.empty() || frame.right.empty() || frame.left.size() != frame.right.size() ||
+      frame.left.type() != CV_8UC1 || frame.right.type() != CV_8UC1) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "frame " + std::to_string(frame.seq) +
+                          ": left and right must be 8-bit gray images of equal size");
+  }
+  if (frame.left.cols != camera.width || frame.left.rows != camera.height) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "frame " + std::to_string(frame.seq) + ": image size " +
+                          std::to_string(frame.left.cols) + "x" + std::to_string(frame.left.rows) +
+                          " differs from the camera's " + std::to_string(camera.width) + "x" +
+                          std::to_string(camera.height));
+  }
+  if (!instance_labels.empty() &&
+      (instance_labels.type() != CV_16UC1 || instance_labels.size() != frame.left.size())) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "instance labels must be CV_16UC1 of the image size");
+  }
+  return ok_status();
+}
+
+// Positions, levels and instance tags of the frame's keypoints.
+void tag_keypoints(const cv::Mat& instance_labels, PreparedFrame& out) {
+  const int n = out.features.size();
+  out.uv_px.reserve(n);
+  out.octave.reserve(n);
+  out.instance.assign(n, 0);
+  for (int i = 0; i < n; ++i) {
+    const cv::KeyPoint& kp = out.features.keypoints[i];
+    out.uv_px.emplace_back(kp.pt.x, kp.pt.y);
+    out.octave.push_back(kp.octave);
+    if (!instance_labels.empty()) {
+      const int x = std::clamp(static_cast<int>(std::lround(kp.pt.x)), 0, instance_labels.cols - 1);
+      const int y = std::clamp(static_cast<int>(std::lround(kp.pt.y)), 0, instance_labels.rows - 1);
+      out.instance[i] = instance_labels.at<std::uint16_t>(y, x);
+    }
+  }
+}
+
+// A keyframe relocalisation tries: its pose and its good points.
+struct RelocalisationCandidate {
+  SE3 T_cam_world;
+  std::vector<PointView> points;
+};
+
+// The reference keyframe (else the last) and its best covisible ones: the
+// machine rarely goes far while tracking is lost.
+std::vector<RelocalisationCandidate> relocalisation_candidates(const map::MapData& map,
+                                                               map::KeyFrameId reference) {
+  std::vector<RelocalisationCandidate> candidates;
+  map::KeyFrameId ref = reference;
+  if (map.keyframe(ref) == nullptr) ref = map.last_keyframe();
+  if (map.keyframe(ref) == nullptr) return candidates;
+  std::vector<map::KeyFrameId> ids{ref};
+  for (auto id : map.best_covisible(ref, kRelocalisationKeyframes - 1)) ids.push_back(id);
+  for (auto id : ids) {
+    const map::KeyFrame* kf = map.keyframe(id);
+    RelocalisationCandidate c;
+    c.T_cam_world = kf->T_cam_world();
+    for (map::PointId pid : kf->point_of_keypoint) {
+      if (const map::MapPoint* p = map.good_point(pid); p != nullptr) c.points.push_back(make_point_view(*p));
+    }
+    candidates.push_back(std::move(c));
+  }
+  return candidates;
+}
+
+// Brute-force descriptor matches of the usable keypoints to `points`
+// (ratio test 0.75): per keypoint the point index or -1, and the 3D-2D pairs
+// for PnP with the keypoint of each.
+struct DescriptorMatches {
+  std::vector<int> match;
+  std::vector<cv::Point3d> object_points;
+  std::vector<cv::Point2d> image_points;
+  std::vector<int> keypoint_of_pair;
+};
+
+DescriptorMatches match_descriptors(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                                    const std::vector<PointView>& points) {
+  DescriptorMatches out;
+  out.match.assign(frame.size(), -1);
+  const auto descriptor_of = [&](int i) { return points[i].descriptor.data(); };
+  for (int k = 0; k < frame.size(); ++k) {
+    if (!usable[k]) continue;
+    const features::NearestTwo nearest = features::nearest_two(
+        frame.features.descriptors.ptr<std::uint8_t>(k), static_cast<int>(points.size()), descriptor_of);
+    if (nearest.index < 0 || nearest.distance > kDescriptorDistanceLow ||
+        nearest.distance > 0.75 * nearest.second_distance) {
+      continue;
+    }
+    out.match[k] = nearest.index;
+    const Eigen::Vector3d& p = points[nearest.index].p_world;
+    out.object_points.emplace_back(p.x(), p.y(), p.z());
+    out.image_points.emplace_back(frame.uv_px[k].x(), frame.uv_px[k].y());
+    out.keypoint_of_pair.push_back(k);
+  }
+  return out;
+}
+
+// PnP RANSAC from T_cam_world_init; nullopt when it fails or keeps fewer
+// than kRelocalisationMinMatches inliers (indices into the pairs).
+std::optional<SE3> pnp_pose(const DescriptorMatches& pairs, const StereoCamera& camera, const SE3& T_cam_world_init,
+                            std::vector<int>& inliers) {
+  const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  cv::Mat rvec, tvec;
+  const Eigen::Matrix3d R0 = T_cam_world_init.rotation_matrix();
+  cv::Mat R0_cv(3, 3, CV_64F);
+  for (int r = 0; r < 3; ++r)
+    for (int col = 0; col < 3; ++col) R0_cv.at<double>(r, col) = R0(r, col);
+  cv::Rodrigues(R0_cv, rvec);
+  tvec = (cv::Mat_<double>(3, 1) << T_cam_world_init.translation().x(), T_cam_world_init.translation().y(),
+          T_cam_world_init.translation().z());
+  if (!cv::solvePnPRansac(pairs.object_points, pairs.image_points, K, cv::noArray(), rvec, tvec, true, 200, 4.0,
+                          0.99, inliers, cv::SOLVEPNP_ITERATIVE) ||
+      static_cast<int>(inliers.size()) < kRelocalisationMinMatches) {
+    return std::nullopt;
+  }
+  cv::Mat R_cv;
+  cv::Rodrigues(rvec, R_cv);
+  Eigen::Matrix3d R;
+  for (int r = 0; r < 3; ++r)
+    for (int col = 0; col < 3; ++col) R(r, col) = R_cv.at<double>(r, col);
+  return SE3(R, Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
+}
+
 }  // namespace
 
 Tracker::Tracker(const StereoCamera& camera, const config::SiteposeConfig& config,
@@ -70,38 +191,29 @@ std::optional<SE3> Tracker::last_T_world_cam() const {
 
 Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat& instance_labels,
                                          const cv::Mat& extraction_mask) {
-  const auto start = Clock::now();
-  if (frame.left.empty() || frame.right.empty() || frame.left.size() != frame.right.size() ||
-      frame.left.type() != CV_8UC1 || frame.right.type() != CV_8UC1) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "frame " + std::to_string(frame.seq) +
-                          ": left and right must be 8-bit gray images of equal size");
-  }
-  if (frame.left.cols != camera_.width || frame.left.rows != camera_.height) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "frame " + std::to_string(frame.seq) + ": image size " +
-                          std::to_string(frame.left.cols) + "x" + std::to_string(frame.left.rows) +
-                          " differs from the camera's " + std::to_string(camera_.width) + "x" +
-                          std::to_string(camera_.height));
-  }
-  if (!instance_labels.empty() &&
-      (instance_labels.type() != CV_16UC1 || instance_labels.size() != frame.left.size())) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "instance labels must be CV_16UC1 of the image size");
-  }
+  const auto start = SteadyClock::now();
+  SITEPOSE_TRY_STATUS(check_frame(frame, instance_labels, camera_));
   PreparedFrame out;
   out.seq = frame.seq;
   out.t_ns = frame.t_ns();
+  SITEPOSE_TRY(out.features, extract(frame, extraction_mask, out.timings));
+  tag_keypoints(instance_labels, out);
+  out.grid = map::KeypointGrid(camera_.width, camera_.height, out.uv_px, out.octave);
+  out.timings.total_ms = ms_since(start);
+  return out;
+}
 
+Expected<features::StereoFeatures> Tracker::extract(const StereoFrame& frame, const cv::Mat& extraction_mask,
+                                                    PrepareTimings& timings) {
   // Left on this thread, right concurrently; with an extraction mask the
   // background gets the full budget and the masked area a share of its own.
   // One stereo matching over the union.
   auto right_future = std::async(std::launch::async, [&] {
-    const auto t = Clock::now();
+    const auto t = SteadyClock::now();
     auto right = right_extractor_.extract(frame.right);
     return std::make_pair(std::move(right), ms_since(t));
   });
-  const auto t_left = Clock::now();
+  const auto t_left = SteadyClock::now();
   const bool split_budget = !extraction_mask.empty() && cv::countNonZero(extraction_mask) > 0;
   auto left = left_extractor_.extract(frame.left, split_budget ? extraction_mask : cv::Mat());
   Expected<features::OrbFeatures> objects = features::OrbFeatures{};
@@ -110,9 +222,9 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
     cv::bitwise_not(extraction_mask, inverse_mask);
     objects = object_extractor_.extract(frame.left, inverse_mask);
   }
-  out.timings.extract_left_ms = ms_since(t_left);
+  timings.extract_left_ms = ms_since(t_left);
   auto [right, right_ms] = right_future.get();
-  out.timings.extract_right_ms = right_ms;
+  timings.extract_right_ms = right_ms;
   if (!left) return Unexpected{left.error()};
   if (!objects) return Unexpected{objects.error()};
   if (!right) return Unexpected{right.error()};
@@ -124,40 +236,25 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
       cv::vconcat(left->descriptors, objects->descriptors, left->descriptors);
     }
   }
-  const auto t_match = Clock::now();
+  const auto t_match = SteadyClock::now();
   SITEPOSE_TRY(auto stereo, matcher_.match(*left, *right));
-  out.timings.stereo_match_ms = ms_since(t_match);
-  out.features.keypoints = std::move(left->keypoints);
-  out.features.descriptors = left->descriptors;
-  out.features.u_right = std::move(stereo.u_right);
-  out.features.depth_m = std::move(stereo.depth_m);
-  out.features.stereo_ambiguous = std::move(stereo.ambiguous);
-  out.features.right_keypoints = std::move(right->keypoints);
-  out.features.right_descriptors = right->descriptors;
-  out.features.left_pyramid = std::move(left->pyramid);
-  out.features.stats = stereo.stats;
-  const int n = out.features.size();
-  out.uv_px.reserve(n);
-  out.octave.reserve(n);
-  out.instance.assign(n, 0);
-  for (int i = 0; i < n; ++i) {
-    const cv::KeyPoint& kp = out.features.keypoints[i];
-    out.uv_px.emplace_back(kp.pt.x, kp.pt.y);
-    out.octave.push_back(kp.octave);
-    if (!instance_labels.empty()) {
-      const int x = std::clamp(static_cast<int>(std::lround(kp.pt.x)), 0, instance_labels.cols - 1);
-      const int y = std::clamp(static_cast<int>(std::lround(kp.pt.y)), 0, instance_labels.rows - 1);
-      out.instance[i] = instance_labels.at<std::uint16_t>(y, x);
-    }
-  }
-  out.grid = map::KeypointGrid(camera_.width, camera_.height, out.uv_px, out.octave);
-  out.timings.total_ms = ms_since(start);
+  timings.stereo_match_ms = ms_since(t_match);
+  features::StereoFeatures out;
+  out.keypoints = std::move(left->keypoints);
+  out.descriptors = left->descriptors;
+  out.u_right = std::move(stereo.u_right);
+  out.depth_m = std::move(stereo.depth_m);
+  out.stereo_ambiguous = std::move(stereo.ambiguous);
+  out.right_keypoints = std::move(right->keypoints);
+  out.right_descriptors = right->descriptors;
+  out.left_pyramid = std::move(left->pyramid);
+  out.stats = stereo.stats;
   return out;
 }
 
 void Tracker::optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
                             const std::vector<int>& match_of_keypoint, PassResult& result) const {
-  const auto start = Clock::now();
+  const auto start = SteadyClock::now();
   std::vector<optim::PoseObservation> observations;
   std::vector<int> keypoint_of_observation;
   for (int k = 0; k < frame.size(); ++k) {
@@ -220,80 +317,19 @@ bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<s
 
 bool Tracker::relocalise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                          PassResult& result) const {
-  // Candidates: the reference keyframe and its best covisible ones (the
-  // machine rarely goes far while tracking is lost). Brute-force descriptor
-  // matching, then PnP RANSAC, then motion-only BA.
-  struct Candidate {
-    SE3 T_cam_world;
-    std::vector<PointView> points;
-  };
-  std::vector<Candidate> candidates;
-  map_.read([&](const map::MapData& map) {
-    map::KeyFrameId ref = reference_keyframe_;
-    if (map.keyframe(ref) == nullptr) ref = map.last_keyframe();
-    if (map.keyframe(ref) == nullptr) return;
-    std::vector<map::KeyFrameId> ids{ref};
-    for (auto id : map.best_covisible(ref, kRelocalisationKeyframes - 1)) ids.push_back(id);
-    for (auto id : ids) {
-      const map::KeyFrame* kf = map.keyframe(id);
-      Candidate c;
-      c.T_cam_world = kf->T_cam_world();
-      for (map::PointId pid : kf->point_of_keypoint) {
-        if (const map::MapPoint* p = map.good_point(pid); p != nullptr) c.points.push_back(make_point_view(*p));
-      }
-      candidates.push_back(std::move(c));
-    }
-  });
-  for (const Candidate& c : candidates) {
-    std::vector<int> match(frame.size(), -1);
-    std::vector<cv::Point3d> object_points;
-    std::vector<cv::Point2d> image_points;
-    std::vector<int> keypoint_of_pair;
-    for (int k = 0; k < frame.size(); ++k) {
-      if (!usable[k]) continue;
-      const std::uint8_t* d = frame.features.descriptors.ptr<std::uint8_t>(k);
-      int best = 256, second = 256, best_i = -1;
-      for (int i = 0; i < static_cast<int>(c.points.size()); ++i) {
-        const int dist = features::hamming_distance(d, c.points[i].descriptor.data());
-        if (dist < best) {
-          second = best;
-          best = dist;
-          best_i = i;
-        } else if (dist < second) {
-          second = dist;
-        }
-      }
-      if (best_i < 0 || best > kDescriptorDistanceLow || best > 0.75 * second) continue;
-      match[k] = best_i;
-      const Eigen::Vector3d& p = c.points[best_i].p_world;
-      object_points.emplace_back(p.x(), p.y(), p.z());
-      image_points.emplace_back(frame.uv_px[k].x(), frame.uv_px[k].y());
-      keypoint_of_pair.push_back(k);
-    }
-    if (static_cast<int>(object_points.size()) < kRelocalisationMinMatches) continue;
-    const cv::Matx33d K(camera_.fx, 0, camera_.cx, 0, camera_.fy, camera_.cy, 0, 0, 1);
-    cv::Mat rvec, tvec;
+  // Per candidate keyframe: brute-force descriptor matching, then PnP
+  // RANSAC, then motion-only BA.
+  const std::vector<RelocalisationCandidate> candidates = map_.read(
+      [&](const map::MapData& map) { return relocalisation_candidates(map, reference_keyframe_); });
+  for (const RelocalisationCandidate& c : candidates) {
+    const DescriptorMatches pairs = match_descriptors(frame, usable, c.points);
+    if (static_cast<int>(pairs.object_points.size()) < kRelocalisationMinMatches) continue;
     std::vector<int> inliers;
-    const Eigen::Matrix3d R0 = c.T_cam_world.rotation_matrix();
-    cv::Mat R0_cv(3, 3, CV_64F);
-    for (int r = 0; r < 3; ++r)
-      for (int col = 0; col < 3; ++col) R0_cv.at<double>(r, col) = R0(r, col);
-    cv::Rodrigues(R0_cv, rvec);
-    tvec = (cv::Mat_<double>(3, 1) << c.T_cam_world.translation().x(), c.T_cam_world.translation().y(),
-            c.T_cam_world.translation().z());
-    if (!cv::solvePnPRansac(object_points, image_points, K, cv::noArray(), rvec, tvec, true, 200, 4.0,
-                            0.99, inliers, cv::SOLVEPNP_ITERATIVE) ||
-        static_cast<int>(inliers.size()) < kRelocalisationMinMatches) {
-      continue;
-    }
-    cv::Mat R_cv;
-    cv::Rodrigues(rvec, R_cv);
-    Eigen::Matrix3d R;
-    for (int r = 0; r < 3; ++r)
-      for (int col = 0; col < 3; ++col) R(r, col) = R_cv.at<double>(r, col);
+    const std::optional<SE3> pose = pnp_pose(pairs, camera_, c.T_cam_world, inliers);
+    if (!pose) continue;
     std::vector<int> inlier_match(frame.size(), -1);
-    for (int i : inliers) inlier_match[keypoint_of_pair[i]] = match[keypoint_of_pair[i]];
-    result.T_cam_world = SE3(R, Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
+    for (int i : inliers) inlier_match[pairs.keypoint_of_pair[i]] = pairs.match[pairs.keypoint_of_pair[i]];
+    result.T_cam_world = *pose;
     optimise_pose(frame, c.points, inlier_match, result);
     if (result.n_inliers >= kMinInliersMotionModel) {
       result.relocalised = true;
@@ -364,9 +400,23 @@ std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
   return out;
 }
 
+std::vector<std::optional<Eigen::Vector3d>> Tracker::matched_map_points(const PreparedFrame& frame,
+                                                                        const std::vector<std::uint8_t>& usable,
+                                                                        const PassResult& anchor,
+                                                                        double radius_px) const {
+  const std::vector<map::PointId> point_of_keypoint = search_local_map(frame, usable, anchor, radius_px);
+  std::vector<std::optional<Eigen::Vector3d>> out(frame.size());
+  map_.read([&](const map::MapData& map) {
+    for (int k = 0; k < frame.size(); ++k) {
+      if (const map::MapPoint* p = map.good_point(point_of_keypoint[k]); p != nullptr) out[k] = p->p_world;
+    }
+  });
+  return out;
+}
+
 void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                               const PassResult* anchor, PassResult& result) const {
-  const auto start = Clock::now();
+  const auto start = SteadyClock::now();
   std::vector<int> match;
   const std::vector<PointView> points =
       anchor != nullptr ? local_points(frame, anchor->point_of_keypoint, false, match)
@@ -382,7 +432,7 @@ void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std:
 
 PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                              const PassResult* anchor) const {
-  const auto t0 = Clock::now();
+  const auto t0 = SteadyClock::now();
   PassResult result;
   result.point_of_keypoint.assign(frame.size(), map::kNoPoint);
   result.n_usable_keypoints = static_cast<int>(std::count(usable.begin(), usable.end(), 1));
@@ -392,13 +442,13 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     result.failure = "map not initialised";
     return result;
   }
-  const auto t_motion = Clock::now();
+  const auto t_motion = SteadyClock::now();
   bool tracked = false;
   if (anchor != nullptr) {
     // Pass 2: pass 1's pose and pass 1's local map. Only the local-map
-    // search runs, which re-finds about 80 % of pass 1's matches (fast,
-    // seed 7). Giving pass 1's matches to the optimisation was worse on
-    // average; carry_over_matches() adds them to the committed frame.
+    // search runs, matching every keypoint afresh. Pass 1's matches are not
+    // given to the optimisation (that was worse on average);
+    // carry_over_matches() adds them to the committed frame.
     result.T_cam_world = anchor->T_cam_world;
     tracked = true;
   } else if (has_last_ && state_ != TrackingState::kLost) {

@@ -62,4 +62,8 @@ bool wants_pixel_mask(config::MaskingMode mode, double mar, const config::Dynami
 Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& objects,
                                 cv::Size image_size, const config::DynamicConfig& config);
 
+// The tracker's extraction mask for `mask` (Tracker::prepare): nonzero where
+// an object is masked; empty when the mode masks nothing.
+cv::Mat extraction_mask(const MaskResult& mask);
+
 }  // namespace sitepose::dynamic

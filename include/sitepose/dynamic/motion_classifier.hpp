@@ -62,6 +62,10 @@
 
 namespace sitepose::dynamic {
 
+namespace detail {
+struct PointDisplacement;
+}  // namespace detail
+
 // What the classifier needs of a frame: object keypoints with stereo depth,
 // their descriptors and instance tags, the pose, the dynamic boxes.
 struct ObjectFeatures {
@@ -104,6 +108,10 @@ struct ClassifiedObject {
   ObjectVerdict verdict;
   std::vector<double> statistics;  // paper: kept errors (m); sitepose: squared Mahalanobis distances
 };
+
+// One unknown object per box, in box order (what classify() starts from;
+// the frame's objects when there is no pose to classify them with).
+std::vector<ClassifiedObject> unclassified_objects(const std::vector<ObjectBox>& boxes);
 
 // The map test of one object (check_against_map()).
 struct MapCheck {
@@ -175,7 +183,26 @@ class MotionClassifier {
     }
   };
 
+  // CF and its reference frame (nullptr = none) with the keypoint matches
+  // between them (per CF keypoint its RF keypoint, or -1).
+  struct Pairing {
+    const ObjectFeatures& current;
+    const ObjectFeatures* ref;
+    const std::vector<int>& match;
+    std::optional<Matrix6d> pose_covariance;  // CF's, scaled by its variance factor
+  };
+
   const ObjectFeatures* select_reference(const ObjectFeatures& current) const;
+  // The verdict on one object of CF (its state after hysteresis in sitepose
+  // mode), from its points matched to its associated RF object.
+  void judge(const Pairing& pairing, const std::map<std::uint16_t, std::uint16_t>& ref_of_current,
+             ClassifiedObject& object);
+  // The matched points of CF object `instance` and RF object `ref_instance`:
+  // CF's sighting minus RF's, world frame, without the Mahalanobis distance.
+  std::vector<detail::PointDisplacement> displacements(const Pairing& pairing, std::uint16_t instance,
+                                                       std::uint16_t ref_instance) const;
+  // Forgets instances not seen for a ring's length.
+  void forget_unseen_tracks(std::int64_t seq);
   MotionState smooth(std::uint16_t instance, std::int64_t seq, MotionState raw, bool static_evidence_counts,
                      bool conflicting_evidence);
   double pixel_sigma_px(int octave, double variance_factor) const;

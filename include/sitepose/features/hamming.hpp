@@ -45,4 +45,30 @@ inline int hamming_distance(const cv::Mat& a, int i, const cv::Mat& b, int j) {
   return hamming_distance(a.ptr<std::uint8_t>(i), b.ptr<std::uint8_t>(j));
 }
 
+// The nearest and the second nearest of n candidate descriptors to `d`
+// (descriptor_of(i) gives candidate i's 32 bytes). Ties keep the earlier
+// candidate; with no candidate, index -1 and both distances
+// kDescriptorBits + 1.
+struct NearestTwo {
+  int index = -1;
+  int distance = kDescriptorBits + 1;
+  int second_distance = kDescriptorBits + 1;
+};
+
+template <typename DescriptorOf>
+NearestTwo nearest_two(const std::uint8_t* d, int n, DescriptorOf&& descriptor_of) {
+  NearestTwo out;
+  for (int i = 0; i < n; ++i) {
+    const int distance = hamming_distance(d, descriptor_of(i));
+    if (distance < out.distance) {
+      out.second_distance = out.distance;
+      out.distance = distance;
+      out.index = i;
+    } else if (distance < out.second_distance) {
+      out.second_distance = distance;
+    }
+  }
+  return out;
+}
+
 }  // namespace sitepose::features

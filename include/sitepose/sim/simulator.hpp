@@ -101,6 +101,8 @@ class Simulator {
   };
 
   Simulator() : renderer_(RenderOptions{}) {}
+  void add_objects();           // the scenario's machines and cones
+  void make_distortion_maps();  // distort_map_x_ / _y_ for the camera
   SE3 object_pose(const Object& o, double t_s) const;
   Scene scene_at(double t_s) const;
   cv::Mat render_radiance(double t_s, bool right_camera, RenderBuffers* labels) const;

@@ -20,6 +20,7 @@
 //                 with the objects static up to the last frame (fallback).
 // Keypoints are extracted once per frame and tagged with the instance under
 // them; pass 1 leaves no trace in the tracker (Tracker::estimate is const).
+// The masking modes run in TwoPassTracker.
 //
 // Mapper threading: with `mapper_thread` the local mapper runs on its own
 // thread (the daemon); without it, queued keyframes are processed on the
@@ -37,6 +38,8 @@
 #include "sitepose/dynamic/motion_classifier.hpp"
 #include "sitepose/map/shared_map.hpp"
 #include "sitepose/mapping/local_mapper.hpp"
+#include "sitepose/slam/frame_report.hpp"
+#include "sitepose/slam/two_pass_tracker.hpp"
 #include "sitepose/tracking/tracker.hpp"
 
 namespace sitepose::slam {
@@ -46,49 +49,6 @@ struct SlamOptions {
   // Frame rate of the source; sets the motion classifier's reference offset
   // (paper mode, when dynamic.reference_offset_frames = 0) and ring length.
   double fps = 6.0;
-};
-
-// Wall time of each stage of one frame (ms).
-struct FrameTimings {
-  double extract_left_ms = 0.0;
-  double extract_right_ms = 0.0;
-  double stereo_match_ms = 0.0;
-  double prepare_ms = 0.0;  // extraction + matching (L and R run concurrently)
-  double motion_model_ms = 0.0;
-  double local_map_ms = 0.0;
-  double motion_ba_ms = 0.0;
-  double mapping_inline_ms = 0.0;  // local mapping run on this thread (no mapper thread)
-  // Dynamic layer (zero in mode none). detect_ms is filled by the caller
-  // that ran the detector (it is outside process()) and counted in total_ms
-  // only if the caller adds it.
-  double detect_ms = 0.0;
-  double mask_ms = 0.0;      // Algorithm 1 incl. pixel segmentation
-  double classify_ms = 0.0;  // Algorithm 2 (matching + tests) and the map check
-  double pass2_ms = 0.0;     // the second pose estimate
-  double total_ms = 0.0;     // the whole frame, excluding inline mapping
-};
-
-struct FrameReport {
-  PoseEstimate pose;
-  FrameTimings timings;
-  bool dynamic_layer = false;    // process(frame, objects) ran with a masking mode
-  double mar = 0.0;              // Algorithm 1's box-union ratio
-  double masked_ratio = 0.0;     // pixels actually masked / image
-  bool pixel_mask_used = false;  // the segmenter ran this frame
-  // Mode full: pass 1 on the background failed and was rerun with the
-  // objects still static from earlier frames (a parked machine filling the
-  // view); classification then uses that pose.
-  bool pass1_with_known_static = false;
-  // Mode full: pass 2 (static objects unmasked) moved the pose beyond pass
-  // 1's uncertainty and was not used (the pose is pass 1's); those objects
-  // keep their state.
-  bool pass2_rejected = false;
-  // Mode full: objects called static that failed the map check
-  // (MotionClassifier::check_against_map) and were masked again.
-  int remasked_by_map_check = 0;
-  // Mode full: one entry per dynamic-class box of the frame, in box order
-  // (states unknown when pass 1 found no pose). Empty in other modes.
-  std::vector<dynamic::ClassifiedObject> objects;
 };
 
 class SlamSystem {
@@ -126,21 +86,14 @@ class SlamSystem {
   SlamSystem(const StereoCamera& camera, const config::SiteposeConfig& config,
              const SlamOptions& options);
 
-  Expected<FrameReport> process_masked(const StereoFrame& frame, const dynamic::FrameObjects& objects);
   Status run_inline_mapping(FrameReport& report);
-  // The map check of `instances` (static objects) with pass 1's pose:
-  // their keypoints matched to the local map, then the classifier's test.
-  std::vector<dynamic::MapCheck> check_against_map(const tracking::PreparedFrame& prepared,
-                                                   const tracking::PassResult& pass1,
-                                                   const dynamic::ObjectFeatures& current,
-                                                   const std::vector<std::uint16_t>& instances);
 
   config::SiteposeConfig config_;
   SlamOptions options_;
-  std::unique_ptr<dynamic::MotionClassifier> classifier_;
   map::SharedMap map_;
   std::unique_ptr<mapping::LocalMapper> mapper_;
   std::unique_ptr<tracking::Tracker> tracker_;
+  std::unique_ptr<TwoPassTracker> two_pass_;  // the masking modes
 };
 
 }  // namespace sitepose::slam

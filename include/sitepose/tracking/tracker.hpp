@@ -112,6 +112,12 @@ class Tracker {
   std::vector<map::PointId> search_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                                              const PassResult& anchor, double radius_px) const;
 
+  // search_local_map(), then per keypoint the world position of the point it
+  // matched (nullopt where none, or the point is no longer good).
+  std::vector<std::optional<Eigen::Vector3d>> matched_map_points(const PreparedFrame& frame,
+                                                                 const std::vector<std::uint8_t>& usable,
+                                                                 const PassResult& anchor, double radius_px) const;
+
   // prepare + estimate(all keypoints) + commit: plain stereo SLAM (mode none).
   Expected<PoseEstimate> track(const StereoFrame& frame);
 
@@ -121,6 +127,10 @@ class Tracker {
   std::optional<SE3> last_T_world_cam() const;
 
  private:
+  // ORB extraction of both images (left and right concurrently, the masked
+  // area with its own budget) and stereo matching.
+  Expected<features::StereoFeatures> extract(const StereoFrame& frame, const cv::Mat& extraction_mask,
+                                             PrepareTimings& timings);
   // Motion model or relocalisation, then the local map; see estimate().
   bool track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                           const SE3& predicted, PassResult& result) const;

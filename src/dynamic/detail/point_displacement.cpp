@@ -31,9 +31,8 @@ double quantile(std::vector<double> values, double q) {
 // A rigid object, moving or not, displaces all its points alike; a keypoint
 // matched to the wrong place (repeated texture: windows, tracks, grilles)
 // does not. The tests then run on these points only, free of the mismatches
-// and without favouring "static" (measured on parked: 6 of 16 points of a
-// parked excavator were such mismatches, 0.4-9.6 m "displacements", and drew
-// "moving" verdicts).
+// (metres of "displacement" that would call a parked machine moving) and
+// without favouring "static".
 std::vector<PointDisplacement> consistent_points(const std::vector<PointDisplacement>& points) {
   Eigen::Vector3d common;
   for (int axis = 0; axis < 3; ++axis) {

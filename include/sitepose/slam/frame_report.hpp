@@ -1,0 +1,67 @@
+#pragma once
+// What SlamSystem::process() reports about one frame.
+
+#include <vector>
+
+#include "sitepose/core/pose_estimate.hpp"
+#include "sitepose/dynamic/motion_classifier.hpp"
+#include "sitepose/tracking/tracker.hpp"
+
+namespace sitepose::slam {
+
+// Wall time of each stage of one frame (ms).
+struct FrameTimings {
+  double extract_left_ms = 0.0;
+  double extract_right_ms = 0.0;
+  double stereo_match_ms = 0.0;
+  double prepare_ms = 0.0;  // extraction + matching (L and R run concurrently)
+  double motion_model_ms = 0.0;
+  double local_map_ms = 0.0;
+  double motion_ba_ms = 0.0;
+  double mapping_inline_ms = 0.0;  // local mapping run on this thread (no mapper thread)
+  // Dynamic layer (zero in mode none). detect_ms is filled by the caller
+  // that ran the detector (it is outside process()) and counted in total_ms
+  // only if the caller adds it.
+  double detect_ms = 0.0;
+  double mask_ms = 0.0;      // Algorithm 1 incl. pixel segmentation
+  double classify_ms = 0.0;  // Algorithm 2 (matching + tests) and the map check
+  double pass2_ms = 0.0;     // the second pose estimate
+  double total_ms = 0.0;     // the whole frame, excluding inline mapping
+};
+
+struct FrameReport {
+  PoseEstimate pose;
+  FrameTimings timings;
+  bool dynamic_layer = false;    // process(frame, objects) ran with a masking mode
+  double mar = 0.0;              // Algorithm 1's box-union ratio
+  double masked_ratio = 0.0;     // pixels actually masked / image
+  bool pixel_mask_used = false;  // the segmenter ran this frame
+  // Mode full: pass 1 on the background failed and was rerun with the
+  // objects still static from earlier frames (a parked machine filling the
+  // view); classification then uses that pose.
+  bool pass1_with_known_static = false;
+  // Mode full: pass 2 (static objects unmasked) moved the pose beyond pass
+  // 1's uncertainty and was not used (the pose is pass 1's); those objects
+  // keep their state.
+  bool pass2_rejected = false;
+  // Mode full: objects called static that failed the map check
+  // (MotionClassifier::check_against_map) and were masked again.
+  int remasked_by_map_check = 0;
+  // Mode full: one entry per dynamic-class box of the frame, in box order
+  // (states unknown when pass 1 found no pose). Empty in other modes.
+  std::vector<dynamic::ClassifiedObject> objects;
+};
+
+// The extraction timings of `prepared` and the estimate timings of `pass`.
+inline void copy_stage_timings(const tracking::PreparedFrame& prepared, const tracking::PassResult& pass,
+                               FrameTimings& timings) {
+  timings.extract_left_ms = prepared.timings.extract_left_ms;
+  timings.extract_right_ms = prepared.timings.extract_right_ms;
+  timings.stereo_match_ms = prepared.timings.stereo_match_ms;
+  timings.prepare_ms = prepared.timings.total_ms;
+  timings.motion_model_ms = pass.timings.motion_model_ms;
+  timings.local_map_ms = pass.timings.local_map_ms;
+  timings.motion_ba_ms = pass.timings.motion_ba_ms;
+}
+
+}  // namespace sitepose::slam
