@@ -4,5 +4,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh
-bash tools/build.sh
+# Only what the demo needs: the sitepose command (tests are built by tools/test.sh).
+bash tools/build.sh --target sitepose
 exec "${SITEPOSE_BUILD_DIR:-build/release}/tools/sitepose/sitepose" demo "$@"

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Style and static checks of the project's C++ sources.
-#   tools/lint.sh format              clang-format check of every tracked C++ file
+#   tools/lint.sh format [--all]      clang-format check (.clang-format) of the C++
+#                                     files changed since LINT_BASE (default HEAD~1),
+#                                     or of every tracked C++ file with --all
 #   tools/lint.sh tidy [FILE.cpp...]  clang-tidy (.clang-tidy) on the given files,
 #                                     default: the src/ and drivers/ files changed
 #                                     since LINT_BASE (default HEAD~1)
@@ -12,11 +14,30 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build_dir=${SITEPOSE_BUILD_DIR:-build/release}
 
-cxx_files() { git ls-files -- '*.cpp' '*.hpp' '*.h' | grep -v '^tests/unit/detect/plugins/'; }
+cxx_files() { git ls-files -- '*.cpp' '*.hpp' '*.h' | grep -v '^tests/unit/detect/plugins/' || true; }
+
+# Files changed since LINT_BASE among the given pathspecs; exit 0 with a
+# message when there is no base to compare against (a shallow clone).
+changed_files() {
+  local base=${LINT_BASE:-HEAD~1}
+  if ! git rev-parse -q --verify "$base^{commit}" >/dev/null; then
+    echo "lint: no base commit $base (shallow clone?): nothing to compare against" >&2
+    return 0
+  fi
+  git diff --name-only --diff-filter=AMR "$base" -- "$@" | grep -v '^tests/unit/detect/plugins/' || true
+}
 
 case "${1:-}" in
   format)
-    mapfile -t files < <(cxx_files)
+    if [[ "${2:-}" == "--all" ]]; then
+      mapfile -t files < <(cxx_files)
+    else
+      mapfile -t files < <(changed_files '*.cpp' '*.hpp' '*.h')
+    fi
+    if ((${#files[@]} == 0)); then
+      echo "lint format: no changed C++ file"
+      exit 0
+    fi
     clang-format --dry-run -Werror "${files[@]}"
     echo "lint format: ${#files[@]} files formatted as .clang-format says"
     ;;
@@ -27,12 +48,7 @@ case "${1:-}" in
     elif (($# > 0)); then
       files=("$@")
     else
-      base=${LINT_BASE:-HEAD~1}
-      if ! git rev-parse -q --verify "$base^{commit}" >/dev/null; then
-        echo "lint tidy: no base commit $base (shallow clone?): nothing to compare against, checking nothing"
-        exit 0
-      fi
-      mapfile -t files < <(git diff --name-only --diff-filter=AMR "$base" -- 'src/*.cpp' 'drivers/*.cpp')
+      mapfile -t files < <(changed_files 'src/*.cpp' 'drivers/*.cpp')
     fi
     if ((${#files[@]} == 0)); then
       echo "lint tidy: no changed C++ source in src/ or drivers/"
