@@ -13,10 +13,10 @@
 #include <sstream>
 
 #include "can_test_support.hpp"
-#include "mini_json.hpp"
 #include "sitepose/drivers/socketcan/socketcan_sink.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/can_sink.hpp"
+#include "sitepose/testing/mini_json.hpp"
 
 namespace sitepose::drivers::socketcan {
 namespace {
@@ -47,8 +47,8 @@ TEST(SocketCanDbc, FramesFromTheSinkDecodeToTheValuesSent) {
   if (std::system("/usr/bin/python3 -c 'import can' 2>/dev/null") != 0) {
     GTEST_SKIP() << "python3-can is missing for /usr/bin/python3";
   }
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("sitepose_socketcan_dbc_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("sitepose_socketcan_dbc_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string log = (dir / "bus.log").string();
 
@@ -70,8 +70,9 @@ TEST(SocketCanDbc, FramesFromTheSinkDecodeToTheValuesSent) {
   }
   (*sink)->close();
   ASSERT_EQ((*sink)->stats().poses_sent, static_cast<std::uint64_t>(kPoses));
-  ASSERT_TRUE(testing::wait_until([&] { return bus.count([](const output::CanFrame&) { return true; }) >=
-                                                static_cast<std::size_t>(13 * kPoses); }));
+  ASSERT_TRUE(testing::wait_until([&] {
+    return bus.count([](const output::CanFrame&) { return true; }) >= static_cast<std::size_t>(13 * kPoses);
+  }));
 
   // The receiving side: every pose frame into a candump log (network
   // management frames are not in the DBC).
