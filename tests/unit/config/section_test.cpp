@@ -1,7 +1,6 @@
 #include "sitepose/config/section.hpp"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdint>
 #include <filesystem>
@@ -9,6 +8,8 @@
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::config {
 namespace {
@@ -210,11 +211,8 @@ class DocumentedFileTest : public ::testing::Test {
     return check_documented(settings_section(),
                             DocumentedFile{write(text), std::move(shipped), std::move(elsewhere)});
   }
-  void TearDown() override { std::filesystem::remove(path_); }
-
-  std::string path_ = (std::filesystem::temp_directory_path() /
-                       ("sitepose-documented-" + std::to_string(::getpid()) + ".yaml"))
-                          .string();
+  testing::TempDir dir_;
+  std::string path_ = dir_ / "documented.yaml";
 };
 
 constexpr const char* kDocumented =

@@ -2,13 +2,14 @@
 
 #include <gtest/gtest.h>
 
-#include <unistd.h>
 
 #include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
+
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::config {
 namespace {
@@ -337,12 +338,9 @@ TEST(YamlReader, TextLargerThanOneMebibyteIsRefused) {
   EXPECT_EQ(larger.error().message,
             "big.yaml: 1048577 bytes, larger than a configuration file may be (1048576 bytes = 1 MiB)");
 
-  const std::string path = (std::filesystem::temp_directory_path() /
-                            ("sitepose-yaml-big-" + std::to_string(::getpid()) + ".yaml"))
-                               .string();
-  std::ofstream(path) << at_limit << std::string(5 * kMaxYamlBytes, '#');
+  const testing::TempDir dir;
+  const std::string path = dir.write("big.yaml", at_limit + std::string(5 * kMaxYamlBytes, '#'));
   const auto from_file = YamlReader::from_file(path);
-  std::filesystem::remove(path);
   ASSERT_FALSE(from_file.has_value());
   EXPECT_EQ(from_file.error().message,
             path + ": more than 1048576 bytes, larger than a configuration file may be (1048576 "

@@ -291,7 +291,9 @@ TEST(SocketCanSink, InterfaceDownIsProbedWithAClaimUntilItComesBack) {
   ASSERT_TRUE(publish(*sink, encoder.encode(pose_inputs(0))).has_value());
   ASSERT_TRUE(wait_until([&] { return sink->stats().state == CanLinkState::kDown; }));
   EXPECT_FALSE(publish(*sink, encoder.encode(pose_inputs(1))).has_value());
-  std::this_thread::sleep_for(50ms);  // several probes fail meanwhile (back-off up to 20 ms)
+  // Several probes fail meanwhile (back-off up to 20 ms).
+  const std::uint64_t failed = faults.persistent_failures();
+  ASSERT_TRUE(wait_until([&] { return faults.persistent_failures() >= failed + 3; }));
   EXPECT_EQ(sink->stats().state, CanLinkState::kDown);
   EXPECT_EQ(sink->stats().link_down, 1u);
   while (testing::read_frame(pair.bus(), 1ms)) {
