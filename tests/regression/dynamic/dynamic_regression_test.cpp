@@ -25,7 +25,8 @@ void print_states(const DynamicRunResult& run) {
     std::printf("[figures] %s instance %u starts moving at frame %lld: re-masked after %d frames\n",
                 run.name.c_str(), e.instance, static_cast<long long>(e.start_frame), e.latency_frames);
   }
-  std::printf("[figures] %s static flips %d\n", run.name.c_str(), static_flips(run.samples, kMinObjectPoints));
+  std::printf("[figures] %s static flips %d\n", run.name.c_str(),
+              static_flips(run.samples, kMinObjectPoints));
   std::vector<double> thresholds;
   for (double t = 0.0; t <= 200.0; t += 0.25) thresholds.push_back(t);
   const double auc = roc_auc(roc_curve(run.samples, thresholds, 0.7, kMinObjectPoints));
@@ -142,9 +143,10 @@ ParkedFigures run_parked(bool with_none, bool with_bbox) {
     f.unmasked_frames += unmasked[frame] ? 1 : 0;
   }
   f.flips = static_flips(f.full.run.samples, kMinObjectPoints);
-  std::printf("[figures] parked: a machine unmasked in %d of %d frames with a testable machine; "
-              "none %.4f m, bbox %.4f m, full %.4f m\n",
-              f.unmasked_frames, f.testable_frames, f.none.ate_m, f.bbox.ate_m, f.full.ate_m);
+  std::printf(
+      "[figures] parked: a machine unmasked in %d of %d frames with a testable machine; "
+      "none %.4f m, bbox %.4f m, full %.4f m\n",
+      f.unmasked_frames, f.testable_frames, f.none.ate_m, f.bbox.ate_m, f.full.ate_m);
   return f;
 }
 

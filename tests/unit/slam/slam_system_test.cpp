@@ -50,7 +50,8 @@ TEST(RunRecorder, WritesStatesCsvOfDynamicReports) {
   const testing::TempDir dir;
   const std::string path = dir / "states_test.csv";
   ASSERT_TRUE(recorder.write_states_csv(path));
-  EXPECT_EQ(testing::read_text(path), "frame,instance,class,state,score,points\n7,12,truck,static,1.2500,40\n");
+  EXPECT_EQ(testing::read_text(path),
+            "frame,instance,class,state,score,points\n7,12,truck,static,1.2500,40\n");
 }
 
 TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
@@ -63,9 +64,9 @@ TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
 // Mode none masks nothing but reports mar like the masking modes: the
 // dynamic-class boxes only, clipped to the image.
 TEST(SlamSystem, ModeNoneReportsTheMarOfDynamicClassBoxes) {
-  const auto report = process_blank_frame(config::MaskingMode::kNone,
-                                          {{1, "truck", 1.0, cv::Rect(-8, 0, 24, 12)},    // 16 x 12 inside
-                                           {2, "cone", 1.0, cv::Rect(30, 30, 10, 10)}});  // not a dynamic class
+  const auto report = process_blank_frame(
+      config::MaskingMode::kNone, {{1, "truck", 1.0, cv::Rect(-8, 0, 24, 12)},    // 16 x 12 inside
+                                   {2, "cone", 1.0, cv::Rect(30, 30, 10, 10)}});  // not a dynamic class
   ASSERT_TRUE(report) << report.error().message;
   EXPECT_TRUE(report->dynamic_layer);
   EXPECT_DOUBLE_EQ(report->mar, 16.0 * 12.0 / (64.0 * 48.0));

@@ -69,8 +69,9 @@ TEST(SocketCanDbc, FramesFromTheSinkDecodeToTheValuesSent) {
   }
   (*sink)->close();
   ASSERT_EQ((*sink)->stats().poses_sent, static_cast<std::uint64_t>(kPoses));
-  ASSERT_TRUE(testing::wait_until([&] { return bus.count([](const output::CanFrame&) { return true; }) >=
-                                                static_cast<std::size_t>(13 * kPoses); }));
+  ASSERT_TRUE(testing::wait_until([&] {
+    return bus.count([](const output::CanFrame&) { return true; }) >= static_cast<std::size_t>(13 * kPoses);
+  }));
 
   // The receiving side: every pose frame into a candump log (network
   // management frames are not in the DBC).

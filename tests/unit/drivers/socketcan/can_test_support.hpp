@@ -73,10 +73,10 @@ inline std::uint32_t pgn_of(const struct can_frame& cf) {
 
 // Data frames from `fd` until `pred(frame)` holds for one (returned) or the
 // timeout; every frame read is appended to `seen` when given.
-inline std::optional<output::CanFrame> read_until(
-    int fd, const std::function<bool(const output::CanFrame&)>& pred,
-    std::chrono::milliseconds timeout = std::chrono::seconds(5),
-    std::vector<output::CanFrame>* seen = nullptr) {
+inline std::optional<output::CanFrame> read_until(int fd,
+                                                  const std::function<bool(const output::CanFrame&)>& pred,
+                                                  std::chrono::milliseconds timeout = std::chrono::seconds(5),
+                                                  std::vector<output::CanFrame>* seen = nullptr) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (std::chrono::steady_clock::now() < deadline) {
     auto cf = read_frame(fd, std::chrono::milliseconds(10));
@@ -214,8 +214,7 @@ class VirtualBus {
       for (std::size_t i = 0; i < fds.size(); ++i) {
         if ((fds[i].revents & POLLIN) == 0) continue;
         struct can_frame cf;
-        while (::recv(pairs_[i].bus(), &cf, sizeof(cf), MSG_DONTWAIT) ==
-               static_cast<ssize_t>(sizeof(cf))) {
+        while (::recv(pairs_[i].bus(), &cf, sizeof(cf), MSG_DONTWAIT) == static_cast<ssize_t>(sizeof(cf))) {
           std::lock_guard lock(mutex_);
           deliver(static_cast<int>(i), cf);
         }
