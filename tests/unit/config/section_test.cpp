@@ -1,7 +1,6 @@
 #include "sitepose/config/section.hpp"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdint>
 #include <filesystem>
@@ -9,6 +8,8 @@
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::config {
 namespace {
@@ -130,8 +131,7 @@ TEST(Section, RulesChoicesAndChecksReportInTheReaderStyle) {
 TEST(Section, ConditionalRequirementAndCheckSkipInvalidKeys) {
   // enabled with sink file needs a path...
   EXPECT_EQ(load("output: {enabled: true}\n").problems, "s.yaml:1: output.path: missing (required key)");
-  EXPECT_EQ(load("output: {path: \"\"}\n").problems,
-            "s.yaml:1: output.path = \"\": must not be empty");
+  EXPECT_EQ(load("output: {path: \"\"}\n").problems, "s.yaml:1: output.path = \"\": must not be empty");
   // ... but not otherwise.
   EXPECT_EQ(load("output: {enabled: false}\n").problems, "");
   // A key that broke its own rule is not checked again.
@@ -193,10 +193,10 @@ TEST(Section, EntriesListEveryKeyWithItsPath) {
   const auto listed = entries(settings_section(), Settings{}, true);
   std::vector<std::string> paths;
   for (const YamlEntry& e : listed) paths.push_back(e.path + (e.absent ? " (absent)" : ""));
-  EXPECT_EQ(paths, (std::vector<std::string>{"output", "output.enabled", "output.path", "output.sink",
-                                             "capacity", "offset_s", "names", "limits", "limits.low",
-                                             "limits.high", "origin (absent)", "origin.x_m (absent)",
-                                             "origin.y_m (absent)"}));
+  EXPECT_EQ(paths,
+            (std::vector<std::string>{"output", "output.enabled", "output.path", "output.sink", "capacity",
+                                      "offset_s", "names", "limits", "limits.low", "limits.high",
+                                      "origin (absent)", "origin.x_m (absent)", "origin.y_m (absent)"}));
 }
 
 class DocumentedFileTest : public ::testing::Test {
@@ -210,11 +210,8 @@ class DocumentedFileTest : public ::testing::Test {
     return check_documented(settings_section(),
                             DocumentedFile{write(text), std::move(shipped), std::move(elsewhere)});
   }
-  void TearDown() override { std::filesystem::remove(path_); }
-
-  std::string path_ = (std::filesystem::temp_directory_path() /
-                       ("sitepose-documented-" + std::to_string(::getpid()) + ".yaml"))
-                          .string();
+  testing::TempDir dir_;
+  std::string path_ = dir_ / "documented.yaml";
 };
 
 constexpr const char* kDocumented =
@@ -238,15 +235,15 @@ TEST_F(DocumentedFileTest, FileWithEveryDefaultAgrees) {
 
 TEST_F(DocumentedFileTest, MissingKeysWrongDefaultsAndUnknownKeysAreNamed) {
   const std::string base = "output: {enabled: true, path: p, sink: file}\n";
-  const Status status = check(
-      base + "capacity: 8\nnames: [a, b]\nlimits: {low: 1}\n# origin:\n#   x_m: 1\n", {"output.path"});
+  const Status status =
+      check(base + "capacity: 8\nnames: [a, b]\nlimits: {low: 1}\n# origin:\n#   x_m: 1\n", {"output.path"});
   ASSERT_FALSE(status.has_value());
   const std::string p = path_ + ": ";
   EXPECT_EQ(status.error().message,
-            p + "capacity = 8: the default is 4\n" +      //
+            p + "capacity = 8: the default is 4\n" +            //
                 p + "offset_s: not documented (default 0)\n" +  //
-                p + "limits.high: not documented (default 10)\n" +
-                p + "origin.y_m: not documented (expected a comment line \"# y_m: ...\")");
+                p + "limits.high: not documented (default 10)\n" + p +
+                "origin.y_m: not documented (expected a comment line \"# y_m: ...\")");
 
   const Status unknown = check(base + "capacity: 4\nextra: 1\n", {"output.path"});
   ASSERT_FALSE(unknown.has_value());

@@ -2,13 +2,13 @@
 
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <vector>
+
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::config {
 namespace {
@@ -102,14 +102,11 @@ TEST(YamlReader, WrongTypeIsReportedWithQuotedText) {
   EXPECT_FALSE(orb.read("scale", scale));
   EXPECT_FALSE(orb.read("on", on));
   const std::string message = finish_message(reader);
-  EXPECT_NE(message.find("test.yaml:2: orb.n_features = \"many\": expected an integer"),
-            std::string::npos)
+  EXPECT_NE(message.find("test.yaml:2: orb.n_features = \"many\": expected an integer"), std::string::npos)
       << message;
-  EXPECT_NE(message.find("test.yaml:3: orb.scale = \"1.2.3\": expected a finite number"),
-            std::string::npos)
+  EXPECT_NE(message.find("test.yaml:3: orb.scale = \"1.2.3\": expected a finite number"), std::string::npos)
       << message;
-  EXPECT_NE(message.find("test.yaml:4: orb.on = \"yes\": expected a boolean"), std::string::npos)
-      << message;
+  EXPECT_NE(message.find("test.yaml:4: orb.on = \"yes\": expected a boolean"), std::string::npos) << message;
 }
 
 TEST(YamlReader, IntegersRejectFractionsOverflowAndNonFiniteNumbers) {
@@ -142,8 +139,7 @@ TEST(YamlReader, UnknownKeyListsKnownKeysAndSuggestsNearMiss) {
 TEST(YamlReader, UnreadSectionIsAnUnknownKeyOfItsParent) {
   const YamlReader reader = parse("orb: {}\nextra:\n  x: 1\n");
   reader.root().map("orb");
-  EXPECT_EQ(finish_message(reader),
-            "test.yaml:2: extra: unknown key (expected one of: orb)");
+  EXPECT_EQ(finish_message(reader), "test.yaml:2: extra: unknown key (expected one of: orb)");
 }
 
 TEST(YamlReader, RequiredKeyMissingIsReported) {
@@ -154,8 +150,7 @@ TEST(YamlReader, RequiredKeyMissingIsReported) {
   machine.read("name", name);
   EXPECT_FALSE(machine.read_required("speed_mps", speed, positive()));
   const std::string message = finish_message(reader);
-  EXPECT_NE(message.find("machine.speed_mps: missing (required key)"), std::string::npos)
-      << message;
+  EXPECT_NE(message.find("machine.speed_mps: missing (required key)"), std::string::npos) << message;
 }
 
 TEST(YamlReader, SequenceOfMappingsHasIndexedPaths) {
@@ -175,12 +170,10 @@ TEST(YamlReader, SequenceOfMappingsHasIndexedPaths) {
   }
   EXPECT_DOUBLE_EQ(speeds[1], 2.0);
   const std::string message = finish_message(reader);
-  EXPECT_NE(message.find("test.yaml:4: machines[2].path.speed_mps = -1.0: must be > 0"),
-            std::string::npos)
+  EXPECT_NE(message.find("test.yaml:4: machines[2].path.speed_mps = -1.0: must be > 0"), std::string::npos)
       << message;
   EXPECT_NE(message.find("machines[2].path.sped: unknown key"), std::string::npos) << message;
-  EXPECT_NE(message.find("test.yaml:5: machines[3] = 5: expected a mapping"), std::string::npos)
-      << message;
+  EXPECT_NE(message.find("test.yaml:5: machines[3] = 5: expected a mapping"), std::string::npos) << message;
 }
 
 TEST(YamlReader, ListElementErrorsNameTheIndex) {
@@ -193,8 +186,7 @@ TEST(YamlReader, ListElementErrorsNameTheIndex) {
   EXPECT_FALSE(reader.root().read("empty", empty, non_empty()));
   const std::string message = finish_message(reader);
   EXPECT_NE(message.find("classes[1] = [x]: expected a string"), std::string::npos) << message;
-  EXPECT_NE(message.find("weights[1] = \"two\": expected a finite number"), std::string::npos)
-      << message;
+  EXPECT_NE(message.find("weights[1] = \"two\": expected a finite number"), std::string::npos) << message;
   EXPECT_NE(message.find("empty = []: must not be empty"), std::string::npos) << message;
 }
 
@@ -202,8 +194,7 @@ TEST(YamlReader, EachRuleAppliesToEveryElement) {
   const YamlReader reader = parse("sizes: [1, 2, 0]\n");
   std::vector<int> sizes;
   EXPECT_FALSE(reader.root().read("sizes", sizes, each(positive())));
-  EXPECT_NE(finish_message(reader).find("sizes = [1, 2, 0]: every element must be > 0"),
-            std::string::npos);
+  EXPECT_NE(finish_message(reader).find("sizes = [1, 2, 0]: every element must be > 0"), std::string::npos);
 }
 
 TEST(YamlReader, EmptyValueIsAnErrorForScalarsAndEmptyForSections) {
@@ -291,7 +282,8 @@ TEST(YamlReader, FortyThousandKeysAreCheckedInLinearTime) {
     int value = 0;
     reader.root().map("s").read(same_name ? "k" : "k0", value);
     const std::string message = finish_message(reader);
-    EXPECT_LT(cpu_seconds_since(start), kFortyThousandKeysBudget_s) << (same_name ? "duplicates" : "unknown keys");
+    EXPECT_LT(cpu_seconds_since(start), kFortyThousandKeysBudget_s)
+        << (same_name ? "duplicates" : "unknown keys");
     // Unknown keys (k1 ... k39999) or duplicates of k: every one is a problem.
     EXPECT_NE(message.find(same_name ? "test.yaml:3: s.k: duplicate key (first at line 2)"
                                      : "test.yaml:3: s.k1: unknown key (expected one of: k0)"),
@@ -337,16 +329,14 @@ TEST(YamlReader, TextLargerThanOneMebibyteIsRefused) {
   EXPECT_EQ(larger.error().message,
             "big.yaml: 1048577 bytes, larger than a configuration file may be (1048576 bytes = 1 MiB)");
 
-  const std::string path = (std::filesystem::temp_directory_path() /
-                            ("sitepose-yaml-big-" + std::to_string(::getpid()) + ".yaml"))
-                               .string();
-  std::ofstream(path) << at_limit << std::string(5 * kMaxYamlBytes, '#');
+  const testing::TempDir dir;
+  const std::string path = dir.write("big.yaml", at_limit + std::string(5 * kMaxYamlBytes, '#'));
   const auto from_file = YamlReader::from_file(path);
-  std::filesystem::remove(path);
   ASSERT_FALSE(from_file.has_value());
   EXPECT_EQ(from_file.error().message,
-            path + ": more than 1048576 bytes, larger than a configuration file may be (1048576 "
-                   "bytes = 1 MiB)");
+            path +
+                ": more than 1048576 bytes, larger than a configuration file may be (1048576 "
+                "bytes = 1 MiB)");
 }
 
 TEST(YamlReader, DirectoryIsRefusedNamingThePath) {

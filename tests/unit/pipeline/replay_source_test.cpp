@@ -34,6 +34,7 @@ class ReplaySourceTest : public ::testing::Test {
                                          "P1: 20 0 16 -10 0 20 12 0 0 0 1 0\n";
     std::ofstream(dir_ / "times.txt") << "10.0\n10.05\n10.1\n";
   }
+
   std::unique_ptr<ReplaySource> open(ReplayRate rate, bool loop) {
     ReplayOptions o;
     o.sequence_dir = dir_.string();

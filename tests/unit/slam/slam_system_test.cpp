@@ -6,22 +6,15 @@
 
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"
+#include "sitepose/testing/cameras.hpp"
+#include "sitepose/testing/files.hpp"
 
 namespace sitepose::slam {
 namespace {
 
 // A 64 x 48 camera: enough for SlamSystem to run where a test looks at the
 // dynamic layer.
-StereoCamera tiny_camera() {
-  StereoCamera camera;
-  camera.fx = camera.fy = 100.0;
-  camera.cx = 32.0;
-  camera.cy = 24.0;
-  camera.baseline_m = 0.5;
-  camera.width = 64;
-  camera.height = 48;
-  return camera;
-}
+StereoCamera tiny_camera() { return testing::centred_camera(64, 48, 100.0, 0.5); }
 
 // One textureless frame (the map never initialises) with `boxes` through a
 // fresh SlamSystem in `mode`.
@@ -54,12 +47,11 @@ TEST(RunRecorder, WritesStatesCsvOfDynamicReports) {
   recorder.add(report);
   EXPECT_EQ(recorder.pixel_mask_calls(), 1);
   ASSERT_EQ(recorder.masked_area_ratios().size(), 1u);
-  const std::string path = ::testing::TempDir() + "/states_test.csv";
+  const testing::TempDir dir;
+  const std::string path = dir / "states_test.csv";
   ASSERT_TRUE(recorder.write_states_csv(path));
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_EQ(text.str(), "frame,instance,class,state,score,points\n7,12,truck,static,1.2500,40\n");
+  EXPECT_EQ(testing::read_text(path),
+            "frame,instance,class,state,score,points\n7,12,truck,static,1.2500,40\n");
 }
 
 TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
@@ -72,9 +64,9 @@ TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
 // Mode none masks nothing but reports mar like the masking modes: the
 // dynamic-class boxes only, clipped to the image.
 TEST(SlamSystem, ModeNoneReportsTheMarOfDynamicClassBoxes) {
-  const auto report = process_blank_frame(config::MaskingMode::kNone,
-                                          {{1, "truck", 1.0, cv::Rect(-8, 0, 24, 12)},    // 16 x 12 inside
-                                           {2, "cone", 1.0, cv::Rect(30, 30, 10, 10)}});  // not a dynamic class
+  const auto report = process_blank_frame(
+      config::MaskingMode::kNone, {{1, "truck", 1.0, cv::Rect(-8, 0, 24, 12)},    // 16 x 12 inside
+                                   {2, "cone", 1.0, cv::Rect(30, 30, 10, 10)}});  // not a dynamic class
   ASSERT_TRUE(report) << report.error().message;
   EXPECT_TRUE(report->dynamic_layer);
   EXPECT_DOUBLE_EQ(report->mar, 16.0 * 12.0 / (64.0 * 48.0));

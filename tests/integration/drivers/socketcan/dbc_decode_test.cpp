@@ -16,6 +16,7 @@
 #include "sitepose/drivers/socketcan/socketcan_sink.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/can_sink.hpp"
+#include "sitepose/testing/files.hpp"
 #include "sitepose/testing/mini_json.hpp"
 
 namespace sitepose::drivers::socketcan {
@@ -47,10 +48,8 @@ TEST(SocketCanDbc, FramesFromTheSinkDecodeToTheValuesSent) {
   if (std::system("/usr/bin/python3 -c 'import can' 2>/dev/null") != 0) {
     GTEST_SKIP() << "python3-can is missing for /usr/bin/python3";
   }
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("sitepose_socketcan_dbc_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  const std::string log = (dir / "bus.log").string();
+  const sitepose::testing::TempDir dir;
+  const std::string log = dir / "bus.log";
 
   testing::SocketPair pair;
   testing::FrameCollector bus(pair.bus());
@@ -86,14 +85,11 @@ TEST(SocketCanDbc, FramesFromTheSinkDecodeToTheValuesSent) {
     }
     ASSERT_TRUE((*logger)->flush().has_value());
   }
-  const std::string json_path = (dir / "decoded.json").string();
+  const std::string json_path = dir / "decoded.json";
   const std::string cmd = std::string(kPython) + " " SITEPOSE_SOURCE_DIR "/tools/can_decode.py --dbc " +
                           SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + log + " > " + json_path;
   const int rc = std::system(cmd.c_str());
-  std::ifstream in(json_path);
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::string json = text.str();
+  const std::string json = sitepose::testing::read_text(json_path);
   JsonParser parser(json);
   auto out = parser.parse();
   ASSERT_TRUE(out.has_value()) << parser.error();
@@ -122,7 +118,6 @@ TEST(SocketCanDbc, FramesFromTheSinkDecodeToTheValuesSent) {
     EXPECT_TRUE(msgs[7 * k + 6]["e2e"]["crc_ok"].boolean()) << at;
     EXPECT_EQ(msgs[7 * k + 6]["signals"]["FeaturesUsed"].number(), p.quality.features_used) << at;
   }
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

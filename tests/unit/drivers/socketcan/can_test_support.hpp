@@ -23,18 +23,15 @@
 
 #include "sitepose/drivers/socketcan/can_socket.hpp"
 #include "sitepose/output/j1939.hpp"
+#include "sitepose/testing/wait.hpp"
 
 namespace sitepose::drivers::socketcan::testing {
 
-// Polls `pred` every millisecond until it holds or `timeout` passes.
+// sitepose::testing::wait_for with this suite's defaults: 5 s, polled
+// every millisecond.
 template <typename Pred>
 bool wait_until(Pred pred, std::chrono::milliseconds timeout = std::chrono::seconds(5)) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (!pred()) {
-    if (std::chrono::steady_clock::now() > deadline) return pred();
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  return true;
+  return sitepose::testing::wait_for(pred, timeout, std::chrono::milliseconds(1));
 }
 
 struct SocketPair {
@@ -76,10 +73,10 @@ inline std::uint32_t pgn_of(const struct can_frame& cf) {
 
 // Data frames from `fd` until `pred(frame)` holds for one (returned) or the
 // timeout; every frame read is appended to `seen` when given.
-inline std::optional<output::CanFrame> read_until(
-    int fd, const std::function<bool(const output::CanFrame&)>& pred,
-    std::chrono::milliseconds timeout = std::chrono::seconds(5),
-    std::vector<output::CanFrame>* seen = nullptr) {
+inline std::optional<output::CanFrame> read_until(int fd,
+                                                  const std::function<bool(const output::CanFrame&)>& pred,
+                                                  std::chrono::milliseconds timeout = std::chrono::seconds(5),
+                                                  std::vector<output::CanFrame>* seen = nullptr) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (std::chrono::steady_clock::now() < deadline) {
     auto cf = read_frame(fd, std::chrono::milliseconds(10));
@@ -139,7 +136,10 @@ class Faults {
     rng_.seed(seed);
   }
   int next() {
-    if (const int e = persistent_.load(); e != 0) return e;
+    if (const int e = persistent_.load(); e != 0) {
+      ++persistent_failures_;
+      return e;
+    }
     std::lock_guard lock(mutex_);
     if (probability_ > 0 && std::uniform_real_distribution<double>(0, 1)(rng_) < probability_) {
       ++injected_;
@@ -151,9 +151,12 @@ class Faults {
     std::lock_guard lock(mutex_);
     return injected_;
   }
+  // Sends failed by set_persistent's errno so far.
+  std::uint64_t persistent_failures() const { return persistent_failures_.load(); }
 
  private:
   std::atomic<int> persistent_{0};
+  std::atomic<std::uint64_t> persistent_failures_{0};
   std::mutex mutex_;
   int random_errno_ = 0;
   double probability_ = 0;
@@ -211,8 +214,7 @@ class VirtualBus {
       for (std::size_t i = 0; i < fds.size(); ++i) {
         if ((fds[i].revents & POLLIN) == 0) continue;
         struct can_frame cf;
-        while (::recv(pairs_[i].bus(), &cf, sizeof(cf), MSG_DONTWAIT) ==
-               static_cast<ssize_t>(sizeof(cf))) {
+        while (::recv(pairs_[i].bus(), &cf, sizeof(cf), MSG_DONTWAIT) == static_cast<ssize_t>(sizeof(cf))) {
           std::lock_guard lock(mutex_);
           deliver(static_cast<int>(i), cf);
         }

@@ -88,8 +88,7 @@ bool is_pose_frame(const CanFrame& f) { return is_pose_pgn(output::split_j1939_i
 
 // Publishes a pose; when the sink refuses it (its queue is full while the
 // bus drains), flushes again until it is admitted, as the pipeline retries.
-::testing::AssertionResult publish_until_admitted(SocketCanSink& sink,
-                                                  const std::vector<CanFrame>& frames) {
+::testing::AssertionResult publish_until_admitted(SocketCanSink& sink, const std::vector<CanFrame>& frames) {
   if (publish(sink, frames) || wait_until([&] { return sink.flush().has_value(); })) {
     return ::testing::AssertionSuccess();
   }
@@ -239,9 +238,9 @@ struct FaultySink {
 
 // After a recovery the node claims its address again before any pose.
 bool claims_again(int bus_fd) {
-  return testing::read_until(bus_fd, [](const CanFrame& f) {
-           return output::parse_address_claimed(f).has_value();
-         }).has_value();
+  return testing::read_until(bus_fd,
+                             [](const CanFrame& f) { return output::parse_address_claimed(f).has_value(); })
+      .has_value();
 }
 
 TEST(SocketCanSink, BusOffDropsTheQueueRefusesPosesAndRecoversWhenTheControllerRestarts) {
@@ -291,7 +290,9 @@ TEST(SocketCanSink, InterfaceDownIsProbedWithAClaimUntilItComesBack) {
   ASSERT_TRUE(publish(*sink, encoder.encode(pose_inputs(0))).has_value());
   ASSERT_TRUE(wait_until([&] { return sink->stats().state == CanLinkState::kDown; }));
   EXPECT_FALSE(publish(*sink, encoder.encode(pose_inputs(1))).has_value());
-  std::this_thread::sleep_for(50ms);  // several probes fail meanwhile (back-off up to 20 ms)
+  // Several probes fail meanwhile (back-off up to 20 ms).
+  const std::uint64_t failed = faults.persistent_failures();
+  ASSERT_TRUE(wait_until([&] { return faults.persistent_failures() >= failed + 3; }));
   EXPECT_EQ(sink->stats().state, CanLinkState::kDown);
   EXPECT_EQ(sink->stats().link_down, 1u);
   while (testing::read_frame(pair.bus(), 1ms)) {
@@ -327,9 +328,8 @@ TEST(SocketCanSink, VanishedInterfaceIsOpenedAgain) {
   ::close(first.fds[1]);  // the adapter is unplugged: end of stream on the socket
   first.fds[1] = -1;
   ASSERT_TRUE(wait_until([&] { return sink->stats().link_gone == 1u; }));
-  ASSERT_TRUE(testing::read_until(second.bus(), [](const CanFrame& f) {
-    return output::parse_address_claimed(f).has_value();
-  }));
+  ASSERT_TRUE(testing::read_until(
+      second.bus(), [](const CanFrame& f) { return output::parse_address_claimed(f).has_value(); }));
   ASSERT_TRUE(wait_until([&] { return is_up(*sink); }));
   output::CanPoseEncoder encoder(output::CanOutputOptions{});
   ASSERT_TRUE(publish(*sink, encoder.encode(pose_inputs(0))).has_value());
@@ -455,8 +455,7 @@ TEST(SocketCanSinkOptions, CheckNamesTheField) {
   EXPECT_NE(check_socketcan_sink_options(o).error().message.find("queue"), std::string::npos);
   o = sink_options();
   o.node.preferred_address = 255;
-  EXPECT_NE(check_socketcan_sink_options(o).error().message.find("preferred address"),
-            std::string::npos);
+  EXPECT_NE(check_socketcan_sink_options(o).error().message.find("preferred address"), std::string::npos);
   SocketPair pair;
   EXPECT_FALSE(SocketCanSink::open(o, fd_socket_ops(pair.sink())).has_value());
   EXPECT_TRUE(check_socketcan_sink_options(sink_options()).has_value());
