@@ -32,10 +32,13 @@ Status check_image_folder(const fs::path& folder, std::size_t n_frames, const st
                                                   std::to_string(n_frames) + " frames)");
     }
   }
+  // error_code overloads throughout: an entry that cannot be stat'ed (a
+  // symlink loop, a dangling link) is not a frame image, not a crash.
   std::size_t count = 0;
   std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(folder, ec)) {
-    if (entry.is_regular_file() && is_frame_png(entry.path())) ++count;
+  for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code entry_ec;
+    if (is_frame_png(it->path()) && it->is_regular_file(entry_ec)) ++count;
   }
   if (ec) return make_error(ErrorCode::kIoError, folder.string() + ": cannot list: " + ec.message());
   if (count != n_frames) {

@@ -218,6 +218,29 @@ TEST(SiteposeSequence, MissingImageNamesFrameAndFile) {
   EXPECT_NE(seq.error().message.find("image_1/000001.png does not exist"), std::string::npos);
 }
 
+// issue 20: an entry that cannot be stat'ed (ELOOP) threw filesystem_error out
+// of the image-folder check and aborted `sitepose run` and --check-config.
+TEST(SiteposeSequence, SymlinkLoopInImageFolderIsNoCrash) {
+  TempDir dir;
+  const std::string root = write_sequence(dir);
+  const fs::path folder = fs::path(root) / "image_0";
+  fs::create_symlink("loop", folder / "loop");            // not a frame name: ignored
+  fs::create_symlink("b.png", folder / "a.png");           // a 2-link cycle
+  fs::create_symlink("a.png", folder / "b.png");
+  auto seq = open_sequence(root);
+  ASSERT_TRUE(seq) << seq.error().message;
+  EXPECT_EQ((*seq)->size(), 3u);
+
+  // A frame image that is a loop is a missing frame, named.
+  fs::remove(folder / "000001.png");
+  fs::create_symlink("000001.png", folder / "000001.png");
+  auto looped = open_sequence(root);
+  ASSERT_FALSE(looped);
+  EXPECT_EQ(looped.error().code, ErrorCode::kNotFound);
+  EXPECT_NE(looped.error().message.find("image_0/000001.png does not exist"), std::string::npos)
+      << looped.error().message;
+}
+
 TEST(SiteposeSequence, ImageRemovedAfterOpenNamesFrame) {
   TempDir dir;
   const std::string root = write_sequence(dir);
