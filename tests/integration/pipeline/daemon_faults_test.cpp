@@ -266,6 +266,36 @@ TEST(DaemonFaults, CanSinkErrorsAreCountedAndResumedWithoutDuplicates) {
 }
 
 
+// issue 20: on a full disk health said can ok=90 failed=0 while the frames
+// of 28 poses were lost. Now a pose whose frames could not be written is
+// counted failed, and the sink's count is what the log holds.
+TEST(DaemonFaults, CanFullDiskIsCountedTruthfully) {
+  TempDir dir("canfull");
+  auto anchoring = Anchoring::create(fixed_geo());
+  ASSERT_TRUE(anchoring);
+  auto file = output::CandumpSink::open_file(dir / "can.log", "can0");
+  ASSERT_TRUE(file);
+  output::CanSink* sink_view = file->get();
+  std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
+  outputs.push_back(std::make_unique<CanOutput>(output::CanOutputOptions{}, std::move(*file), **anchoring));
+  auto p = fake_pipeline(20, std::move(outputs));
+  ASSERT_TRUE(p);
+  {
+    sitepose::testing::FileSizeLimit full(3000);  // about 5 of 20 poses (13 frames, ~45 bytes each)
+    ASSERT_TRUE(full.ok());
+    p->start();
+    ASSERT_TRUE(p->wait());
+  }
+  const auto h = p->health();
+  EXPECT_GE(h.outputs[0].failed, 10u);
+  EXPECT_GE(h.outputs[0].published, 3u);
+  EXPECT_EQ(h.outputs[0].published + h.outputs[0].failed, 20u);
+  auto records = output::read_candump_file(dir / "can.log");
+  ASSERT_TRUE(records) << records.error().message;
+  EXPECT_EQ(sink_view->counters().frames_sent, records->size());
+  EXPECT_GE(records->size(), h.outputs[0].published * 13u);
+}
+
 pipeline::PosePacket ok_pose(std::int64_t seq) {
   pipeline::PosePacket packet;
   packet.pose.seq = seq;
