@@ -84,5 +84,19 @@ TEST_F(RunCli, SymlinkLoopInImageFolderIsNoCrash) {
   EXPECT_EQ(r.exit_status, 0) << r.err;
 }
 
+// issue 20: `--states-out /dev/full` and a full stdout exited 0.
+TEST_F(RunCli, FullOutputsExitOne) {
+  const RunResult states = sitepose(run_args("--mode full --states-out /dev/full"));
+  EXPECT_EQ(states.exit_status, 1) << states.err;
+  EXPECT_NE(states.err.find("/dev/full"), std::string::npos) << states.err;
+  const RunResult stats = sitepose(run_args("--mode none --stats-out /dev/full"));
+  EXPECT_EQ(stats.exit_status, 1) << stats.err;
+  const RunResult out = sitepose(run_args("--mode none"), "/dev/full");
+  EXPECT_EQ(out.exit_status, 1) << out.err;
+  EXPECT_NE(out.err.find("cannot write to stdout"), std::string::npos) << out.err;
+  const RunResult ok = sitepose(run_args("--mode none"));
+  EXPECT_EQ(ok.exit_status, 0) << ok.err;
+}
+
 }  // namespace
 }  // namespace sitepose
