@@ -16,6 +16,8 @@ namespace {
 
 constexpr const char* kBoxesHeader = "frame,instance,class,x,y,w,h,moving";
 constexpr std::size_t kBoxesFields = 8;
+// Instance ids are mask pixel values, so they must fit 16 bits.
+constexpr int kMaxInstanceId = 65535;
 
 bool is_word(std::string_view s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
@@ -81,10 +83,11 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
                             std::to_string(*n_frames) + " (frames in the sequence), got " +
                             std::to_string(box.frame));
     }
-    if (box.instance <= 0) {
+    if (box.instance <= 0 || box.instance > kMaxInstanceId) {
       return make_error(ErrorCode::kParseError,
-                        detail::where(path, line_no) +
-                            "field 'instance': expected > 0 (0 is the mask background), got " +
+                        detail::where(path, line_no) + "field 'instance': expected 1.." +
+                            std::to_string(kMaxInstanceId) +
+                            " (0 is the mask background; masks are 16-bit PNGs), got " +
                             std::to_string(box.instance));
     }
     if (!is_word(f[2])) {

@@ -16,7 +16,7 @@ namespace sitepose::io {
 
 struct LabelBox {
   int frame = 0;      // index into times.txt
-  int instance = 0;   // > 0, stable across frames; equals the mask pixel value
+  int instance = 0;   // 1..65535, stable across frames; equals the mask pixel value
   std::string class_name;  // one word: truck, roller, excavator, person, cone, ...
   cv::Rect box;       // left-image pixels
   std::optional<bool> moving;  // 1 / 0 in the file; empty field = unknown
@@ -27,7 +27,8 @@ struct LabelBox {
 // decimal box becomes the smallest cv::Rect covering it (floor of x, y, ceil
 // of x + w, y + h). Rows are returned sorted by (frame, instance).
 // Errors (kParseError) name the file, the line and what was expected:
-// wrong field count, non-numbers, frame < 0, instance <= 0, empty or
+// wrong field count, non-numbers, frame < 0, instance outside 1..65535
+// (a 16-bit mask pixel value), empty or
 // non-word class, w or h <= 0, moving not in {1, 0, empty}, a repeated
 // (frame, instance) pair, and frame >= n_frames when n_frames is given.
 Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
