@@ -282,6 +282,23 @@ TEST(SiteposeSequence, CalibOutsideImageRejected) {
       << seq.error().message;
 }
 
+// issue 20: an absurd calibration ran and reported absurd poses as OK.
+TEST(SiteposeSequence, ImplausibleCalibRejectedNamingTheValue) {
+  TempDir dir;
+  const std::string root = write_sequence(dir);
+  dir.write("seq/calib.txt", "P0: 1e300 0 32 0 0 1e300 24 0 0 0 1 0\nP1: 1e300 0 32 -5e299 0 1e300 24 0 0 0 1 0\n");
+  auto focal = open_sequence(root);
+  ASSERT_FALSE(focal);
+  EXPECT_EQ(focal.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(focal.error().message.find("calib.txt with images of 64x48"), std::string::npos) << focal.error().message;
+  EXPECT_NE(focal.error().message.find("fx=1e+300"), std::string::npos) << focal.error().message;
+  dir.write("seq/calib.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\nP1: 50 0 32 -5e11 0 50 24 0 0 0 1 0\n");
+  auto baseline = open_sequence(root);
+  ASSERT_FALSE(baseline);
+  EXPECT_NE(baseline.error().message.find("baseline_m=1e+10 implausible"), std::string::npos)
+      << baseline.error().message;
+}
+
 TEST(SiteposeSequence, BadCalibLineNamed) {
   TempDir dir;
   const std::string root = write_sequence(dir);
