@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "detail/text.hpp"
+#include "sitepose/core/echo.hpp"
 
 namespace sitepose::io {
 namespace {
@@ -31,7 +32,7 @@ Expected<int> parse_int_field(const std::string& path, std::size_t line_no, std:
   if (!v || *v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max()) {
     return make_error(ErrorCode::kParseError, detail::where(path, line_no) + "field '" +
                                                   std::string(name) + "': expected an integer, got '" +
-                                                  std::string(token) + "'");
+                                                  echo_value(token) + "'");
   }
   return static_cast<int>(*v);
 }
@@ -43,7 +44,7 @@ Expected<double> parse_number_field(const std::string& path, std::size_t line_no
   if (!v || std::abs(*v) > 1e6) {
     return make_error(ErrorCode::kParseError,
                       detail::where(path, line_no) + "field '" + std::string(name) +
-                          "': expected a pixel coordinate, got '" + std::string(token) + "'");
+                          "': expected a pixel coordinate, got '" + echo_value(token) + "'");
   }
   return *v;
 }
@@ -56,7 +57,7 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
   if (lines.empty() || detail::trim(lines[0]) != kBoxesHeader) {
     return make_error(ErrorCode::kParseError,
                       detail::where(path, 1) + "expected the header '" + kBoxesHeader + "', got '" +
-                          (lines.empty() ? std::string() : lines[0]) + "'");
+                          (lines.empty() ? std::string() : echo_value(lines[0])) + "'");
   }
   std::vector<LabelBox> boxes;
   std::set<std::pair<int, int>> seen;
@@ -93,7 +94,7 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
     if (!is_word(f[2])) {
       return make_error(ErrorCode::kParseError, detail::where(path, line_no) +
                                                     "field 'class': expected one word, got '" +
-                                                    std::string(f[2]) + "'");
+                                                    echo_value(f[2]) + "'");
     }
     box.class_name = std::string(f[2]);
     SITEPOSE_TRY(const double x, parse_number_field(path, line_no, "x", f[3]));
@@ -103,7 +104,7 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
     if (!(w > 0.0) || !(h > 0.0)) {
       return make_error(ErrorCode::kParseError,
                         detail::where(path, line_no) + "fields 'w', 'h': expected > 0, got '" +
-                            std::string(f[5]) + "', '" + std::string(f[6]) + "'");
+                            echo_value(f[5]) + "', '" + echo_value(f[6]) + "'");
     }
     const int x0 = static_cast<int>(std::floor(x));
     const int y0 = static_cast<int>(std::floor(y));
@@ -117,7 +118,7 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
       return make_error(ErrorCode::kParseError,
                         detail::where(path, line_no) +
                             "field 'moving': expected 1, 0 or empty (unknown), got '" +
-                            std::string(f[7]) + "'");
+                            echo_value(f[7]) + "'");
     }
     if (!seen.emplace(box.frame, box.instance).second) {
       return make_error(ErrorCode::kParseError,

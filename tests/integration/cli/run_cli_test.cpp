@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -31,6 +32,14 @@ std::string slurp(const fs::path& path) {
   std::stringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+// Longest line of `text`.
+std::size_t longest_line(const std::string& text) {
+  std::size_t longest = 0;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) longest = std::max(longest, line.size());
+  return longest;
 }
 
 class RunCli : public ::testing::Test {
@@ -96,6 +105,15 @@ TEST_F(RunCli, FullOutputsExitOne) {
   EXPECT_NE(out.err.find("cannot write to stdout"), std::string::npos) << out.err;
   const RunResult ok = sitepose(run_args("--mode none"));
   EXPECT_EQ(ok.exit_status, 0) << ok.err;
+}
+
+// issue 20: a 10 MB value came back in one stderr line.
+TEST_F(RunCli, ReaderMessagesQuoteAShortPieceOfABadLine) {
+  std::ofstream(seq() / "times.txt") << "0.0\n" << std::string(100'000, 'x') << "\n";
+  const RunResult times = sitepose(run_args("--mode none"));
+  EXPECT_EQ(times.exit_status, 2);
+  EXPECT_NE(times.err.find("times.txt:2: field 1 'xxxx"), std::string::npos) << times.err.substr(0, 500);
+  EXPECT_LT(longest_line(times.err), 400u);
 }
 
 }  // namespace
