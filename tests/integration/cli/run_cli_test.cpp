@@ -116,5 +116,28 @@ TEST_F(RunCli, ReaderMessagesQuoteAShortPieceOfABadLine) {
   EXPECT_LT(longest_line(times.err), 400u);
 }
 
+// issue 20: a 10 MB value came back in one stderr line; `sim --scenario
+// /etc/passwd` printed the file.
+TEST_F(RunCli, ConfigMessagesQuoteAShortPieceOfABadValue) {
+  const std::string huge(100'000, 'x');
+  std::ofstream(dir_ / "huge.yaml") << "dynamic:\n  mode: " << huge << "\n";
+  const RunResult config = sitepose(run_args("--config " + (dir_ / "huge.yaml").string()));
+  EXPECT_EQ(config.exit_status, 2);
+  EXPECT_NE(config.err.find("dynamic.mode"), std::string::npos) << config.err.substr(0, 500);
+  EXPECT_LT(longest_line(config.err), 400u) << config.err.substr(0, 500);
+
+  const RunResult mode = sitepose(run_args("--mode " + huge));
+  EXPECT_EQ(mode.exit_status, 2);
+  EXPECT_LT(longest_line(mode.err), 400u) << mode.err.substr(0, 500);
+
+  std::ofstream passwd(dir_ / "passwd");
+  for (int i = 0; i < 200; ++i) passwd << "user" << i << ":x:" << 1000 + i << ":100::/home/user" << i << ":/bin/sh\n";
+  passwd.close();
+  const RunResult sim = sitepose("sim --scenario " + (dir_ / "passwd").string() + " --out " + (dir_ / "s").string());
+  EXPECT_EQ(sim.exit_status, 2) << sim.err;
+  EXPECT_EQ(sim.err.find("user199"), std::string::npos) << sim.err.substr(0, 500);
+  EXPECT_LT(sim.err.size(), 1000u) << sim.err.substr(0, 500);
+}
+
 }  // namespace
 }  // namespace sitepose
