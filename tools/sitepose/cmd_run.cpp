@@ -4,11 +4,13 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <unistd.h>
 
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/config/orbslam2_settings.hpp"
+#include "sitepose/core/echo.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/dynamic/masking.hpp"
 #include "sitepose/io/sequence.hpp"
@@ -171,13 +173,22 @@ const CommandRegistrar kRun{{"", "run", "Track a recorded stereo sequence and wr
   auto args = std::make_shared<RunArgs>();
   sub.add_option("--sequence", args->sequence, "Sequence directory (sitepose/KITTI or EuRoC layout)")
       ->required();
-  sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)");
+  sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)")
+      ->check(CLI::ExistingFile);
   sub.add_option("--orbslam2-settings", args->orbslam2_settings,
-                 "ORB-SLAM2 stereo settings file: camera and ORB parameters override the config");
+                 "ORB-SLAM2 stereo settings file: camera and ORB parameters override the config")
+      ->check(CLI::ExistingFile);
   sub.add_option("--mode", args->mode,
                  std::string("Masking mode: ") + config::masking_mode_names() +
                      " (default: the config's dynamic.mode, full; full = hierarchical masks + motion "
-                     "states + two passes)");
+                     "states + two passes)")
+      ->check(CLI::Validator(
+          [](std::string& name) {
+            return config::parse_masking_mode(name) ? std::string()
+                                                    : "'" + echo_value(name) + "' is not one of " +
+                                                          config::masking_mode_names();
+          },
+          "MODE"));
   sub.add_option("--detector", args->detector,
                  "Detector for the masking modes: labels (the sequence's labels/), stereo-geometric, "
                  "opencv-dnn, or a plugin .so path (default: the config's detector.name, labels)");
@@ -186,7 +197,8 @@ const CommandRegistrar kRun{{"", "run", "Track a recorded stereo sequence and wr
                  "Motion states CSV, frame,instance,class,state,score,points (--mode full only)");
   sub.add_option("--stats-out", args->stats_out, "Per-run statistics JSON");
   sub.add_option("--gt", args->gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
-  sub.add_option("--frames", args->max_frames, "Process at most N frames (0 = all)");
+  sub.add_option("--frames", args->max_frames, "Process at most N frames (default: all)")
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
   sub.add_flag("--mapper-thread", args->mapper_thread,
                "Run local mapping on its own thread (as the daemon does); default runs it "
                "inline after each keyframe so results are reproducible");

@@ -42,7 +42,9 @@ int main(int argc, char** argv) {
   std::string config_path;
   bool check_only = false;
   std::string log_level;
-  app.add_option("--config", config_path, "Daemon settings YAML (see config/siteposed.yaml)")->required();
+  app.add_option("--config", config_path, "Daemon settings YAML (see config/siteposed.yaml)")
+      ->required()
+      ->check(CLI::ExistingFile);
   app.add_flag("--check-config", check_only,
                "Validate the settings (and open the replay sequence), print the resolved settings, exit");
   app.add_option("--log-level", log_level, "Override logging.level (trace, debug, info, warn, error, off)");

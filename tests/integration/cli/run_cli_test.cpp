@@ -93,6 +93,23 @@ TEST_F(RunCli, SymlinkLoopInImageFolderIsNoCrash) {
   EXPECT_EQ(r.exit_status, 0) << r.err;
 }
 
+// issue 20: each of these ran.
+TEST_F(RunCli, BadOptionValuesExitTwoAtParse) {
+  const RunResult config_dir = sitepose(run_args("--config " + dir_.string()));
+  EXPECT_EQ(config_dir.exit_status, 2) << config_dir.err;
+  EXPECT_NE(config_dir.err.find("directory"), std::string::npos) << config_dir.err;
+  for (const char* mode : {"--mode ''", "--mode fullest"}) {
+    const RunResult r = sitepose(run_args(mode));
+    EXPECT_EQ(r.exit_status, 2) << mode << ": " << r.err;
+    EXPECT_NE(r.err.find("--mode"), std::string::npos) << r.err;
+  }
+  for (const char* frames : {"--frames -3", "--frames 0"}) {
+    const RunResult r = sitepose(run_args(frames));
+    EXPECT_EQ(r.exit_status, 2) << frames << ": " << r.err;
+    EXPECT_NE(r.err.find("--frames"), std::string::npos) << r.err;
+  }
+}
+
 // issue 20: `--states-out /dev/full` and a full stdout exited 0.
 TEST_F(RunCli, FullOutputsExitOne) {
   const RunResult states = sitepose(run_args("--mode full --states-out /dev/full"));
