@@ -13,6 +13,7 @@
 #include "sitepose/core/echo.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/dynamic/masking.hpp"
+#include "sitepose/io/output_path.hpp"
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
@@ -64,6 +65,15 @@ int run(const RunArgs& args) {
                               config::to_string(config.dynamic.mode), 2);
   }
   if (!args.detector.empty()) config.detector.name = args.detector;
+  // Outputs are written after the whole run: a path that cannot be written
+  // is bad usage now, not a failure then.
+  for (const auto& [option, path] : {std::pair{"--out", &args.out}, std::pair{"--states-out", &args.states_out},
+                                     std::pair{"--stats-out", &args.stats_out}}) {
+    if (path->empty()) continue;
+    if (auto st = io::check_output_path(*path); !st) {
+      return fail(kCommand, std::string(option) + ": " + st.error().message, 2);
+    }
+  }
   io::SequenceOptions options;
   options.gt_path = args.gt;
   auto sequence = io::open_sequence(args.sequence, options);

@@ -110,6 +110,20 @@ TEST_F(RunCli, BadOptionValuesExitTwoAtParse) {
   }
 }
 
+// issue 20: an output path that cannot be written failed (exit 1) only after
+// the whole run.
+TEST_F(RunCli, UnwritableOutputsExitTwoBeforeTracking) {
+  const std::string no_dir = (dir_ / "no" / "such" / "dir" / "x.txt").string();
+  for (const std::string option : {"--out", "--states-out", "--stats-out"}) {
+    const RunResult r = sitepose("run --sequence " + seq().string() + " --quiet --out " +
+                                 (option == "--out" ? no_dir : (dir_ / "traj.txt").string()) +
+                                 (option == "--out" ? "" : " " + option + " " + no_dir));
+    EXPECT_EQ(r.exit_status, 2) << option << ": " << r.err;
+    EXPECT_NE(r.err.find(option + ": " + no_dir + ": cannot write"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "traj.txt"));
+}
+
 // issue 20: `--states-out /dev/full` and a full stdout exited 0.
 TEST_F(RunCli, FullOutputsExitOne) {
   const RunResult states = sitepose(run_args("--mode full --states-out /dev/full"));
