@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
@@ -151,6 +154,41 @@ Expected<cv::Mat> read_instance_mask(const std::string& path) {
                           " with " + std::to_string(mask.channels()) + " channel(s)");
   }
   return mask;
+}
+
+Status check_instance_mask_header(const std::string& path, int width, int height) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return make_error(ErrorCode::kNotFound, path + ": mask file does not exist");
+  }
+  // Signature (8 bytes), then the IHDR chunk: length, "IHDR", width and
+  // height (big endian), bit depth, colour type (0 = gray).
+  unsigned char head[26] = {};
+  std::ifstream in(path, std::ios::binary);
+  in.read(reinterpret_cast<char*>(head), sizeof(head));
+  static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (in.gcount() != static_cast<std::streamsize>(sizeof(head)) ||
+      !std::equal(std::begin(kSignature), std::end(kSignature), head) ||
+      std::string_view(reinterpret_cast<const char*>(head + 12), 4) != "IHDR") {
+    return make_error(ErrorCode::kParseError, path + ": not a PNG file (expected a 16-bit instance mask)");
+  }
+  const auto be32 = [&](int at) {
+    return (std::uint32_t{head[at]} << 24) | (std::uint32_t{head[at + 1]} << 16) |
+           (std::uint32_t{head[at + 2]} << 8) | std::uint32_t{head[at + 3]};
+  };
+  const int bit_depth = head[24], colour_type = head[25];
+  if (bit_depth != 16 || colour_type != 0) {
+    return make_error(ErrorCode::kParseError,
+                      path + ": expected a 16-bit single-channel PNG (instance ids), got " +
+                          std::to_string(bit_depth) + "-bit " + (colour_type == 0 ? "gray" : "colour or palette"));
+  }
+  if (be32(16) != static_cast<std::uint32_t>(width) || be32(20) != static_cast<std::uint32_t>(height)) {
+    return make_error(ErrorCode::kInvalidArgument, path + ": mask is " + std::to_string(be32(16)) + "x" +
+                                                       std::to_string(be32(20)) + ", expected " +
+                                                       std::to_string(width) + "x" + std::to_string(height) +
+                                                       " (the image size)");
+  }
+  return ok_status();
 }
 
 }  // namespace sitepose::io

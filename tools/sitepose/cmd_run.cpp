@@ -79,7 +79,16 @@ int run(const RunArgs& args) {
   auto sequence = io::open_sequence(args.sequence, options);
   if (!sequence) return fail(kCommand, sequence.error().message, 2);
   StereoCamera camera = (*sequence)->camera();
-  if (config.camera.stereo) camera = *config.camera.stereo;
+  if (config.camera.stereo) {
+    camera = *config.camera.stereo;
+    const StereoCamera& images = (*sequence)->camera();
+    if (camera.width != images.width || camera.height != images.height) {
+      return fail(kCommand, "camera.stereo is " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
+                                " but the images of " + args.sequence + " are " + std::to_string(images.width) +
+                                "x" + std::to_string(images.height),
+                  2);
+    }
+  }
 
   std::unique_ptr<detect::Detector> detector;
   if (masking) {
@@ -142,8 +151,8 @@ int run(const RunArgs& args) {
       report = (*system)->process(*frame);
     }
     if (!report) {
-      const int status = report.error().code == ErrorCode::kUnsupported ? 2 : 1;
-      return fail(kCommand, "frame " + std::to_string(i) + ": " + report.error().message, status);
+      return fail(kCommand, "frame " + std::to_string(i) + ": " + report.error().message,
+                  report.error().exit_status());
     }
     recorder.add(*report);
     if (!args.quiet && (tty ? (i % 5 == 0 || i + 1 == n_frames) : ((i + 1) % 100 == 0 || i + 1 == n_frames))) {

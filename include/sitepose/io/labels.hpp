@@ -40,4 +40,10 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
 // silently cap ids at 255).
 Expected<cv::Mat> read_instance_mask(const std::string& path);
 
+// The same check from the PNG header alone (no decoding), plus the size:
+// a 16-bit gray PNG of width x height. For checking every mask at open.
+// kNotFound when missing, kParseError when not such a PNG, kInvalidArgument
+// for another size.
+Status check_instance_mask_header(const std::string& path, int width, int height);
+
 }  // namespace sitepose::io

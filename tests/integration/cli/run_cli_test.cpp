@@ -13,6 +13,8 @@
 #include <sstream>
 #include <string>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "sitepose/sim/scenario.hpp"
 #include "sitepose/sim/sequence_writer.hpp"
 #include "sitepose/sim/simulator.hpp"
@@ -122,6 +124,22 @@ TEST_F(RunCli, UnwritableOutputsExitTwoBeforeTracking) {
     EXPECT_NE(r.err.find(option + ": " + no_dir + ": cannot write"), std::string::npos) << r.err;
   }
   EXPECT_FALSE(fs::exists(dir_ / "traj.txt"));
+}
+
+// issue 20: a config camera of another size than the images, and a bad mask,
+// failed mid-run with exit 1.
+TEST_F(RunCli, BadCameraSizeAndMaskExitTwo) {
+  std::ofstream(dir_ / "camera.yaml")
+      << "camera:\n  stereo: {fx: 233.3, fy: 233.3, cx: 150, cy: 80, baseline_m: 1.0, width: 300, height: 170}\n";
+  const RunResult camera = sitepose(run_args("--mode none --config " + (dir_ / "camera.yaml").string()));
+  EXPECT_EQ(camera.exit_status, 2) << camera.err;
+  EXPECT_NE(camera.err.find("camera.stereo is 300x170 but the images of"), std::string::npos) << camera.err;
+
+  const fs::path mask = seq() / "labels" / "masks" / "000003.png";
+  cv::imwrite(mask.string(), cv::imread((seq() / "image_0" / "000003.png").string(), cv::IMREAD_UNCHANGED));
+  const RunResult r = sitepose(run_args("--mode pixel"));
+  EXPECT_EQ(r.exit_status, 2) << r.err;
+  EXPECT_NE(r.err.find("000003.png: expected a 16-bit single-channel PNG"), std::string::npos) << r.err;
 }
 
 // issue 20: `--states-out /dev/full` and a full stdout exited 0.

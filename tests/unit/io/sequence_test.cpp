@@ -315,16 +315,20 @@ TEST(SiteposeSequence, LabelsAndMasks) {
   dir.write("seq/labels/boxes.csv",
             "frame,instance,class,x,y,w,h,moving\n2,4,truck,1,2,10,10,1\n0,4,truck,1,2,10,10,\n"
             "2,9,cone,30,30,3,5,0\n");
-  fs::create_directories(fs::path(root) / "labels" / "masks");
+  const fs::path masks = fs::path(root) / "labels" / "masks";
+  fs::create_directories(masks);
   cv::Mat mask(kHeight, kWidth, CV_16UC1, cv::Scalar(0));
   mask(cv::Rect(1, 2, 10, 10)).setTo(4);
-  cv::imwrite((fs::path(root) / "labels" / "masks" / "000000.png").string(), mask);
-  cv::Mat mask8(kHeight, kWidth, CV_8UC1, cv::Scalar(4));
-  cv::imwrite((fs::path(root) / "labels" / "masks" / "000001.png").string(), mask8);
+  cv::imwrite((masks / "000000.png").string(), mask);
+  cv::imwrite((masks / "000002.png").string(), mask);  // frame 1 has no boxes: no mask needed
   dir.write("seq/meta.json", "{\"scenario\": \"test\"}\n");
 
   auto seq = open_sequence(root);
   ASSERT_TRUE(seq) << seq.error().message;
+  // Masks changed after open are still checked when read.
+  cv::Mat mask8(kHeight, kWidth, CV_8UC1, cv::Scalar(4));
+  cv::imwrite((masks / "000001.png").string(), mask8);
+  fs::remove(masks / "000002.png");
   const Sequence& s = **seq;
   ASSERT_TRUE(s.has_labels());
   ASSERT_TRUE(s.meta_json_path());
@@ -349,6 +353,39 @@ TEST(SiteposeSequence, LabelsAndMasks) {
   ASSERT_FALSE(m2);
   EXPECT_EQ(m2.error().code, ErrorCode::kNotFound);
   EXPECT_NE(m2.error().message.find("frame 2: "), std::string::npos);
+}
+
+// issue 20: a bad mask was found only when the detector decoded it mid-run,
+// and `sitepose run` exited 1 (a failure while running) instead of 2.
+TEST(SiteposeSequence, BadMasksFailOpenNamingFrameAndFile) {
+  TempDir dir;
+  const std::string root = write_sequence(dir);
+  dir.write("seq/labels/boxes.csv", "frame,instance,class,x,y,w,h,moving\n1,4,truck,1,2,10,10,1\n");
+  const fs::path masks = fs::path(root) / "labels" / "masks";
+  fs::create_directories(masks);
+  const auto open_error = [&] {
+    auto seq = open_sequence(root);
+    return seq ? std::string() : seq.error().message;
+  };
+  EXPECT_NE(open_error().find("frame 1: " + (masks / "000001.png").string() + ": mask file does not exist (labels/boxes.csv has boxes for it)"),
+            std::string::npos)
+      << open_error();
+  cv::imwrite((masks / "000001.png").string(), cv::Mat(kHeight, kWidth, CV_16UC1, cv::Scalar(4)));
+  EXPECT_EQ(open_error(), "");
+  cv::imwrite((masks / "000002.png").string(), cv::Mat(kHeight, kWidth, CV_8UC1, cv::Scalar(4)));
+  EXPECT_NE(open_error().find("frame 2: " + (masks / "000002.png").string() +
+                              ": expected a 16-bit single-channel PNG (instance ids), got 8-bit gray"),
+            std::string::npos)
+      << open_error();
+  cv::imwrite((masks / "000002.png").string(), cv::Mat(kHeight, kWidth, CV_16UC3, cv::Scalar(4, 4, 4)));
+  EXPECT_NE(open_error().find("got 16-bit colour"), std::string::npos) << open_error();
+  cv::imwrite((masks / "000002.png").string(), cv::Mat(kHeight / 2, kWidth, CV_16UC1, cv::Scalar(4)));
+  EXPECT_NE(open_error().find("mask is 64x24, expected 64x48"), std::string::npos) << open_error();
+  dir.write("seq/labels/masks/000002.png", "not a png");
+  EXPECT_NE(open_error().find("000002.png: not a PNG file"), std::string::npos) << open_error();
+  auto seq = open_sequence(root);
+  ASSERT_FALSE(seq);
+  EXPECT_EQ(seq.error().exit_status(), 2);
 }
 
 TEST(SiteposeSequence, BadBoxesLineFailsOpen) {
