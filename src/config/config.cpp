@@ -9,6 +9,7 @@
 #include <string>
 
 #include "detail/orb_limits.hpp"
+#include "sitepose/core/echo.hpp"
 
 namespace sitepose::config {
 
@@ -263,7 +264,7 @@ Expected<MaskingMode> parse_masking_mode(std::string_view name) {
     if (name == to_string(mode)) return mode;
   }
   return make_error(ErrorCode::kInvalidArgument,
-                    "unknown masking mode \"" + std::string(name) +
+                    "unknown masking mode \"" + echo_value(name) +
                         "\" (expected one of: none, bbox, pixel, hierarchical, full)");
 }
 
@@ -272,7 +273,7 @@ Expected<ClassifierMode> parse_classifier_mode(std::string_view name) {
     if (name == to_string(mode)) return mode;
   }
   return make_error(ErrorCode::kInvalidArgument,
-                    "unknown classifier \"" + std::string(name) +
+                    "unknown classifier \"" + echo_value(name) +
                         "\" (expected one of: paper, sitepose)");
 }
 

@@ -11,6 +11,8 @@
 #include <optional>
 #include <unordered_map>
 
+#include "sitepose/core/echo.hpp"
+
 namespace sitepose::config {
 
 namespace detail {
@@ -82,18 +84,19 @@ bool looks_like_number(const std::string& text) {
 }
 
 // The value as the user wrote it, for messages.
+// Capped (echo_value): a value may be a whole file given by mistake.
 std::string value_text(const YAML::Node& node) {
   if (!node.IsDefined() || node.IsNull()) return "(empty)";
   if (node.IsScalar()) {
     const std::string& s = node.Scalar();
-    if (looks_like_number(s) || s == "true" || s == "false") return s;
-    return "\"" + s + "\"";
+    if (looks_like_number(s) || s == "true" || s == "false") return echo_value(s);
+    return "\"" + echo_value(s) + "\"";
   }
   YAML::Emitter out;
   out.SetMapFormat(YAML::Flow);
   out.SetSeqFormat(YAML::Flow);
   out << node;
-  return out.c_str();
+  return echo_value(out.c_str());
 }
 
 std::string prefix(const ReaderState& state, int line) {

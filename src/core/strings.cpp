@@ -1,3 +1,6 @@
+#include <cstdio>
+
+#include "sitepose/core/echo.hpp"
 #include "sitepose/core/expected.hpp"
 #include "sitepose/core/pose_estimate.hpp"
 
@@ -22,6 +25,27 @@ const char* to_string(TrackingState state) {
     case TrackingState::kLost: return "LOST";
   }
   return "UNKNOWN";
+}
+
+std::string echo_value(std::string_view text, std::size_t max_chars) {
+  std::string out;
+  std::size_t shown = 0;
+  for (; shown < text.size() && out.size() < max_chars; ++shown) {
+    const auto c = static_cast<unsigned char>(text[shown]);
+    if (c == '\n') {
+      out += "\\n";
+    } else if (c == '\t') {
+      out += "\\t";
+    } else if (c < 0x20 || c == 0x7f) {
+      char hex[8];
+      std::snprintf(hex, sizeof(hex), "\\x%02X", c);
+      out += hex;
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  if (shown < text.size()) out += "... (" + std::to_string(text.size()) + " bytes)";
+  return out;
 }
 
 }  // namespace sitepose

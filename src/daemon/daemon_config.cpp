@@ -321,7 +321,10 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text,
 
 Expected<DaemonConfig> load_daemon_config(const std::string& path) {
   SITEPOSE_TRY(const std::string text, config::read_yaml_file(path));
-  const std::string base = fs::absolute(fs::path(path)).parent_path().string();
+  std::error_code ec;  // absolute() throws when the working directory is gone
+  const fs::path absolute = fs::absolute(fs::path(path), ec);
+  if (ec) return make_error(ErrorCode::kNotFound, "config file " + path + ": " + ec.message());
+  const std::string base = absolute.parent_path().string();
   return load_daemon_config_from_string(text, path, base);
 }
 

@@ -1,11 +1,6 @@
 #include "sitepose/daemon/outputs.hpp"
 
-#include <fcntl.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <numbers>
 
@@ -87,28 +82,14 @@ const geo::SitePose* Anchoring::site_pose(const pipeline::PosePacket& packet) {
 // --------------------------------------------------------- TrajectoryOutput
 
 Expected<std::unique_ptr<TrajectoryOutput>> TrajectoryOutput::open(const std::string& path, bool append) {
-  const int flags = O_WRONLY | O_CREAT | O_CLOEXEC | (append ? O_APPEND : O_TRUNC);
-  const int fd = ::open(path.c_str(), flags, 0644);
-  if (fd < 0) {
-    return make_error(ErrorCode::kIoError,
-                      "outputs.trajectory.path: cannot open " + path + ": " + std::strerror(errno));
-  }
-  return std::unique_ptr<TrajectoryOutput>(new TrajectoryOutput(fd, path));
-}
-
-TrajectoryOutput::~TrajectoryOutput() {
-  if (fd_ >= 0) ::close(fd_);
+  auto file = io::LineFile::open(path, append);
+  if (!file) return make_error(file.error().code, "outputs.trajectory.path: " + file.error().message);
+  return std::unique_ptr<TrajectoryOutput>(new TrajectoryOutput(std::move(*file)));
 }
 
 Status TrajectoryOutput::write_pending() {
-  while (!pending_.empty()) {
-    const ssize_t n = ::write(fd_, pending_.data(), pending_.size());
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return make_error(ErrorCode::kIoError, "trajectory " + path_ + ": " + std::strerror(errno));
-    }
-    pending_.erase(0, static_cast<std::size_t>(n));
-  }
+  SITEPOSE_TRY_STATUS(file_.write(pending_));
+  pending_.clear();
   ++lines_written_;
   return ok_status();
 }

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "detail/text.hpp"
+#include "sitepose/core/echo.hpp"
 
 namespace sitepose::io {
 namespace {
@@ -40,7 +41,7 @@ Expected<std::vector<double>> yaml_numbers(const std::string& path, const YAML::
     const std::optional<double> v = detail::parse_double(node[i].Scalar());
     if (!node[i].IsScalar() || !v) {
       return make_error(ErrorCode::kParseError, at + "element " + std::to_string(i + 1) + " '" +
-                                                    node[i].Scalar() + "' is not a finite number");
+                                                    echo_value(node[i].Scalar()) + "' is not a finite number");
     }
     values.push_back(*v);
   }
@@ -95,7 +96,7 @@ Expected<EurocCameraSensor> parse_sensor(const std::string& path, const YAML::No
   const std::string t_at = detail::where(path, static_cast<std::size_t>(yaml_line(t_bs["data"]))) + "key 'T_BS': ";
   for (const char* dim : {"rows", "cols"}) {
     if (t_bs[dim].IsDefined() && t_bs[dim].Scalar() != "4") {
-      return make_error(ErrorCode::kParseError, t_at + "expected " + dim + ": 4, got '" + t_bs[dim].Scalar() + "'");
+      return make_error(ErrorCode::kParseError, t_at + "expected " + dim + ": 4, got '" + echo_value(t_bs[dim].Scalar()) + "'");
     }
   }
   Eigen::Matrix4d T;
@@ -203,7 +204,7 @@ Expected<std::vector<EurocImageEntry>> read_euroc_image_list(const std::string& 
     const std::optional<std::int64_t> t = f.empty() ? std::nullopt : detail::parse_int64(f[0]);
     if (f.size() != 2 || !t || f[1].empty()) {
       return make_error(ErrorCode::kParseError,
-                        detail::where(path, i + 1) + "expected 'timestamp_ns,filename', got '" + lines[i] + "'");
+                        detail::where(path, i + 1) + "expected 'timestamp_ns,filename', got '" + echo_value(lines[i]) + "'");
     }
     if (!entries.empty() && *t <= entries.back().t_ns) {
       return make_error(ErrorCode::kParseError, detail::where(path, i + 1) + "expected a timestamp after " +
@@ -227,13 +228,13 @@ Expected<std::vector<EurocGtSample>> read_euroc_groundtruth(const std::string& p
                                                      "q_RS wxyz), got " + std::to_string(f.size()));
     }
     const std::optional<std::int64_t> t = detail::parse_int64(f[0]);
-    if (!t) return make_error(ErrorCode::kParseError, at + "field 1: expected a timestamp in ns, got '" + std::string(f[0]) + "'");
+    if (!t) return make_error(ErrorCode::kParseError, at + "field 1: expected a timestamp in ns, got '" + echo_value(f[0]) + "'");
     double v[7];
     for (int k = 0; k < 7; ++k) {
       const std::optional<double> x = detail::parse_double(f[static_cast<std::size_t>(k + 1)]);
       if (!x) {
         return make_error(ErrorCode::kParseError, at + "field " + std::to_string(k + 2) + " '" +
-                                                      std::string(f[static_cast<std::size_t>(k + 1)]) +
+                                                      echo_value(f[static_cast<std::size_t>(k + 1)]) +
                                                       "' is not a finite number");
       }
       v[k] = *x;

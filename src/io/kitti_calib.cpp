@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "detail/text.hpp"
+#include "sitepose/core/echo.hpp"
 
 namespace sitepose::io {
 namespace {
@@ -42,7 +43,7 @@ Expected<StereoCamera> read_kitti_calib(const std::string& path) {
         key.find_first_of(" \t") != std::string::npos) {
       return make_error(ErrorCode::kParseError,
                         detail::where(path, line_no) + "expected 'KEY: numbers' (e.g. 'P0: fx 0 cx 0 ...'), got '" +
-                            lines[i] + "'");
+                            echo_value(lines[i]) + "'");
     }
     if (const auto [it, inserted] = seen_keys.emplace(key, line_no); !inserted) {
       return make_error(ErrorCode::kParseError,

@@ -3,19 +3,25 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <utility>
 
 #include "detail/text.hpp"
+#include "sitepose/core/echo.hpp"
 
 namespace sitepose::io {
 namespace {
 
 constexpr const char* kBoxesHeader = "frame,instance,class,x,y,w,h,moving";
 constexpr std::size_t kBoxesFields = 8;
+// Instance ids are mask pixel values, so they must fit 16 bits.
+constexpr int kMaxInstanceId = 65535;
 
 bool is_word(std::string_view s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
@@ -29,7 +35,7 @@ Expected<int> parse_int_field(const std::string& path, std::size_t line_no, std:
   if (!v || *v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max()) {
     return make_error(ErrorCode::kParseError, detail::where(path, line_no) + "field '" +
                                                   std::string(name) + "': expected an integer, got '" +
-                                                  std::string(token) + "'");
+                                                  echo_value(token) + "'");
   }
   return static_cast<int>(*v);
 }
@@ -41,7 +47,7 @@ Expected<double> parse_number_field(const std::string& path, std::size_t line_no
   if (!v || std::abs(*v) > 1e6) {
     return make_error(ErrorCode::kParseError,
                       detail::where(path, line_no) + "field '" + std::string(name) +
-                          "': expected a pixel coordinate, got '" + std::string(token) + "'");
+                          "': expected a pixel coordinate, got '" + echo_value(token) + "'");
   }
   return *v;
 }
@@ -54,7 +60,7 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
   if (lines.empty() || detail::trim(lines[0]) != kBoxesHeader) {
     return make_error(ErrorCode::kParseError,
                       detail::where(path, 1) + "expected the header '" + kBoxesHeader + "', got '" +
-                          (lines.empty() ? std::string() : lines[0]) + "'");
+                          (lines.empty() ? std::string() : echo_value(lines[0])) + "'");
   }
   std::vector<LabelBox> boxes;
   std::set<std::pair<int, int>> seen;
@@ -81,16 +87,17 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
                             std::to_string(*n_frames) + " (frames in the sequence), got " +
                             std::to_string(box.frame));
     }
-    if (box.instance <= 0) {
+    if (box.instance <= 0 || box.instance > kMaxInstanceId) {
       return make_error(ErrorCode::kParseError,
-                        detail::where(path, line_no) +
-                            "field 'instance': expected > 0 (0 is the mask background), got " +
+                        detail::where(path, line_no) + "field 'instance': expected 1.." +
+                            std::to_string(kMaxInstanceId) +
+                            " (0 is the mask background; masks are 16-bit PNGs), got " +
                             std::to_string(box.instance));
     }
     if (!is_word(f[2])) {
       return make_error(ErrorCode::kParseError, detail::where(path, line_no) +
                                                     "field 'class': expected one word, got '" +
-                                                    std::string(f[2]) + "'");
+                                                    echo_value(f[2]) + "'");
     }
     box.class_name = std::string(f[2]);
     SITEPOSE_TRY(const double x, parse_number_field(path, line_no, "x", f[3]));
@@ -100,7 +107,7 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
     if (!(w > 0.0) || !(h > 0.0)) {
       return make_error(ErrorCode::kParseError,
                         detail::where(path, line_no) + "fields 'w', 'h': expected > 0, got '" +
-                            std::string(f[5]) + "', '" + std::string(f[6]) + "'");
+                            echo_value(f[5]) + "', '" + echo_value(f[6]) + "'");
     }
     const int x0 = static_cast<int>(std::floor(x));
     const int y0 = static_cast<int>(std::floor(y));
@@ -114,7 +121,7 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
       return make_error(ErrorCode::kParseError,
                         detail::where(path, line_no) +
                             "field 'moving': expected 1, 0 or empty (unknown), got '" +
-                            std::string(f[7]) + "'");
+                            echo_value(f[7]) + "'");
     }
     if (!seen.emplace(box.frame, box.instance).second) {
       return make_error(ErrorCode::kParseError,
@@ -147,6 +154,41 @@ Expected<cv::Mat> read_instance_mask(const std::string& path) {
                           " with " + std::to_string(mask.channels()) + " channel(s)");
   }
   return mask;
+}
+
+Status check_instance_mask_header(const std::string& path, int width, int height) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return make_error(ErrorCode::kNotFound, path + ": mask file does not exist");
+  }
+  // Signature (8 bytes), then the IHDR chunk: length, "IHDR", width and
+  // height (big endian), bit depth, colour type (0 = gray).
+  unsigned char head[26] = {};
+  std::ifstream in(path, std::ios::binary);
+  in.read(reinterpret_cast<char*>(head), sizeof(head));
+  static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  if (in.gcount() != static_cast<std::streamsize>(sizeof(head)) ||
+      !std::equal(std::begin(kSignature), std::end(kSignature), head) ||
+      std::string_view(reinterpret_cast<const char*>(head + 12), 4) != "IHDR") {
+    return make_error(ErrorCode::kParseError, path + ": not a PNG file (expected a 16-bit instance mask)");
+  }
+  const auto be32 = [&](int at) {
+    return (std::uint32_t{head[at]} << 24) | (std::uint32_t{head[at + 1]} << 16) |
+           (std::uint32_t{head[at + 2]} << 8) | std::uint32_t{head[at + 3]};
+  };
+  const int bit_depth = head[24], colour_type = head[25];
+  if (bit_depth != 16 || colour_type != 0) {
+    return make_error(ErrorCode::kParseError,
+                      path + ": expected a 16-bit single-channel PNG (instance ids), got " +
+                          std::to_string(bit_depth) + "-bit " + (colour_type == 0 ? "gray" : "colour or palette"));
+  }
+  if (be32(16) != static_cast<std::uint32_t>(width) || be32(20) != static_cast<std::uint32_t>(height)) {
+    return make_error(ErrorCode::kInvalidArgument, path + ": mask is " + std::to_string(be32(16)) + "x" +
+                                                       std::to_string(be32(20)) + ", expected " +
+                                                       std::to_string(width) + "x" + std::to_string(height) +
+                                                       " (the image size)");
+  }
+  return ok_status();
 }
 
 }  // namespace sitepose::io

@@ -8,6 +8,7 @@
 #include "detail/image.hpp"
 #include "detail/sequences.hpp"
 #include "sitepose/io/kitti_calib.hpp"
+#include "sitepose/io/labels.hpp"
 #include "sitepose/io/trajectory.hpp"
 
 namespace sitepose::io::detail {
@@ -32,10 +33,13 @@ Status check_image_folder(const fs::path& folder, std::size_t n_frames, const st
                                                   std::to_string(n_frames) + " frames)");
     }
   }
+  // error_code overloads throughout: an entry that cannot be stat'ed (a
+  // symlink loop, a dangling link) is not a frame image, not a crash.
   std::size_t count = 0;
   std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(folder, ec)) {
-    if (entry.is_regular_file() && is_frame_png(entry.path())) ++count;
+  for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code entry_ec;
+    if (is_frame_png(it->path()) && it->is_regular_file(entry_ec)) ++count;
   }
   if (ec) return make_error(ErrorCode::kIoError, folder.string() + ": cannot list: " + ec.message());
   if (count != n_frames) {
@@ -43,6 +47,24 @@ Status check_image_folder(const fs::path& folder, std::size_t n_frames, const st
                       folder.string() + " holds " + std::to_string(count) + " frame images but " +
                           times_path + " has " + std::to_string(n_frames) +
                           " times; expected one image per frame");
+  }
+  return ok_status();
+}
+
+// Masks are decoded only when a detector asks for them, during the run; so
+// that a bad one is bad input at open, not a failure mid-run, every mask's
+// PNG header is checked here. A frame with boxes needs its mask.
+Status check_mask_folder(const fs::path& folder, const Sequence& seq) {
+  std::vector<bool> has_boxes(seq.size(), false);
+  for (const LabelBox& b : seq.boxes()) has_boxes[static_cast<std::size_t>(b.frame)] = true;
+  for (std::size_t i = 0; i < seq.size(); ++i) {
+    const fs::path p = folder / frame_file_name(i);
+    std::error_code ec;
+    if (!has_boxes[i] && !fs::exists(p, ec)) continue;
+    if (Status st = check_instance_mask_header(p.string(), seq.camera().width, seq.camera().height); !st) {
+      return make_error(st.error().code, "frame " + std::to_string(i) + ": " + st.error().message +
+                                             (has_boxes[i] ? " (labels/boxes.csv has boxes for it)" : ""));
+    }
   }
   return ok_status();
 }
@@ -174,6 +196,7 @@ Expected<std::unique_ptr<Sequence>> SiteposeSequence::open(const std::string& di
     seq->has_labels_ = true;
   }
   seq->has_masks_ = fs::is_directory(root / "labels" / "masks", ec);
+  if (seq->has_masks_) SITEPOSE_TRY_STATUS(check_mask_folder(root / "labels" / "masks", *seq));
   if (fs::is_regular_file(root / "meta.json", ec)) seq->meta_path_ = (root / "meta.json").string();
   return std::unique_ptr<Sequence>(std::move(seq));
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <iomanip>
 #include <memory>
 #include <sstream>
 
@@ -150,16 +151,28 @@ Expected<std::vector<double>> read_times(const std::string& path) {
   const std::size_t end = detail::content_end(lines);
   std::vector<double> times;
   times.reserve(end);
+  std::int64_t last_ns = 0;
   for (std::size_t i = 0; i < end; ++i) {
     SITEPOSE_TRY(const std::vector<double> v, detail::parse_number_line(path, i + 1, lines[i], 1));
-    if (!times.empty() && !(v[0] > times.back())) {
+    const double t_s = v[0];
+    // Frames are stamped in int64 ns: the time must convert without overflow.
+    if (!(t_s >= 0.0 && t_s <= kMaxTimeS)) {
+      std::ostringstream msg;
+      msg << detail::where(path, i + 1) << "expected a time in 0.." << kMaxTimeS
+          << " s (from the start of the recording or the Unix epoch), got " << t_s << " s";
+      return make_error(ErrorCode::kParseError, msg.str());
+    }
+    const std::int64_t t_ns = std::llround(t_s * 1e9);
+    if (!times.empty() && !(t_ns > last_ns)) {
       std::ostringstream msg;
       msg.precision(9);
       msg << std::fixed << detail::where(path, i + 1) << "expected a time after " << times.back()
-          << " s, got " << v[0] << " s (times must increase)";
+          << " s, got " << std::setprecision(t_s > times.back() ? 12 : 9) << t_s
+          << " s (times must increase by at least 1 ns)";
       return make_error(ErrorCode::kParseError, msg.str());
     }
-    times.push_back(v[0]);
+    times.push_back(t_s);
+    last_ns = t_ns;
   }
   return times;
 }

@@ -17,49 +17,27 @@ std::string errno_text(int err) {
 }
 }  // namespace
 
-CandumpSink::CandumpSink(std::FILE* stream, bool owns_stream, std::string name,
-                         std::string interface)
-    : stream_(stream),
-      owns_stream_(owns_stream),
-      name_(std::move(name)),
-      interface_(std::move(interface)) {}
-
-CandumpSink::~CandumpSink() {
-  if (owns_stream_) {
-    std::fclose(stream_);
-  } else {
-    std::fflush(stream_);
-  }
-}
+CandumpSink::CandumpSink(io::LineFile file, std::string interface)
+    : file_(std::move(file)), interface_(std::move(interface)) {}
 
 Expected<std::unique_ptr<CandumpSink>> CandumpSink::open_file(const std::string& path,
                                                               const std::string& interface) {
-  std::FILE* f = std::fopen(path.c_str(), "w");
-  if (f == nullptr) {
-    return make_error(ErrorCode::kIoError,
-                      "candump log '" + path + "': cannot create: " + errno_text(errno));
-  }
-  return std::unique_ptr<CandumpSink>(new CandumpSink(f, true, path, interface));
+  auto file = io::LineFile::open(path, /*append=*/true);
+  if (!file) return make_error(file.error().code, "candump log: " + file.error().message);
+  return std::unique_ptr<CandumpSink>(new CandumpSink(std::move(*file), interface));
 }
 
 std::unique_ptr<CandumpSink> CandumpSink::make_stdout(const std::string& interface) {
-  return std::unique_ptr<CandumpSink>(new CandumpSink(stdout, false, "stdout", interface));
+  std::fflush(stdout);  // lines go to the descriptor: what stdio holds goes first
+  return std::unique_ptr<CandumpSink>(
+      new CandumpSink(io::LineFile::borrow(STDOUT_FILENO, "stdout"), interface));
 }
 
 Status CandumpSink::do_send(std::int64_t t_ns, const CanFrame& frame) {
   SITEPOSE_TRY(std::string line, format_candump_line(CandumpRecord{t_ns, interface_, frame}));
   line += '\n';
-  if (std::fwrite(line.data(), 1, line.size(), stream_) != line.size()) {
-    return make_error(ErrorCode::kIoError,
-                      "candump log '" + name_ + "': write failed: " + errno_text(errno));
-  }
-  return ok_status();
-}
-
-Status CandumpSink::flush() {
-  if (std::fflush(stream_) != 0) {
-    return make_error(ErrorCode::kIoError,
-                      "candump log '" + name_ + "': flush failed: " + errno_text(errno));
+  if (auto st = file_.write(line); !st) {
+    return make_error(ErrorCode::kIoError, "candump log " + st.error().message);
   }
   return ok_status();
 }

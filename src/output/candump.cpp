@@ -1,4 +1,5 @@
 #include "sitepose/output/candump.hpp"
+#include "sitepose/core/echo.hpp"
 
 #include <cinttypes>
 #include <cstdio>
@@ -18,7 +19,7 @@ int hex_value(char c) {
 }
 
 Unexpected parse_error(std::string_view line, const std::string& what) {
-  return make_error(ErrorCode::kParseError, "candump line '" + std::string(line) + "': " + what);
+  return make_error(ErrorCode::kParseError, "candump line '" + echo_value(line) + "': " + what);
 }
 
 }  // namespace

@@ -188,9 +188,11 @@ Expected<std::vector<ScenarioEntry>> list_scenarios(const std::string& dir_in) {
     return make_error(ErrorCode::kNotFound, "scenario folder " + dir + " does not exist");
   }
   std::vector<ScenarioEntry> out;
-  for (const auto& entry : fs::directory_iterator(dir, ec)) {
-    if (entry.path().extension() != ".yaml") continue;
-    ScenarioEntry e{entry.path().stem().string(), "", entry.path().string()};
+  // increment(ec): a listing error ends the list instead of throwing.
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const fs::path& path = it->path();
+    if (path.extension() != ".yaml") continue;
+    ScenarioEntry e{path.stem().string(), "", path.string()};
     if (auto s = load_scenario(e.path, dir); s) {
       e.description = s->description;
     } else {

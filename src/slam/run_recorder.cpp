@@ -87,6 +87,7 @@ Status RunRecorder::write_states_csv(const std::string& path) const {
     out << r.frame << ',' << r.instance << ',' << r.class_name << ',' << dynamic::to_string(r.state) << ','
         << score << ',' << r.points << '\n';
   }
+  out.close();  // the buffered rest is written here: a full disk shows only now
   if (!out) return make_error(ErrorCode::kIoError, "write failed: " + path);
   return ok_status();
 }
@@ -158,6 +159,7 @@ Status RunRecorder::write_stats_json(const std::string& path, const std::string&
   std::ofstream out(path);
   if (!out) return make_error(ErrorCode::kIoError, "cannot write " + path);
   out << json.str();
+  out.close();  // the buffered rest is written here: a full disk shows only now
   if (!out) return make_error(ErrorCode::kIoError, "write failed: " + path);
   return ok_status();
 }

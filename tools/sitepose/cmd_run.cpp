@@ -4,13 +4,16 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <unistd.h>
 
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/config/orbslam2_settings.hpp"
+#include "sitepose/core/echo.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/dynamic/masking.hpp"
+#include "sitepose/io/output_path.hpp"
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
@@ -62,12 +65,30 @@ int run(const RunArgs& args) {
                               config::to_string(config.dynamic.mode), 2);
   }
   if (!args.detector.empty()) config.detector.name = args.detector;
+  // Outputs are written after the whole run: a path that cannot be written
+  // is bad usage now, not a failure then.
+  for (const auto& [option, path] : {std::pair{"--out", &args.out}, std::pair{"--states-out", &args.states_out},
+                                     std::pair{"--stats-out", &args.stats_out}}) {
+    if (path->empty()) continue;
+    if (auto st = io::check_output_path(*path); !st) {
+      return fail(kCommand, std::string(option) + ": " + st.error().message, 2);
+    }
+  }
   io::SequenceOptions options;
   options.gt_path = args.gt;
   auto sequence = io::open_sequence(args.sequence, options);
   if (!sequence) return fail(kCommand, sequence.error().message, 2);
   StereoCamera camera = (*sequence)->camera();
-  if (config.camera.stereo) camera = *config.camera.stereo;
+  if (config.camera.stereo) {
+    camera = *config.camera.stereo;
+    const StereoCamera& images = (*sequence)->camera();
+    if (camera.width != images.width || camera.height != images.height) {
+      return fail(kCommand, "camera.stereo is " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
+                                " but the images of " + args.sequence + " are " + std::to_string(images.width) +
+                                "x" + std::to_string(images.height),
+                  2);
+    }
+  }
 
   std::unique_ptr<detect::Detector> detector;
   if (masking) {
@@ -130,8 +151,8 @@ int run(const RunArgs& args) {
       report = (*system)->process(*frame);
     }
     if (!report) {
-      const int status = report.error().code == ErrorCode::kUnsupported ? 2 : 1;
-      return fail(kCommand, "frame " + std::to_string(i) + ": " + report.error().message, status);
+      return fail(kCommand, "frame " + std::to_string(i) + ": " + report.error().message,
+                  report.error().exit_status());
     }
     recorder.add(*report);
     if (!args.quiet && (tty ? (i % 5 == 0 || i + 1 == n_frames) : ((i + 1) % 100 == 0 || i + 1 == n_frames))) {
@@ -171,13 +192,22 @@ const CommandRegistrar kRun{{"", "run", "Track a recorded stereo sequence and wr
   auto args = std::make_shared<RunArgs>();
   sub.add_option("--sequence", args->sequence, "Sequence directory (sitepose/KITTI or EuRoC layout)")
       ->required();
-  sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)");
+  sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)")
+      ->check(CLI::ExistingFile);
   sub.add_option("--orbslam2-settings", args->orbslam2_settings,
-                 "ORB-SLAM2 stereo settings file: camera and ORB parameters override the config");
+                 "ORB-SLAM2 stereo settings file: camera and ORB parameters override the config")
+      ->check(CLI::ExistingFile);
   sub.add_option("--mode", args->mode,
                  std::string("Masking mode: ") + config::masking_mode_names() +
                      " (default: the config's dynamic.mode, full; full = hierarchical masks + motion "
-                     "states + two passes)");
+                     "states + two passes)")
+      ->check(CLI::Validator(
+          [](std::string& name) {
+            return config::parse_masking_mode(name) ? std::string()
+                                                    : "'" + echo_value(name) + "' is not one of " +
+                                                          config::masking_mode_names();
+          },
+          "MODE"));
   sub.add_option("--detector", args->detector,
                  "Detector for the masking modes: labels (the sequence's labels/), stereo-geometric, "
                  "opencv-dnn, or a plugin .so path (default: the config's detector.name, labels)");
@@ -186,7 +216,8 @@ const CommandRegistrar kRun{{"", "run", "Track a recorded stereo sequence and wr
                  "Motion states CSV, frame,instance,class,state,score,points (--mode full only)");
   sub.add_option("--stats-out", args->stats_out, "Per-run statistics JSON");
   sub.add_option("--gt", args->gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
-  sub.add_option("--frames", args->max_frames, "Process at most N frames (0 = all)");
+  sub.add_option("--frames", args->max_frames, "Process at most N frames (default: all)")
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
   sub.add_flag("--mapper-thread", args->mapper_thread,
                "Run local mapping on its own thread (as the daemon does); default runs it "
                "inline after each keyframe so results are reproducible");

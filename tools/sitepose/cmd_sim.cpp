@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <limits>
 #include <string>
 
 #include "command_registry.hpp"
@@ -82,7 +83,8 @@ const CommandRegistrar kSim{
        sub.add_option("--scenario", args->scenario,
                       "Scenario name (see --list) or path to a scenario YAML file");
        sub.add_option("--out", args->out, "Output folder (sitepose sequence layout); must be empty unless --force");
-       sub.add_option("--frames", args->frames, "Number of frames (default: the scenario's duration_s x fps)");
+       sub.add_option("--frames", args->frames, "Number of frames (default: the scenario's duration_s x fps)")
+           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
        sub.add_option("--seed", args->seed, "Seed of textures, layout, exposure and noise (default: the scenario's)");
        sub.add_option("--width", args->width, "Image width in pixels (focal length scales, the view is kept)");
        sub.add_option("--height", args->height, "Image height in pixels (focal length scales, the view is kept)");

@@ -3,6 +3,9 @@
 // running, 2 bad usage or bad input.
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <map>
 #include <string>
 #include <tuple>
@@ -56,7 +59,15 @@ int main(int argc, char** argv) {
     return cli::fail("", st.error().message, 2);
   }
   for (auto& [sub, action] : actions) {
-    if (sub->parsed()) return action();
+    if (!sub->parsed()) continue;
+    const int status = action();
+    // Results printed on stdout are output too: a full disk or closed pipe
+    // there is a failure, seen only when stdio writes its buffer.
+    if (std::fflush(stdout) != 0 || std::ferror(stdout) != 0) {
+      return cli::fail(sub->get_name(), std::string("cannot write to stdout: ") + std::strerror(errno),
+                       status == 0 ? 1 : status);
+    }
+    return status;
   }
   return 2;
 }

@@ -30,7 +30,8 @@ int main(int argc, char** argv) {
   CLI::App app{kDescription, "siteposed"};
   sitepose::daemon::Invocation invocation;
   app.add_option("--config", invocation.config_path, "Daemon settings YAML (see config/siteposed.yaml)")
-      ->required();
+      ->required()
+      ->check(CLI::ExistingFile);
   app.add_flag("--check-config", invocation.check_config,
                "Validate the settings (and open the replay sequence), print the resolved settings, exit");
   app.add_option("--log-level", invocation.log_level,

@@ -20,7 +20,16 @@ struct StereoCamera {
   int width = 0;
   int height = 0;
 
-  // Checks positivity and principal point inside the image.
+  // Plausible rigs (a focal length far outside these is a broken
+  // calibration, not a lens): the field of view across the longer image
+  // side between about 1 and 170 degrees, a baseline of 1 cm to 10 m.
+  static constexpr double kMinFocalPerSide = 0.05;
+  static constexpr double kMaxFocalPerSide = 50.0;
+  static constexpr double kMinBaselineM = 0.01;
+  static constexpr double kMaxBaselineM = 10.0;
+
+  // Checks positivity, the plausible ranges above and the principal point
+  // inside the image; the message names each bad value.
   Status validate() const;
 
   // fx * baseline: disparity_px = bf / depth_m.

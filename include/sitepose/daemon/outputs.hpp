@@ -14,6 +14,7 @@
 #include "sitepose/daemon/daemon_config.hpp"
 #include "sitepose/geo/site_anchor.hpp"
 #include "sitepose/geo/site_frame.hpp"
+#include "sitepose/io/line_file.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/can_sink.hpp"
 #include "sitepose/output/lcm_publisher.hpp"
@@ -59,24 +60,22 @@ class Anchoring {
 };
 
 // TUM lines "t x y z qx qy qz qw" (T_world_cam, SLAM frame, FORMATS.md) of
-// every published pose that is not LOST. One write() per line on an
-// O_APPEND descriptor: a stop or crash leaves only complete lines, and a
-// retry writes the rest of a partial line, never a duplicate.
+// every published pose that is not LOST, through an io::LineFile: a failed
+// or short write (full disk) is cut back, so the file holds whole lines
+// only, and a retry writes the line again, never a duplicate.
 class TrajectoryOutput final : public pipeline::PoseOutput {
  public:
   static Expected<std::unique_ptr<TrajectoryOutput>> open(const std::string& path, bool append);
-  ~TrajectoryOutput() override;
   std::string name() const override { return "trajectory"; }
   Status publish(const pipeline::PosePacket& packet) override;
   Status retry() override;
   std::uint64_t lines_written() const { return lines_written_; }
 
  private:
-  TrajectoryOutput(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
+  explicit TrajectoryOutput(io::LineFile file) : file_(std::move(file)) {}
   Status write_pending();
-  int fd_;
-  std::string path_;
-  std::string pending_;  // unwritten rest of the current line
+  io::LineFile file_;
+  std::string pending_;  // the line not written yet
   std::uint64_t lines_written_ = 0;
 };
 

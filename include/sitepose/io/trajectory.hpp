@@ -25,7 +25,13 @@ Status write_tum_trajectory(const std::string& path, const Trajectory& trajector
 Expected<std::vector<SE3>> read_kitti_poses(const std::string& path);
 Status write_kitti_poses(const std::string& path, const std::vector<SE3>& poses);
 
-// times.txt: one timestamp (s) per line.
+// Largest time a times.txt may hold (s): the year 2096 as Unix time, well
+// inside int64 nanoseconds.
+inline constexpr double kMaxTimeS = 4e9;
+
+// times.txt: one timestamp (s) per line, each in 0..kMaxTimeS and at least
+// 1 ns after the one before (frames are stamped in int64 ns); errors
+// (kParseError) name "path:line".
 Expected<std::vector<double>> read_times(const std::string& path);
 
 // KITTI poses + times.txt zipped; their line counts must agree.

@@ -1,6 +1,6 @@
 #pragma once
 // Where encoded CAN frames go. One interface, three sinks:
-//  * CandumpSink on a file (`candump -L` log, candump.hpp) or on stdout;
+//  * CandumpSink on a file (`candump -L` log, candump.hpp), appended, or on stdout;
 //  * CanFrameFdSink: writes one Linux `struct can_frame` per write() to a file
 //    descriptor - a bound SocketCAN raw socket in the daemon (opened by the
 //    drivers layer), a socketpair(AF_UNIX, SOCK_SEQPACKET) end in tests
@@ -16,6 +16,7 @@
 #include <string>
 
 #include "sitepose/core/expected.hpp"
+#include "sitepose/io/line_file.hpp"
 #include "sitepose/output/can_frame.hpp"
 
 namespace sitepose::output {
@@ -51,28 +52,27 @@ class CanSink {
   std::atomic<std::uint64_t> send_errors_{0};
 };
 
-// candump log lines on a stdio stream.
+// candump log lines, one write() a frame (io::LineFile): a frame counts as
+// sent only once its whole line is with the OS; a failed write leaves no
+// partial line, so a resend never duplicates or splices a frame.
 class CandumpSink final : public CanSink {
  public:
-  // Creates/truncates `path`. Fails (kIoError) naming the path and errno text.
+  // Creates `path` or appends to it (a log is never truncated: a restart
+  // keeps the frames before it). Fails (kIoError) naming the path and errno.
   static Expected<std::unique_ptr<CandumpSink>> open_file(const std::string& path,
                                                           const std::string& interface);
   // Lines on stdout (not closed on destruction).
   static std::unique_ptr<CandumpSink> make_stdout(const std::string& interface);
-  ~CandumpSink() override;
-  CandumpSink(const CandumpSink&) = delete;
-  CandumpSink& operator=(const CandumpSink&) = delete;
 
-  Status flush() override;
+  // Lines are unbuffered: nothing to flush.
+  Status flush() override { return ok_status(); }
 
  protected:
   Status do_send(std::int64_t t_ns, const CanFrame& frame) override;
 
  private:
-  CandumpSink(std::FILE* stream, bool owns_stream, std::string name, std::string interface);
-  std::FILE* stream_;
-  bool owns_stream_;
-  std::string name_;  // path or "stdout", for messages
+  CandumpSink(io::LineFile file, std::string interface);
+  io::LineFile file_;
   std::string interface_;
 };
 

@@ -1,4 +1,5 @@
 #include "detail/text.hpp"
+#include "sitepose/core/echo.hpp"
 
 #include <cctype>
 #include <cerrno>
@@ -114,7 +115,7 @@ Expected<std::vector<double>> parse_number_line(const std::string& path, std::si
     if (!v) {
       return make_error(ErrorCode::kParseError,
                         where(path, line_no) + "field " + std::to_string(i + 1) + " '" +
-                            std::string(tokens[i]) + "' is not a finite number");
+                            echo_value(tokens[i]) + "' is not a finite number");
     }
     values.push_back(*v);
   }

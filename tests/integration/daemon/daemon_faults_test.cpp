@@ -1,16 +1,18 @@
 // Faults, in-process through the daemon's seams: a source that stalls (the
 // watchdog stops, LOST reaches every output, tracking resumes), LCM sends
 // that fail (counted, retried, nothing lost or doubled), a CAN sink that
-// fails (counted, resumed at the failed frame: no frame twice).
+// fails (counted, resumed at the failed frame: no frame twice), a full disk
+// under the trajectory (never a half line).
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "sitepose/testing/pipeline_fakes.hpp"
 #include "daemon_test_util.hpp"
 #include "sitepose/daemon/daemon.hpp"
 #include "sitepose/output/candump.hpp"
 #include "sitepose/output/lcm_messages.hpp"
 #include "sitepose/pipeline/replay_source.hpp"
+#include "sitepose/testing/file_size_limit.hpp"
+#include "sitepose/testing/pipeline_fakes.hpp"
 
 namespace sitepose::daemon::testing {
 namespace {
@@ -262,6 +264,79 @@ TEST(DaemonFaults, CanSinkErrorsAreCountedAndResumedWithoutDuplicates) {
     ++quality;
   }
   EXPECT_EQ(quality, 20);
+}
+
+
+// issue 20: on a full disk health said can ok=90 failed=0 while the frames
+// of 28 poses were lost. Now a pose whose frames could not be written is
+// counted failed, and the sink's count is what the log holds.
+TEST(DaemonFaults, CanFullDiskIsCountedTruthfully) {
+  TempDir dir("canfull");
+  auto anchoring = Anchoring::create(fixed_geo());
+  ASSERT_TRUE(anchoring);
+  auto file = output::CandumpSink::open_file(dir / "can.log", "can0");
+  ASSERT_TRUE(file);
+  output::CanSink* sink_view = file->get();
+  std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
+  outputs.push_back(std::make_unique<CanOutput>(output::CanOutputOptions{}, std::move(*file), **anchoring));
+  auto p = fake_pipeline(20, std::move(outputs));
+  ASSERT_TRUE(p);
+  {
+    sitepose::testing::FileSizeLimit full(3000);  // about 5 of 20 poses (13 frames, ~45 bytes each)
+    ASSERT_TRUE(full.ok());
+    p->start();
+    ASSERT_TRUE(p->wait());
+  }
+  const auto h = p->health();
+  EXPECT_GE(h.outputs[0].failed, 10u);
+  EXPECT_GE(h.outputs[0].published, 3u);
+  EXPECT_EQ(h.outputs[0].published + h.outputs[0].failed, 20u);
+  auto records = output::read_candump_file(dir / "can.log");
+  ASSERT_TRUE(records) << records.error().message;
+  EXPECT_EQ(sink_view->counters().frames_sent, records->size());
+  EXPECT_GE(records->size(), h.outputs[0].published * 13u);
+}
+
+pipeline::PosePacket ok_pose(std::int64_t seq) {
+  pipeline::PosePacket packet;
+  packet.pose.seq = seq;
+  packet.pose.t_ns = 1'000'000'000 + seq * 100'000'000;
+  packet.pose.state = TrackingState::kOk;
+  packet.pose.T_world_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.5 * seq, -1.25, 3.0));
+  return packet;
+}
+
+// issue 20: a short write on a full disk was kept and the next pose's line
+// spliced onto it (a 10-field line that eval rejects).
+TEST(DaemonFaults, FullDiskLeavesNoHalfTrajectoryLine) {
+  TempDir dir("fulldisk");
+  auto output = TrajectoryOutput::open(dir / "traj.tum", false);
+  ASSERT_TRUE(output) << output.error().message;
+  ASSERT_TRUE((*output)->publish(ok_pose(0)));
+  const auto line_bytes = fs::file_size(dir / "traj.tum");
+  {
+    sitepose::testing::FileSizeLimit full(2 * line_bytes + 20);  // pose 2 fits 20 bytes
+    ASSERT_TRUE(full.ok());
+    ASSERT_TRUE((*output)->publish(ok_pose(1)));
+    EXPECT_FALSE((*output)->publish(ok_pose(2)));
+    EXPECT_FALSE((*output)->retry());  // still full
+    EXPECT_EQ(fs::file_size(dir / "traj.tum"), 2 * line_bytes);
+  }
+  ASSERT_TRUE((*output)->publish(ok_pose(3)));  // pose 2 abandoned, space back
+  {
+    sitepose::testing::FileSizeLimit full(3 * line_bytes + 20);
+    ASSERT_TRUE(full.ok());
+    EXPECT_FALSE((*output)->publish(ok_pose(4)));
+  }
+  ASSERT_TRUE((*output)->retry());  // space back: pose 4 whole, once
+  EXPECT_EQ((*output)->lines_written(), 4u);
+  const auto lines = read_lines(dir / "traj.tum");
+  expect_complete_tum_lines(lines);
+  auto tum = io::read_tum_trajectory(dir / "traj.tum");
+  ASSERT_TRUE(tum) << tum.error().message;
+  ASSERT_EQ(tum->size(), 4u);
+  const double expected_x[] = {0.0, 0.5, 1.5, 2.0};  // poses 0, 1, 3, 4
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ((*tum)[i].T_world_cam.translation().x(), expected_x[i]);
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "sitepose/testing/cameras.hpp"
 
 namespace sitepose {
@@ -53,6 +55,34 @@ TEST(StereoCamera, ValidateNamesTheProblem) {
   cam.cx = 2000;
   ASSERT_FALSE(cam.validate().has_value());
   EXPECT_NE(cam.validate().error().message.find("cx"), std::string::npos);
+}
+
+// issue 20: fx = 1e300 or a 1e10 m baseline passed, and the run reported
+// identity or 1e9 m poses as OK.
+TEST(StereoCamera, ValidateRejectsImplausibleRigs) {
+  const auto message = [](const StereoCamera& cam) {
+    const Status st = cam.validate();
+    return st ? std::string() : st.error().message;
+  };
+  StereoCamera cam = default_camera();
+  cam.fx = 1e300;
+  EXPECT_NE(message(cam).find("fx=1e+300"), std::string::npos) << message(cam);
+  EXPECT_NE(message(cam).find("implausible"), std::string::npos);
+  cam = default_camera();
+  cam.fy = std::numeric_limits<double>::infinity();
+  EXPECT_NE(message(cam).find("fy=inf"), std::string::npos) << message(cam);
+  cam = default_camera();
+  cam.fx = cam.fy = 1.0;  // 1 px focal length on a 960 px wide image
+  EXPECT_NE(message(cam).find("implausible"), std::string::npos) << message(cam);
+  cam = default_camera();
+  cam.baseline_m = 1e10;
+  EXPECT_NE(message(cam).find("baseline_m=1e+10 implausible"), std::string::npos) << message(cam);
+  cam.baseline_m = 0.001;
+  EXPECT_NE(message(cam).find("baseline_m=0.001 implausible"), std::string::npos) << message(cam);
+  cam = default_camera();
+  cam.baseline_m = 0.01;
+  cam.fx = cam.fy = 0.05 * cam.width;
+  EXPECT_EQ(message(cam), "");  // the limits themselves are plausible
 }
 
 }  // namespace

@@ -209,5 +209,22 @@ TEST_F(CmdEval, BadInputExitsTwo) {
   EXPECT_EQ(run(file_args()).exit_status, 0);
 }
 
+// issue 20: the figures went to a full stdout and eval still exited 0.
+TEST_F(CmdEval, FullStdoutIsAFailure) {
+  const io::Trajectory gt = curvy_trajectory(50, 10.0);
+  write_gt(gt);
+  write_tum(gt);
+  const fs::path err = dir_ / "stderr.txt";
+  for (const char* format : {"", " --json"}) {
+    const std::string cmd = std::string(SITEPOSE_SITEPOSE_EXE) + " eval " + file_args() + format +
+                            " > /dev/full 2> " + err.string();
+    const int raw = std::system(cmd.c_str());
+    ASSERT_TRUE(WIFEXITED(raw));
+    EXPECT_EQ(WEXITSTATUS(raw), 1) << format;
+    EXPECT_NE(slurp(err).find("sitepose eval: cannot write to stdout: No space left on device"), std::string::npos)
+        << slurp(err);
+  }
+}
+
 }  // namespace
 }  // namespace sitepose::eval

@@ -46,7 +46,7 @@ TEST(BoxesCsv, MalformedRowsNamedWithLine) {
       {"0,1,truck,1,2,3,4,5,6", "expected 8 fields"},
       {"x,1,truck,1,2,3,4,1", "field 'frame': expected an integer, got 'x'"},
       {"-1,1,truck,1,2,3,4,1", "field 'frame': expected >= 0"},
-      {"0,0,truck,1,2,3,4,1", "field 'instance': expected > 0"},
+      {"0,0,truck,1,2,3,4,1", "field 'instance': expected 1..65535"},
       {"0,1.5,truck,1,2,3,4,1", "field 'instance': expected an integer"},
       {"0,1,,1,2,3,4,1", "field 'class': expected one word"},
       {"0,1,big truck,1,2,3,4,1", "field 'class': expected one word"},
@@ -66,6 +66,21 @@ TEST(BoxesCsv, MalformedRowsNamedWithLine) {
     EXPECT_NE(boxes.error().message.find("boxes.csv:3: " + c.expected), std::string::npos)
         << "row '" << c.row << "' gave: " << boxes.error().message;
   }
+}
+
+// issue 20: instance 65536 passed here, became 0 (background) as a 16-bit
+// mask value, and the machine was never masked.
+TEST(BoxesCsv, InstanceIdsBeyond16BitsRejected) {
+  TempDir dir;
+  auto largest = read_boxes_csv(dir.write("ok.csv", std::string(kHeader) + "0,65535,truck,1,2,3,4,1\n"));
+  ASSERT_TRUE(largest) << largest.error().message;
+  EXPECT_EQ((*largest)[0].instance, 65535);
+  auto wide = read_boxes_csv(dir.write("wide.csv", std::string(kHeader) + "0,65536,truck,1,2,3,4,1\n"));
+  ASSERT_FALSE(wide);
+  EXPECT_EQ(wide.error().code, ErrorCode::kParseError);
+  EXPECT_NE(wide.error().message.find("wide.csv:2: field 'instance': expected 1..65535"), std::string::npos)
+      << wide.error().message;
+  EXPECT_NE(wide.error().message.find("got 65536"), std::string::npos);
 }
 
 TEST(BoxesCsv, WrongHeaderAndFrameRangeRejected) {

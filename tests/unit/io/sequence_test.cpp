@@ -218,6 +218,29 @@ TEST(SiteposeSequence, MissingImageNamesFrameAndFile) {
   EXPECT_NE(seq.error().message.find("image_1/000001.png does not exist"), std::string::npos);
 }
 
+// issue 20: an entry that cannot be stat'ed (ELOOP) threw filesystem_error out
+// of the image-folder check and aborted `sitepose run` and --check-config.
+TEST(SiteposeSequence, SymlinkLoopInImageFolderIsNoCrash) {
+  TempDir dir;
+  const std::string root = write_sequence(dir);
+  const fs::path folder = fs::path(root) / "image_0";
+  fs::create_symlink("loop", folder / "loop");            // not a frame name: ignored
+  fs::create_symlink("b.png", folder / "a.png");           // a 2-link cycle
+  fs::create_symlink("a.png", folder / "b.png");
+  auto seq = open_sequence(root);
+  ASSERT_TRUE(seq) << seq.error().message;
+  EXPECT_EQ((*seq)->size(), 3u);
+
+  // A frame image that is a loop is a missing frame, named.
+  fs::remove(folder / "000001.png");
+  fs::create_symlink("000001.png", folder / "000001.png");
+  auto looped = open_sequence(root);
+  ASSERT_FALSE(looped);
+  EXPECT_EQ(looped.error().code, ErrorCode::kNotFound);
+  EXPECT_NE(looped.error().message.find("image_0/000001.png does not exist"), std::string::npos)
+      << looped.error().message;
+}
+
 TEST(SiteposeSequence, ImageRemovedAfterOpenNamesFrame) {
   TempDir dir;
   const std::string root = write_sequence(dir);
@@ -259,6 +282,23 @@ TEST(SiteposeSequence, CalibOutsideImageRejected) {
       << seq.error().message;
 }
 
+// issue 20: an absurd calibration ran and reported absurd poses as OK.
+TEST(SiteposeSequence, ImplausibleCalibRejectedNamingTheValue) {
+  TempDir dir;
+  const std::string root = write_sequence(dir);
+  dir.write("seq/calib.txt", "P0: 1e300 0 32 0 0 1e300 24 0 0 0 1 0\nP1: 1e300 0 32 -5e299 0 1e300 24 0 0 0 1 0\n");
+  auto focal = open_sequence(root);
+  ASSERT_FALSE(focal);
+  EXPECT_EQ(focal.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(focal.error().message.find("calib.txt with images of 64x48"), std::string::npos) << focal.error().message;
+  EXPECT_NE(focal.error().message.find("fx=1e+300"), std::string::npos) << focal.error().message;
+  dir.write("seq/calib.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\nP1: 50 0 32 -5e11 0 50 24 0 0 0 1 0\n");
+  auto baseline = open_sequence(root);
+  ASSERT_FALSE(baseline);
+  EXPECT_NE(baseline.error().message.find("baseline_m=1e+10 implausible"), std::string::npos)
+      << baseline.error().message;
+}
+
 TEST(SiteposeSequence, BadCalibLineNamed) {
   TempDir dir;
   const std::string root = write_sequence(dir);
@@ -275,16 +315,20 @@ TEST(SiteposeSequence, LabelsAndMasks) {
   dir.write("seq/labels/boxes.csv",
             "frame,instance,class,x,y,w,h,moving\n2,4,truck,1,2,10,10,1\n0,4,truck,1,2,10,10,\n"
             "2,9,cone,30,30,3,5,0\n");
-  fs::create_directories(fs::path(root) / "labels" / "masks");
+  const fs::path masks = fs::path(root) / "labels" / "masks";
+  fs::create_directories(masks);
   cv::Mat mask(kHeight, kWidth, CV_16UC1, cv::Scalar(0));
   mask(cv::Rect(1, 2, 10, 10)).setTo(4);
-  cv::imwrite((fs::path(root) / "labels" / "masks" / "000000.png").string(), mask);
-  cv::Mat mask8(kHeight, kWidth, CV_8UC1, cv::Scalar(4));
-  cv::imwrite((fs::path(root) / "labels" / "masks" / "000001.png").string(), mask8);
+  cv::imwrite((masks / "000000.png").string(), mask);
+  cv::imwrite((masks / "000002.png").string(), mask);  // frame 1 has no boxes: no mask needed
   dir.write("seq/meta.json", "{\"scenario\": \"test\"}\n");
 
   auto seq = open_sequence(root);
   ASSERT_TRUE(seq) << seq.error().message;
+  // Masks changed after open are still checked when read.
+  cv::Mat mask8(kHeight, kWidth, CV_8UC1, cv::Scalar(4));
+  cv::imwrite((masks / "000001.png").string(), mask8);
+  fs::remove(masks / "000002.png");
   const Sequence& s = **seq;
   ASSERT_TRUE(s.has_labels());
   ASSERT_TRUE(s.meta_json_path());
@@ -309,6 +353,39 @@ TEST(SiteposeSequence, LabelsAndMasks) {
   ASSERT_FALSE(m2);
   EXPECT_EQ(m2.error().code, ErrorCode::kNotFound);
   EXPECT_NE(m2.error().message.find("frame 2: "), std::string::npos);
+}
+
+// issue 20: a bad mask was found only when the detector decoded it mid-run,
+// and `sitepose run` exited 1 (a failure while running) instead of 2.
+TEST(SiteposeSequence, BadMasksFailOpenNamingFrameAndFile) {
+  TempDir dir;
+  const std::string root = write_sequence(dir);
+  dir.write("seq/labels/boxes.csv", "frame,instance,class,x,y,w,h,moving\n1,4,truck,1,2,10,10,1\n");
+  const fs::path masks = fs::path(root) / "labels" / "masks";
+  fs::create_directories(masks);
+  const auto open_error = [&] {
+    auto seq = open_sequence(root);
+    return seq ? std::string() : seq.error().message;
+  };
+  EXPECT_NE(open_error().find("frame 1: " + (masks / "000001.png").string() + ": mask file does not exist (labels/boxes.csv has boxes for it)"),
+            std::string::npos)
+      << open_error();
+  cv::imwrite((masks / "000001.png").string(), cv::Mat(kHeight, kWidth, CV_16UC1, cv::Scalar(4)));
+  EXPECT_EQ(open_error(), "");
+  cv::imwrite((masks / "000002.png").string(), cv::Mat(kHeight, kWidth, CV_8UC1, cv::Scalar(4)));
+  EXPECT_NE(open_error().find("frame 2: " + (masks / "000002.png").string() +
+                              ": expected a 16-bit single-channel PNG (instance ids), got 8-bit gray"),
+            std::string::npos)
+      << open_error();
+  cv::imwrite((masks / "000002.png").string(), cv::Mat(kHeight, kWidth, CV_16UC3, cv::Scalar(4, 4, 4)));
+  EXPECT_NE(open_error().find("got 16-bit colour"), std::string::npos) << open_error();
+  cv::imwrite((masks / "000002.png").string(), cv::Mat(kHeight / 2, kWidth, CV_16UC1, cv::Scalar(4)));
+  EXPECT_NE(open_error().find("mask is 64x24, expected 64x48"), std::string::npos) << open_error();
+  dir.write("seq/labels/masks/000002.png", "not a png");
+  EXPECT_NE(open_error().find("000002.png: not a PNG file"), std::string::npos) << open_error();
+  auto seq = open_sequence(root);
+  ASSERT_FALSE(seq);
+  EXPECT_EQ(seq.error().exit_status(), 2);
 }
 
 TEST(SiteposeSequence, BadBoxesLineFailsOpen) {

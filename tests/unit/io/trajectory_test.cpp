@@ -180,6 +180,28 @@ TEST(Times, ReadsAndValidates) {
   EXPECT_NE(back.error().message.find("t3.txt:3: expected a time after"), std::string::npos);
 }
 
+// issue 20: 1e11 s overflowed llround(t * 1e9) to -9.2e9 s, and times
+// 1e-10 s apart became the same nanosecond: duplicate frame times.
+TEST(Times, OutOfRangeAndSubNanosecondStepsRejected) {
+  TempDir dir;
+  auto epoch = read_times(dir.write("epoch.txt", "1700000000.0\n1700000000.000001\n4e9\n"));
+  ASSERT_TRUE(epoch) << epoch.error().message;
+  auto huge = read_times(dir.write("huge.txt", "0.0\n1e11\n"));
+  ASSERT_FALSE(huge);
+  EXPECT_EQ(huge.error().code, ErrorCode::kParseError);
+  EXPECT_NE(huge.error().message.find("huge.txt:2: expected a time in 0..4e+09 s"), std::string::npos)
+      << huge.error().message;
+  auto negative = read_times(dir.write("neg.txt", "-0.5\n0.0\n"));
+  ASSERT_FALSE(negative);
+  EXPECT_NE(negative.error().message.find("neg.txt:1: expected a time in"), std::string::npos)
+      << negative.error().message;
+  auto close = read_times(dir.write("close.txt", "0.1\n0.1000000001\n"));
+  ASSERT_FALSE(close);
+  EXPECT_NE(close.error().message.find("close.txt:2: expected a time after 0.100000000 s"), std::string::npos)
+      << close.error().message;
+  EXPECT_NE(close.error().message.find("at least 1 ns"), std::string::npos);
+}
+
 TEST(KittiTrajectory, ZipsPosesAndTimes) {
   TempDir dir;
   std::vector<SE3> poses{test_pose(1), test_pose(2), test_pose(3)};

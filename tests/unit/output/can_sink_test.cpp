@@ -11,6 +11,7 @@
 #include <filesystem>
 
 #include "sitepose/output/candump.hpp"
+#include "sitepose/testing/file_size_limit.hpp"
 #include "sitepose/testing/files.hpp"
 
 namespace sitepose::output {
@@ -65,6 +66,63 @@ TEST(CandumpSink, OpenFailureNamesPath) {
   ASSERT_FALSE(sink.has_value());
   EXPECT_EQ(sink.error().code, ErrorCode::kIoError);
   EXPECT_NE(sink.error().message.find("/nonexistent-dir/x.log"), std::string::npos);
+}
+
+// issue 20: a restart reopened the log with "w" and wiped the frames before it.
+TEST(CandumpSink, ReopenAppendsToTheLog) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("sitepose_can_sink_append_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "can.log").string();
+  for (int run = 0; run < 2; ++run) {
+    auto sink = CandumpSink::open_file(path, "can0");
+    ASSERT_TRUE(sink.has_value()) << sink.error().message;
+    EXPECT_TRUE((*sink)->send(1'000'000 * (run + 1), frame(0x09F8011C, 8, static_cast<std::uint8_t>(run))));
+  }
+  const auto records = read_candump_file(path);
+  ASSERT_TRUE(records.has_value()) << records.error().message;
+  ASSERT_EQ(records->size(), 2u);
+  EXPECT_EQ((*records)[0].frame, frame(0x09F8011C, 8, 0));
+  EXPECT_EQ((*records)[1].frame, frame(0x09F8011C, 8, 1));
+  std::filesystem::remove_all(dir);
+}
+
+// issue 20: on a full disk stdio kept the frames in its buffer (each send
+// counted ok), then dropped them at the failed flush; the retried flush
+// succeeded on the empty buffer. Now a frame counts as sent only when its
+// whole line was written, and a failed one can be sent again.
+TEST(CandumpSink, FullDiskCountsFailuresAndResendsWhole) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("sitepose_can_sink_full_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "can.log").string();
+  auto sink = CandumpSink::open_file(path, "can0");
+  ASSERT_TRUE(sink.has_value()) << sink.error().message;
+  const std::size_t line_bytes =
+      format_candump_line({1000, "can0", frame(0x09F8011C, 8, 0)})->size() + 1;  // same for all 8
+  int failed = 0;
+  {
+    sitepose::testing::FileSizeLimit full(5 * line_bytes + 7);
+    ASSERT_TRUE(full.ok());
+    for (int i = 0; i < 8; ++i) {
+      const Status st = (*sink)->send(1000 * (i + 1), frame(0x09F8011C, 8, static_cast<std::uint8_t>(i)));
+      if (!st) ++failed;
+      EXPECT_TRUE((*sink)->flush());
+    }
+  }
+  EXPECT_EQ(failed, 3);
+  EXPECT_EQ((*sink)->counters().frames_sent, 5u);
+  EXPECT_EQ((*sink)->counters().send_errors, 3u);
+  EXPECT_EQ(std::filesystem::file_size(path), 5 * line_bytes);
+  // Space back: the lost frames are sent again, each once and whole.
+  for (int i = 5; i < 8; ++i) {
+    EXPECT_TRUE((*sink)->send(1000 * (i + 1), frame(0x09F8011C, 8, static_cast<std::uint8_t>(i))));
+  }
+  const auto records = read_candump_file(path);
+  ASSERT_TRUE(records.has_value()) << records.error().message;
+  ASSERT_EQ(records->size(), 8u);
+  for (std::size_t i = 0; i < 8; ++i) EXPECT_EQ((*records)[i].frame.data[0], i);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(CandumpSink, StdoutSinkPrintsCandumpLines) {

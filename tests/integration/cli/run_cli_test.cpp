@@ -1,0 +1,192 @@
+// Runs the built `sitepose` binary on a small simulated sequence with bad
+// input and failing outputs (issue 20): no crash, exit 2 for bad input
+// before any tracking, exit 1 when an output cannot be written, and
+// messages that quote at most a short piece of a bad value.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "sitepose/sim/scenario.hpp"
+#include "sitepose/sim/sequence_writer.hpp"
+#include "sitepose/sim/simulator.hpp"
+
+namespace sitepose {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+  int exit_status = -1;
+  std::string err;
+};
+
+std::string slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Longest line of `text`.
+std::size_t longest_line(const std::string& text) {
+  std::size_t longest = 0;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) longest = std::max(longest, line.size());
+  return longest;
+}
+
+class RunCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("sitepose_run_cli_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    auto scenario = sim::load_scenario("crowded", std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
+    ASSERT_TRUE(scenario) << scenario.error().message;
+    sim::SimOptions options;
+    options.width = 320;
+    options.height = 180;
+    options.frames = 6;
+    auto simulator = sim::Simulator::create(*scenario, options);
+    ASSERT_TRUE(simulator) << simulator.error().message;
+    auto written = sim::write_sequence(*simulator, seq().string());
+    ASSERT_TRUE(written) << written.error().message;
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+
+  fs::path seq() const { return dir_ / "seq"; }
+
+  // `sitepose <args>`, stdout to `out_redirect`.
+  RunResult sitepose(const std::string& args, const std::string& out_redirect = "/dev/null") const {
+    const fs::path err = dir_ / "stderr.txt";
+    const std::string cmd =
+        std::string(SITEPOSE_SITEPOSE_EXE) + " " + args + " > " + out_redirect + " 2> " + err.string();
+    const int raw = std::system(cmd.c_str());
+    RunResult r;
+    r.exit_status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+    r.err = slurp(err);
+    return r;
+  }
+
+  std::string run_args(const std::string& extra) const {
+    return "run --sequence " + seq().string() + " --out " + (dir_ / "traj.txt").string() + " --quiet " + extra;
+  }
+
+  fs::path dir_;
+};
+
+// issue 20: an uncaught filesystem_error from the image-folder check aborted.
+TEST_F(RunCli, SymlinkLoopInImageFolderIsNoCrash) {
+  fs::create_symlink("loop", seq() / "image_0" / "loop");
+  const RunResult r = sitepose(run_args("--mode none --frames 2"));
+  EXPECT_EQ(r.exit_status, 0) << r.err;
+}
+
+// issue 20: each of these ran.
+TEST_F(RunCli, BadOptionValuesExitTwoAtParse) {
+  const RunResult config_dir = sitepose(run_args("--config " + dir_.string()));
+  EXPECT_EQ(config_dir.exit_status, 2) << config_dir.err;
+  EXPECT_NE(config_dir.err.find("directory"), std::string::npos) << config_dir.err;
+  for (const char* mode : {"--mode ''", "--mode fullest"}) {
+    const RunResult r = sitepose(run_args(mode));
+    EXPECT_EQ(r.exit_status, 2) << mode << ": " << r.err;
+    EXPECT_NE(r.err.find("--mode"), std::string::npos) << r.err;
+  }
+  for (const char* frames : {"--frames -3", "--frames 0"}) {
+    const RunResult r = sitepose(run_args(frames));
+    EXPECT_EQ(r.exit_status, 2) << frames << ": " << r.err;
+    EXPECT_NE(r.err.find("--frames"), std::string::npos) << r.err;
+  }
+}
+
+// issue 20: an output path that cannot be written failed (exit 1) only after
+// the whole run.
+TEST_F(RunCli, UnwritableOutputsExitTwoBeforeTracking) {
+  const std::string no_dir = (dir_ / "no" / "such" / "dir" / "x.txt").string();
+  for (const std::string option : {"--out", "--states-out", "--stats-out"}) {
+    const RunResult r = sitepose("run --sequence " + seq().string() + " --quiet --out " +
+                                 (option == "--out" ? no_dir : (dir_ / "traj.txt").string()) +
+                                 (option == "--out" ? "" : " " + option + " " + no_dir));
+    EXPECT_EQ(r.exit_status, 2) << option << ": " << r.err;
+    EXPECT_NE(r.err.find(option + ": " + no_dir + ": cannot write"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "traj.txt"));
+}
+
+// issue 20: a config camera of another size than the images, and a bad mask,
+// failed mid-run with exit 1.
+TEST_F(RunCli, BadCameraSizeAndMaskExitTwo) {
+  std::ofstream(dir_ / "camera.yaml")
+      << "camera:\n  stereo: {fx: 233.3, fy: 233.3, cx: 150, cy: 80, baseline_m: 1.0, width: 300, height: 170}\n";
+  const RunResult camera = sitepose(run_args("--mode none --config " + (dir_ / "camera.yaml").string()));
+  EXPECT_EQ(camera.exit_status, 2) << camera.err;
+  EXPECT_NE(camera.err.find("camera.stereo is 300x170 but the images of"), std::string::npos) << camera.err;
+
+  const fs::path mask = seq() / "labels" / "masks" / "000003.png";
+  cv::imwrite(mask.string(), cv::imread((seq() / "image_0" / "000003.png").string(), cv::IMREAD_UNCHANGED));
+  const RunResult r = sitepose(run_args("--mode pixel"));
+  EXPECT_EQ(r.exit_status, 2) << r.err;
+  EXPECT_NE(r.err.find("000003.png: expected a 16-bit single-channel PNG"), std::string::npos) << r.err;
+}
+
+// issue 20: `--states-out /dev/full` and a full stdout exited 0.
+TEST_F(RunCli, FullOutputsExitOne) {
+  const RunResult states = sitepose(run_args("--mode full --states-out /dev/full"));
+  EXPECT_EQ(states.exit_status, 1) << states.err;
+  EXPECT_NE(states.err.find("/dev/full"), std::string::npos) << states.err;
+  const RunResult stats = sitepose(run_args("--mode none --stats-out /dev/full"));
+  EXPECT_EQ(stats.exit_status, 1) << stats.err;
+  const RunResult out = sitepose(run_args("--mode none"), "/dev/full");
+  EXPECT_EQ(out.exit_status, 1) << out.err;
+  EXPECT_NE(out.err.find("cannot write to stdout"), std::string::npos) << out.err;
+  const RunResult ok = sitepose(run_args("--mode none"));
+  EXPECT_EQ(ok.exit_status, 0) << ok.err;
+}
+
+// issue 20: a 10 MB value came back in one stderr line.
+TEST_F(RunCli, ReaderMessagesQuoteAShortPieceOfABadLine) {
+  std::ofstream(seq() / "times.txt") << "0.0\n" << std::string(100'000, 'x') << "\n";
+  const RunResult times = sitepose(run_args("--mode none"));
+  EXPECT_EQ(times.exit_status, 2);
+  EXPECT_NE(times.err.find("times.txt:2: field 1 'xxxx"), std::string::npos) << times.err.substr(0, 500);
+  EXPECT_LT(longest_line(times.err), 400u);
+}
+
+// issue 20: a 10 MB value came back in one stderr line; `sim --scenario
+// /etc/passwd` printed the file.
+TEST_F(RunCli, ConfigMessagesQuoteAShortPieceOfABadValue) {
+  const std::string huge(100'000, 'x');
+  std::ofstream(dir_ / "huge.yaml") << "dynamic:\n  mode: " << huge << "\n";
+  const RunResult config = sitepose(run_args("--config " + (dir_ / "huge.yaml").string()));
+  EXPECT_EQ(config.exit_status, 2);
+  EXPECT_NE(config.err.find("dynamic.mode"), std::string::npos) << config.err.substr(0, 500);
+  EXPECT_LT(longest_line(config.err), 400u) << config.err.substr(0, 500);
+
+  const RunResult mode = sitepose(run_args("--mode " + huge));
+  EXPECT_EQ(mode.exit_status, 2);
+  EXPECT_LT(longest_line(mode.err), 400u) << mode.err.substr(0, 500);
+
+  std::ofstream passwd(dir_ / "passwd");
+  for (int i = 0; i < 200; ++i) passwd << "user" << i << ":x:" << 1000 + i << ":100::/home/user" << i << ":/bin/sh\n";
+  passwd.close();
+  const RunResult sim = sitepose("sim --scenario " + (dir_ / "passwd").string() + " --out " + (dir_ / "s").string());
+  EXPECT_EQ(sim.exit_status, 2) << sim.err;
+  EXPECT_EQ(sim.err.find("user199"), std::string::npos) << sim.err.substr(0, 500);
+  EXPECT_LT(sim.err.size(), 1000u) << sim.err.substr(0, 500);
+}
+
+}  // namespace
+}  // namespace sitepose
