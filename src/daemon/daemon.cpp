@@ -4,9 +4,11 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 
 #include "sitepose/config/config.hpp"
+#include "sitepose/core/build_info.hpp"
 #include "sitepose/core/log.hpp"
 #include "sitepose/geo/nmea.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
@@ -15,6 +17,19 @@
 #include "sitepose/pipeline/supervisor.hpp"
 
 namespace sitepose::daemon {
+
+drivers::socketcan::SocketCanSinkOptions socketcan_sink_options(const CanOutputConfig& can) {
+  drivers::socketcan::SocketCanSinkOptions o;
+  o.interface = can.interface;
+  o.queue_frames = static_cast<std::size_t>(can.socketcan.queue_frames);
+  o.node.name = can.socketcan.name;
+  o.node.preferred_address = can.frames.source_address;
+  o.node.heartbeat_interval_ns = static_cast<std::int64_t>(std::llround(can.socketcan.heartbeat_interval_s * 1e9));
+  o.node.transmitted_pgns = output::transmitted_pgns(can.frames);
+  o.node.product.software_version = version_string();
+  o.node.product.serial_code = std::to_string(can.socketcan.name.identity_number);
+  return o;
+}
 
 Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
                                                  std::unique_ptr<pipeline::FrameSource> source) {
@@ -61,6 +76,16 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
     std::unique_ptr<output::CanSink> sink;
     if (config.can.sink == CanSinkKind::kStdout) {
       sink = output::CandumpSink::make_stdout(config.can.interface);
+    } else if (config.can.sink == CanSinkKind::kSocketCan) {
+      drivers::socketcan::RawSocketOptions raw;
+      raw.interface = config.can.interface;
+      raw.error_frames = config.can.socketcan.error_frames;
+      SITEPOSE_TRY(auto socketcan, drivers::socketcan::SocketCanSink::open(
+                                       socketcan_sink_options(config.can), drivers::socketcan::raw_can_socket_ops(raw)));
+      spdlog::info("CAN: SocketCAN {}, claiming J1939 address {} with NAME {:#018x}", config.can.interface,
+                   config.can.frames.source_address, output::pack_j1939_name(config.can.socketcan.name));
+      d->socketcan_ = socketcan.get();
+      sink = std::move(socketcan);
     } else {
       SITEPOSE_TRY(sink, output::CandumpSink::open_file(config.can.path, config.can.interface));
     }
@@ -103,8 +128,12 @@ void Daemon::log_health(const pipeline::PipelineHealth& h) const {
     fallbacks = fmt::format(" dynamic[detect_errors={} reused_boxes={} unmasked={} box_for_pixel_mask={}]",
                             h.detect_errors, f.reused_detections, f.tracked_unmasked, f.box_mask_for_pixel_mask);
   }
-  spdlog::info("health: {} captured={} stalls={} track_errors={} |{} |{}{}{}", pipeline::format_status(h),
-               h.frames_captured, h.stalls, h.track_errors, stages, outputs, anchor, fallbacks);
+  std::string can_bus;
+  if (socketcan_ != nullptr) {
+    can_bus = " can_bus[" + drivers::socketcan::format_stats(config_.can.interface, socketcan_->stats()) + "]";
+  }
+  spdlog::info("health: {} captured={} stalls={} track_errors={} |{} |{}{}{}{}", pipeline::format_status(h),
+               h.frames_captured, h.stalls, h.track_errors, stages, outputs, anchor, fallbacks, can_bus);
 }
 
 int Daemon::run(const sigset_t& stop_signals) {

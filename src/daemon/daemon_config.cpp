@@ -111,13 +111,41 @@ Section<output::CanOutputOptions> can_frames_section() {
   return s;
 }
 
+Section<output::J1939Name> j1939_name_section() {
+  using N = output::J1939Name;
+  Section<N> s;
+  s.key_as<int>("identity_number", &N::identity_number, in_range(0, (1 << 21) - 1))
+      .key_as<int>("manufacturer_code", &N::manufacturer_code, in_range(0, (1 << 11) - 1))
+      .key_as<int>("ecu_instance", &N::ecu_instance, in_range(0, 7))
+      .key_as<int>("function_instance", &N::function_instance, in_range(0, 31))
+      .key_as<int>("function", &N::function, in_range(0, 255))
+      .key_as<int>("vehicle_system", &N::vehicle_system, in_range(0, 127))
+      .key_as<int>("vehicle_system_instance", &N::vehicle_system_instance, in_range(0, 15))
+      .key_as<int>("industry_group", &N::industry_group, in_range(0, 7))
+      .key("arbitrary_address_capable", &N::arbitrary_address_capable);
+  return s;
+}
+
+Section<SocketCanConfig> socketcan_section() {
+  using K = SocketCanConfig;
+  Section<K> s;
+  s.key("queue_frames", &K::queue_frames, in_range(13, 65536))
+      .key("error_frames", &K::error_frames)
+      .key("heartbeat_interval_s", &K::heartbeat_interval_s,
+           make_rule([](double v) { return v == 0.0 || (v >= 0.01 && v <= 655.32); },
+                     "must be 0 (off) or 0.01..655.32"))
+      .section("name", &K::name, j1939_name_section());
+  return s;
+}
+
 Section<CanOutputConfig> can_section() {
   using C = CanOutputConfig;
   Section<C> s;
   s.key("enabled", &C::enabled)
       .choice("sink", &C::sink,
               {Choice<CanSinkKind>{CanSinkKind::kCandumpFile, "candump"},
-               Choice<CanSinkKind>{CanSinkKind::kStdout, "stdout"}})
+               Choice<CanSinkKind>{CanSinkKind::kStdout, "stdout"},
+               Choice<CanSinkKind>{CanSinkKind::kSocketCan, "socketcan"}})
       .key("path", &C::path)
       .key("interface", &C::interface,
            make_rule(
@@ -126,6 +154,7 @@ Section<CanOutputConfig> can_section() {
                },
                "must be a non-empty name without blanks"))
       .embed(&C::frames, can_frames_section())
+      .section("socketcan", &C::socketcan, socketcan_section())
       .check([](const ReadKeys& keys, const C& can) {
         if (!can.enabled) return;
         if (can.sink == CanSinkKind::kCandumpFile) keys.require("path", can.path, non_empty());

@@ -18,8 +18,9 @@ constexpr const char* kDescription =
     "Source: replay of a recorded sequence (camera drivers are not in this build).\n"
     "Detect stage: the configured detector plugin (detector.name) when dynamic.mode is not none; "
     "the track stage then runs the dynamic layer in that mode (full = two-pass tracking).\n"
-    "Outputs: LCM pose_t/health_t, CAN frames (J1939/NMEA 2000/sitepose PGN) to a candump log or "
-    "stdout (no SocketCAN in this build), TUM trajectory; site anchoring fixed or online from GNSS.\n"
+    "Outputs: LCM pose_t/health_t, CAN frames (J1939/NMEA 2000/sitepose PGN) to a candump log, "
+    "stdout or a SocketCAN interface (a J1939 node: address claim, requests, heartbeat), TUM "
+    "trajectory; site anchoring fixed or online from GNSS.\n"
     "systemd: Type=notify (READY after the first frame, STATUS, WATCHDOG while frames flow); "
     "SIGTERM/SIGINT stop cleanly.\n"
     "Settings: see config/siteposed.yaml.";

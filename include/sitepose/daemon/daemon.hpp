@@ -16,12 +16,16 @@
 
 #include "sitepose/daemon/daemon_config.hpp"
 #include "sitepose/daemon/outputs.hpp"
+#include "sitepose/drivers/socketcan/socketcan_sink.hpp"
 #include "sitepose/output/lcm_gnss_subscriber.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"
 #include "sitepose/pipeline/systemd_notify.hpp"
 
 namespace sitepose::daemon {
+
+// The SocketCAN sink's options from the daemon's CAN settings (sink socketcan).
+drivers::socketcan::SocketCanSinkOptions socketcan_sink_options(const CanOutputConfig& can);
 
 class Daemon {
  public:
@@ -49,6 +53,7 @@ class Daemon {
   std::unique_ptr<output::LcmGnssSubscriber> gnss_;  // used by gnss_thread_ only
   std::unique_ptr<pipeline::Pipeline> pipeline_;     // owns source, tracker, outputs
   const pipeline::SlamPoseTracker* tracker_ = nullptr;  // owned by pipeline_ (counters only)
+  const drivers::socketcan::SocketCanSink* socketcan_ = nullptr;  // owned by pipeline_ (stats only)
   std::jthread gnss_thread_;                         // joined first (declared last)
 };
 

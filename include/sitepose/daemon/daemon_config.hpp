@@ -24,6 +24,7 @@
 #include "sitepose/core/se3.hpp"
 #include "sitepose/geo/site_anchor.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
+#include "sitepose/output/j1939_network.hpp"
 #include "sitepose/output/lcm_bus.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
 #include "sitepose/pipeline/replay_source.hpp"
@@ -37,14 +38,32 @@ struct TrajectoryOutputConfig {
   bool append = true;  // keep lines of earlier runs (a restart loses nothing)
 };
 
-enum class CanSinkKind { kCandumpFile, kStdout };
+enum class CanSinkKind { kCandumpFile, kStdout, kSocketCan };
+
+// The J1939 / NMEA 2000 node on a SocketCAN interface (sink socketcan).
+struct SocketCanConfig {
+  int queue_frames = 64;               // poses wait here while the bus is busy
+  bool error_frames = true;            // read bus-off / restarted / error-passive
+  double heartbeat_interval_s = 60.0;  // NMEA 2000 126993; 0 = none
+  output::J1939Name name = default_name();
+
+  // Industry group 3 (construction equipment), arbitrary address capable;
+  // identity_number must be unique per unit (its serial number).
+  static output::J1939Name default_name() {
+    output::J1939Name n;
+    n.industry_group = 3;
+    n.arbitrary_address_capable = true;
+    return n;
+  }
+};
 
 struct CanOutputConfig {
   bool enabled = true;
   CanSinkKind sink = CanSinkKind::kCandumpFile;
-  std::string path;  // candump log (sink candump)
-  std::string interface = "can0";
-  output::CanOutputOptions frames;
+  std::string path;                 // candump log (sink candump)
+  std::string interface = "can0";   // socketcan: the interface; otherwise the name in log lines
+  output::CanOutputOptions frames;  // frames.source_address: the preferred J1939 address
+  SocketCanConfig socketcan;
 };
 
 struct LcmOutputConfig {
