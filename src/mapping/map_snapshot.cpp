@@ -20,12 +20,7 @@ KeyFrameSnapshot snapshot_keyframe(const map::KeyFrame& keyframe) {
 
 PointSnapshot snapshot_point(const map::MapPoint& point) {
   PointSnapshot s;
-  s.id = point.id;
-  s.p_world = point.p_world;
-  s.normal = point.normal;
-  s.min_distance_m = point.min_distance_m;
-  s.max_distance_m = point.max_distance_m;
-  s.descriptor = point.descriptor;
+  static_cast<map::PointAppearance&>(s) = map::appearance_of(point);
   s.observed_by.reserve(point.observations.size());
   // std::map keys come out ascending.
   for (const auto& [kf_id, index] : point.observations) s.observed_by.push_back(kf_id);

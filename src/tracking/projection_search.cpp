@@ -9,12 +9,7 @@ namespace sitepose::tracking {
 
 PointView make_point_view(const map::MapPoint& point) {
   PointView view;
-  view.id = point.id;
-  view.p_world = point.p_world;
-  view.descriptor = point.descriptor;
-  view.normal = point.normal;
-  view.min_distance_m = point.min_distance_m;
-  view.max_distance_m = point.max_distance_m;
+  static_cast<map::PointAppearance&>(view) = map::appearance_of(point);
   return view;
 }
 

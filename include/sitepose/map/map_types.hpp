@@ -72,4 +72,26 @@ struct MapPoint {
   double found_ratio() const { return static_cast<double>(n_found) / n_visible; }
 };
 
+// What the searches need of a map point (the tracker's projection search,
+// the mapper's fusion), copied out under the map lock.
+struct PointAppearance {
+  PointId id = kNoPoint;
+  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();
+  Descriptor descriptor{};
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // mean viewing direction (unit)
+  double min_distance_m = 0.0;                        // scale invariance range
+  double max_distance_m = 0.0;
+};
+
+inline PointAppearance appearance_of(const MapPoint& point) {
+  PointAppearance a;
+  a.id = point.id;
+  a.p_world = point.p_world;
+  a.descriptor = point.descriptor;
+  a.normal = point.normal;
+  a.min_distance_m = point.min_distance_m;
+  a.max_distance_m = point.max_distance_m;
+  return a;
+}
+
 }  // namespace sitepose::map

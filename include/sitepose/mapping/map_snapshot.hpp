@@ -22,13 +22,7 @@ struct KeyFrameSnapshot {
   Eigen::Vector3d camera_center() const { return T_world_cam.translation(); }
 };
 
-struct PointSnapshot {
-  map::PointId id = map::kNoPoint;
-  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // mean viewing direction (unit)
-  double min_distance_m = 0.0;
-  double max_distance_m = 0.0;
-  map::Descriptor descriptor{};
+struct PointSnapshot : map::PointAppearance {
   std::vector<map::KeyFrameId> observed_by;  // ascending
 
   bool is_observed_by(map::KeyFrameId keyframe) const;

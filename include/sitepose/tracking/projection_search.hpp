@@ -17,13 +17,7 @@ inline constexpr int kDescriptorDistanceHigh = 100;
 inline constexpr int kDescriptorDistanceLow = 50;
 
 // What a tracker needs of a map point, copied out under the map lock.
-struct PointView {
-  map::PointId id = map::kNoPoint;
-  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();
-  map::Descriptor descriptor{};
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
-  double min_distance_m = 0.0;
-  double max_distance_m = 0.0;
+struct PointView : map::PointAppearance {
   int octave_hint = -1;  // level where it was last seen (motion-model search), -1 unknown
 };
 

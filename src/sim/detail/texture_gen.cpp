@@ -20,6 +20,15 @@ cv::Mat periodic_noise(Rng& rng, int size_px, int cells) {
   return big(cv::Rect(size_px, size_px, size_px, size_px)).clone();
 }
 
+// Periodic noise on two scales around `mean` (a float field, not clipped):
+// coarse_cells with coarse_amplitude, then fine_cells with fine_amplitude.
+cv::Mat two_scale_noise(Rng& rng, int size_px, int coarse_cells, double coarse_amplitude, double mean,
+                        int fine_cells, double fine_amplitude) {
+  cv::Mat f = periodic_noise(rng, size_px, coarse_cells) * coarse_amplitude + mean;
+  f += periodic_noise(rng, size_px, fine_cells) * fine_amplitude;
+  return f;
+}
+
 void add_fine_noise(Rng& rng, cv::Mat& f32, double sigma) {
   for (int r = 0; r < f32.rows; ++r) {
     float* p = f32.ptr<float>(r);
@@ -70,8 +79,7 @@ void stones(Rng& rng, cv::Mat& img, int count, double r_min, double r_max, int l
 }  // namespace
 
 cv::Mat gravel_tile(Rng& rng, int size_px) {
-  cv::Mat f = periodic_noise(rng, size_px, 8) * 18.0 + 110.0;
-  f += periodic_noise(rng, size_px, 64) * 12.0;
+  cv::Mat f = two_scale_noise(rng, size_px, 8, 18.0, 110.0, 64, 12.0);
   add_fine_noise(rng, f, 9.0);
   cv::Mat img = to_u8(f);
   const int n = size_px * size_px / 60;
@@ -81,8 +89,7 @@ cv::Mat gravel_tile(Rng& rng, int size_px) {
 }
 
 cv::Mat soil_tile(Rng& rng, int size_px) {
-  cv::Mat f = periodic_noise(rng, size_px, 6) * 22.0 + 105.0;
-  f += periodic_noise(rng, size_px, 48) * 14.0;
+  cv::Mat f = two_scale_noise(rng, size_px, 6, 22.0, 105.0, 48, 14.0);
   add_fine_noise(rng, f, 10.0);
   cv::Mat img = to_u8(f);
   // Clods: small irregular polygons, lit from the top left.
@@ -170,9 +177,7 @@ cv::Mat tread_tile(Rng& rng, int length_px, int width_px, bool chevrons) {
 }
 
 cv::Mat macro_overlay(Rng& rng, int size_px, double amplitude) {
-  cv::Mat f = periodic_noise(rng, size_px, 12) * amplitude + 128.0;
-  f += periodic_noise(rng, size_px, 48) * (amplitude * 0.4);
-  return to_u8(f);
+  return to_u8(two_scale_noise(rng, size_px, 12, amplitude, 128.0, 48, amplitude * 0.4));
 }
 
 int paint_level(const std::string& name) {
