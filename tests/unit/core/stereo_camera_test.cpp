@@ -64,22 +64,22 @@ TEST(StereoCamera, ValidateRejectsImplausibleRigs) {
     const Status st = cam.validate();
     return st ? std::string() : st.error().message;
   };
-  StereoCamera cam = default_camera();
+  StereoCamera cam = test_camera();
   cam.fx = 1e300;
   EXPECT_NE(message(cam).find("fx=1e+300"), std::string::npos) << message(cam);
   EXPECT_NE(message(cam).find("implausible"), std::string::npos);
-  cam = default_camera();
+  cam = test_camera();
   cam.fy = std::numeric_limits<double>::infinity();
   EXPECT_NE(message(cam).find("fy=inf"), std::string::npos) << message(cam);
-  cam = default_camera();
+  cam = test_camera();
   cam.fx = cam.fy = 1.0;  // 1 px focal length on a 960 px wide image
   EXPECT_NE(message(cam).find("implausible"), std::string::npos) << message(cam);
-  cam = default_camera();
+  cam = test_camera();
   cam.baseline_m = 1e10;
   EXPECT_NE(message(cam).find("baseline_m=1e+10 implausible"), std::string::npos) << message(cam);
   cam.baseline_m = 0.001;
   EXPECT_NE(message(cam).find("baseline_m=0.001 implausible"), std::string::npos) << message(cam);
-  cam = default_camera();
+  cam = test_camera();
   cam.baseline_m = 0.01;
   cam.fx = cam.fy = 0.05 * cam.width;
   EXPECT_EQ(message(cam), "");  // the limits themselves are plausible

@@ -221,8 +221,8 @@ TEST_F(CmdEval, FullStdoutIsAFailure) {
     const int raw = std::system(cmd.c_str());
     ASSERT_TRUE(WIFEXITED(raw));
     EXPECT_EQ(WEXITSTATUS(raw), 1) << format;
-    EXPECT_NE(slurp(err).find("sitepose eval: cannot write to stdout: No space left on device"), std::string::npos)
-        << slurp(err);
+    EXPECT_NE(sitepose::testing::read_text(err.string()).find("sitepose eval: cannot write to stdout: No space left on device"), std::string::npos)
+        << sitepose::testing::read_text(err.string());
   }
 }
 
