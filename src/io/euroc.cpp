@@ -23,25 +23,29 @@ constexpr double kVerticalOffsetTolerance = 1e-6;
 int yaml_line(const YAML::Node& node) { return node.Mark().line + 1; }
 
 // Reads `key` of `parent` as a flow/block sequence of exactly `count` numbers.
-Expected<std::vector<double>> yaml_numbers(const std::string& path, const YAML::Node& parent, const std::string& key,
-                                           std::size_t count, const std::string& meaning) {
+Expected<std::vector<double>> yaml_numbers(const std::string& path, const YAML::Node& parent,
+                                           const std::string& key, std::size_t count,
+                                           const std::string& meaning) {
   const YAML::Node node = parent[key];
   if (!node.IsDefined()) {
     return make_error(ErrorCode::kParseError, path + ": key '" + key + "' missing; expected " +
                                                   std::to_string(count) + " numbers " + meaning);
   }
-  const std::string at = detail::where(path, static_cast<std::size_t>(yaml_line(node))) + "key '" + key + "': ";
+  const std::string at =
+      detail::where(path, static_cast<std::size_t>(yaml_line(node))) + "key '" + key + "': ";
   if (!node.IsSequence() || node.size() != count) {
-    return make_error(ErrorCode::kParseError,
-                      at + "expected " + std::to_string(count) + " numbers " + meaning + ", got " +
-                          (node.IsSequence() ? std::to_string(node.size()) + " values" : std::string("no list")));
+    return make_error(
+        ErrorCode::kParseError,
+        at + "expected " + std::to_string(count) + " numbers " + meaning + ", got " +
+            (node.IsSequence() ? std::to_string(node.size()) + " values" : std::string("no list")));
   }
   std::vector<double> values;
   for (std::size_t i = 0; i < count; ++i) {
     const std::optional<double> v = detail::parse_double(node[i].Scalar());
     if (!node[i].IsScalar() || !v) {
       return make_error(ErrorCode::kParseError, at + "element " + std::to_string(i + 1) + " '" +
-                                                    echo_value(node[i].Scalar()) + "' is not a finite number");
+                                                    echo_value(node[i].Scalar()) +
+                                                    "' is not a finite number");
     }
     values.push_back(*v);
   }
@@ -62,19 +66,23 @@ Expected<EurocCameraSensor> parse_sensor(const std::string& path, const YAML::No
   SITEPOSE_TRY(const std::string model, yaml_string(path, root, "camera_model"));
   if (model != "pinhole") {
     return make_error(ErrorCode::kUnsupported, detail::where(path, yaml_line(root["camera_model"])) +
-                                                   "camera_model '" + model + "': only 'pinhole' is supported");
+                                                   "camera_model '" + model +
+                                                   "': only 'pinhole' is supported");
   }
   SITEPOSE_TRY(const std::string dist_model, yaml_string(path, root, "distortion_model"));
   if (dist_model != "radial-tangential") {
-    return make_error(ErrorCode::kUnsupported,
-                      detail::where(path, yaml_line(root["distortion_model"])) + "distortion_model '" +
-                          dist_model + "': only 'radial-tangential' is supported");
+    return make_error(ErrorCode::kUnsupported, detail::where(path, yaml_line(root["distortion_model"])) +
+                                                   "distortion_model '" + dist_model +
+                                                   "': only 'radial-tangential' is supported");
   }
   SITEPOSE_TRY(const std::vector<double> k, yaml_numbers(path, root, "intrinsics", 4, "[fu, fv, cu, cv]"));
   SITEPOSE_TRY(const std::vector<double> d,
                yaml_numbers(path, root, "distortion_coefficients", 4, "[k1, k2, p1, p2]"));
   SITEPOSE_TRY(const std::vector<double> res, yaml_numbers(path, root, "resolution", 2, "[width, height]"));
-  s.fu = k[0]; s.fv = k[1]; s.cu = k[2]; s.cv = k[3];
+  s.fu = k[0];
+  s.fv = k[1];
+  s.cu = k[2];
+  s.cv = k[3];
   std::copy(d.begin(), d.end(), s.distortion.begin());
   const std::string k_at = detail::where(path, static_cast<std::size_t>(yaml_line(root["intrinsics"])));
   if (!(s.fu > 0.0) || !(s.fv > 0.0)) {
@@ -83,25 +91,29 @@ Expected<EurocCameraSensor> parse_sensor(const std::string& path, const YAML::No
   const std::string r_at = detail::where(path, static_cast<std::size_t>(yaml_line(root["resolution"])));
   if (res[0] != std::floor(res[0]) || res[1] != std::floor(res[1]) || !(res[0] > 0) || !(res[1] > 0) ||
       res[0] > 100000 || res[1] > 100000) {
-    return make_error(ErrorCode::kParseError, r_at + "key 'resolution': expected two positive integers [width, height]");
+    return make_error(ErrorCode::kParseError,
+                      r_at + "key 'resolution': expected two positive integers [width, height]");
   }
   s.width = static_cast<int>(res[0]);
   s.height = static_cast<int>(res[1]);
 
   const YAML::Node t_bs = root["T_BS"];
   if (!t_bs.IsDefined() || !t_bs.IsMap()) {
-    return make_error(ErrorCode::kParseError, path + ": key 'T_BS' missing; expected {rows: 4, cols: 4, data: [16 numbers]}");
+    return make_error(ErrorCode::kParseError,
+                      path + ": key 'T_BS' missing; expected {rows: 4, cols: 4, data: [16 numbers]}");
   }
   SITEPOSE_TRY(const std::vector<double> data, yaml_numbers(path, t_bs, "data", 16, "(T_BS, 4x4 row-major)"));
-  const std::string t_at = detail::where(path, static_cast<std::size_t>(yaml_line(t_bs["data"]))) + "key 'T_BS': ";
+  const std::string t_at =
+      detail::where(path, static_cast<std::size_t>(yaml_line(t_bs["data"]))) + "key 'T_BS': ";
   for (const char* dim : {"rows", "cols"}) {
     if (t_bs[dim].IsDefined() && t_bs[dim].Scalar() != "4") {
-      return make_error(ErrorCode::kParseError, t_at + "expected " + dim + ": 4, got '" + echo_value(t_bs[dim].Scalar()) + "'");
+      return make_error(ErrorCode::kParseError,
+                        t_at + "expected " + dim + ": 4, got '" + echo_value(t_bs[dim].Scalar()) + "'");
     }
   }
   Eigen::Matrix4d T;
   for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) T(r, c) = data[static_cast<std::size_t>(r * 4 + c)];
+    for (int c = 0; c < 4; ++c) T(r, c) = data[static_cast<std::size_t>(r) * 4 + static_cast<std::size_t>(c)];
   }
   const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
   const double orth_error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
@@ -141,8 +153,8 @@ Expected<EurocCameraSensor> read_euroc_sensor_yaml(const std::string& path) {
     const YAML::Node root = YAML::Load(text);
     return parse_sensor(path, root);
   } catch (const YAML::Exception& e) {
-    return make_error(ErrorCode::kParseError,
-                      detail::where(path, static_cast<std::size_t>(e.mark.line + 1)) + "invalid YAML: " + e.msg);
+    return make_error(ErrorCode::kParseError, detail::where(path, static_cast<std::size_t>(e.mark.line) + 1) +
+                                                  "invalid YAML: " + e.msg);
   }
 }
 
@@ -151,8 +163,8 @@ Expected<EurocRectification> make_euroc_rectification(const EurocCameraSensor& c
   if (cam0.width != cam1.width || cam0.height != cam1.height) {
     return make_error(ErrorCode::kInvalidArgument,
                       "cam0 resolution " + std::to_string(cam0.width) + "x" + std::to_string(cam0.height) +
-                          " differs from cam1 " + std::to_string(cam1.width) + "x" + std::to_string(cam1.height) +
-                          "; expected a stereo pair of equal size");
+                          " differs from cam1 " + std::to_string(cam1.width) + "x" +
+                          std::to_string(cam1.height) + "; expected a stereo pair of equal size");
   }
   const cv::Size size(cam0.width, cam0.height);
   const SE3 T_cam1_cam0 = cam1.T_body_cam.inverse() * cam0.T_body_cam;
@@ -170,7 +182,8 @@ Expected<EurocRectification> make_euroc_rectification(const EurocCameraSensor& c
     cv::stereoRectify(K0, D0, K1, D1, size, R, t, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, 0.0, size);
     const double fx = P1.at<double>(0, 0);
     const double baseline_m = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
-    if (!(baseline_m > 0.0) || std::abs(P2.at<double>(1, 3)) > kVerticalOffsetTolerance * fx * std::abs(baseline_m) + 1e-12) {
+    if (!(baseline_m > 0.0) ||
+        std::abs(P2.at<double>(1, 3)) > kVerticalOffsetTolerance * fx * std::abs(baseline_m) + 1e-12) {
       std::ostringstream msg;
       msg << "cam0/cam1 T_BS put cam1 at " << T_cam1_cam0.inverse().translation().transpose()
           << " m in cam0; expected cam1 to the right of cam0 (+x), a horizontal pair";
@@ -196,60 +209,74 @@ Expected<EurocRectification> make_euroc_rectification(const EurocCameraSensor& c
 }
 
 Expected<std::vector<EurocImageEntry>> read_euroc_image_list(const std::string& path) {
-  SITEPOSE_TRY(const std::vector<std::string> lines, detail::read_lines(path));
   std::vector<EurocImageEntry> entries;
-  for (std::size_t i = 0; i < lines.size(); ++i) {
-    if (detail::is_comment_or_blank(lines[i])) continue;
-    const std::vector<std::string_view> f = detail::split_fields(lines[i], ',');
-    const std::optional<std::int64_t> t = f.empty() ? std::nullopt : detail::parse_int64(f[0]);
-    if (f.size() != 2 || !t || f[1].empty()) {
-      return make_error(ErrorCode::kParseError,
-                        detail::where(path, i + 1) + "expected 'timestamp_ns,filename', got '" + echo_value(lines[i]) + "'");
-    }
-    if (!entries.empty() && *t <= entries.back().t_ns) {
-      return make_error(ErrorCode::kParseError, detail::where(path, i + 1) + "expected a timestamp after " +
-                                                    std::to_string(entries.back().t_ns) + " ns, got " +
-                                                    std::to_string(*t));
-    }
-    entries.push_back({*t, std::string(f[1])});
-  }
+  SITEPOSE_TRY_STATUS(detail::for_each_data_line(
+      path, detail::DataLines::kSkipCommentsAndBlanks,
+      [&](std::size_t line_no, std::string_view line) -> Status {
+        const std::vector<std::string_view> f = detail::split_fields(line, ',');
+        const std::optional<std::int64_t> t = f.empty() ? std::nullopt : detail::parse_int64(f[0]);
+        if (f.size() != 2 || !t || f[1].empty()) {
+          return make_error(ErrorCode::kParseError, detail::where(path, line_no) +
+                                                        "expected 'timestamp_ns,filename', got '" +
+                                                        echo_value(line) + "'");
+        }
+        if (!entries.empty() && *t <= entries.back().t_ns) {
+          return detail::timestamp_not_increasing(detail::where(path, line_no), entries.back().t_ns, *t);
+        }
+        entries.push_back({*t, std::string(f[1])});
+        return ok_status();
+      }));
   return entries;
 }
 
-Expected<std::vector<EurocGtSample>> read_euroc_groundtruth(const std::string& path) {
-  SITEPOSE_TRY(const std::vector<std::string> lines, detail::read_lines(path));
-  std::vector<EurocGtSample> samples;
-  for (std::size_t i = 0; i < lines.size(); ++i) {
-    if (detail::is_comment_or_blank(lines[i])) continue;
-    const std::string at = detail::where(path, i + 1);
-    const std::vector<std::string_view> f = detail::split_fields(lines[i], ',');
-    if (f.size() < 8) {
-      return make_error(ErrorCode::kParseError, at + "expected at least 8 fields (timestamp, p_RS_R xyz, "
-                                                     "q_RS wxyz), got " + std::to_string(f.size()));
-    }
-    const std::optional<std::int64_t> t = detail::parse_int64(f[0]);
-    if (!t) return make_error(ErrorCode::kParseError, at + "field 1: expected a timestamp in ns, got '" + echo_value(f[0]) + "'");
-    double v[7];
-    for (int k = 0; k < 7; ++k) {
-      const std::optional<double> x = detail::parse_double(f[static_cast<std::size_t>(k + 1)]);
-      if (!x) {
-        return make_error(ErrorCode::kParseError, at + "field " + std::to_string(k + 2) + " '" +
-                                                      echo_value(f[static_cast<std::size_t>(k + 1)]) +
-                                                      "' is not a finite number");
-      }
-      v[k] = *x;
-    }
-    const Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
-    if (std::abs(q.norm() - 1.0) > 1e-2) {
-      return make_error(ErrorCode::kParseError, at + "expected a unit quaternion q_RS (w x y z), norm is " +
-                                                    std::to_string(q.norm()));
-    }
-    if (!samples.empty() && *t <= samples.back().t_ns) {
-      return make_error(ErrorCode::kParseError, at + "expected a timestamp after " +
-                                                    std::to_string(samples.back().t_ns) + " ns");
-    }
-    samples.push_back({*t, SE3(q, Eigen::Vector3d(v[0], v[1], v[2]))});
+namespace {
+
+// One "timestamp_ns, p_RS_R xyz, q_RS wxyz[, ...]" line; `at` is where(path, line).
+Expected<EurocGtSample> parse_groundtruth_line(const std::string& at, std::string_view line) {
+  const std::vector<std::string_view> f = detail::split_fields(line, ',');
+  if (f.size() < 8) {
+    return make_error(ErrorCode::kParseError, at +
+                                                  "expected at least 8 fields (timestamp, p_RS_R xyz, "
+                                                  "q_RS wxyz), got " +
+                                                  std::to_string(f.size()));
   }
+  const std::optional<std::int64_t> t = detail::parse_int64(f[0]);
+  if (!t) {
+    return make_error(ErrorCode::kParseError,
+                      at + "field 1: expected a timestamp in ns, got '" + echo_value(f[0]) + "'");
+  }
+  double v[7];
+  for (std::size_t k = 0; k < 7; ++k) {
+    const std::optional<double> x = detail::parse_double(f[k + 1]);
+    if (!x) {
+      return make_error(ErrorCode::kParseError, at + "field " + std::to_string(k + 2) + " '" +
+                                                    echo_value(f[k + 1]) + "' is not a finite number");
+    }
+    v[k] = *x;
+  }
+  const Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
+  if (std::abs(q.norm() - 1.0) > 1e-2) {
+    return make_error(ErrorCode::kParseError,
+                      at + "expected a unit quaternion q_RS (w x y z), norm is " + std::to_string(q.norm()));
+  }
+  return EurocGtSample{*t, SE3(q, Eigen::Vector3d(v[0], v[1], v[2]))};
+}
+
+}  // namespace
+
+Expected<std::vector<EurocGtSample>> read_euroc_groundtruth(const std::string& path) {
+  std::vector<EurocGtSample> samples;
+  SITEPOSE_TRY_STATUS(detail::for_each_data_line(
+      path, detail::DataLines::kSkipCommentsAndBlanks,
+      [&](std::size_t line_no, std::string_view line) -> Status {
+        const std::string at = detail::where(path, line_no);
+        SITEPOSE_TRY(EurocGtSample sample, parse_groundtruth_line(at, line));
+        if (!samples.empty() && sample.t_ns <= samples.back().t_ns) {
+          return detail::timestamp_not_increasing(at, samples.back().t_ns, sample.t_ns);
+        }
+        samples.push_back(std::move(sample));
+        return ok_status();
+      }));
   return samples;
 }
 
@@ -269,7 +296,8 @@ std::vector<std::optional<SE3>> euroc_gt_at_times(const std::vector<EurocGtSampl
     if (after == samples.begin()) continue;
     const auto before = std::prev(after);
     if (after->t_ns - before->t_ns > max_gap_ns) continue;
-    const double alpha = static_cast<double>(t - before->t_ns) / static_cast<double>(after->t_ns - before->t_ns);
+    const double alpha =
+        static_cast<double>(t - before->t_ns) / static_cast<double>(after->t_ns - before->t_ns);
     out[i] = interpolate(before->T_world_body, after->T_world_body, alpha) * T_body_rect;
   }
   return out;

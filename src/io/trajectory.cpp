@@ -21,7 +21,7 @@ Expected<SE3> pose_from_kitti_row(const std::string& path, std::size_t line_no,
                                   const std::vector<double>& v) {
   Eigen::Matrix<double, 3, 4> T;
   for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 4; ++c) T(r, c) = v[static_cast<std::size_t>(r * 4 + c)];
+    for (int c = 0; c < 4; ++c) T(r, c) = v[static_cast<std::size_t>(r) * 4 + static_cast<std::size_t>(c)];
   }
   const Eigen::Matrix3d R = T.leftCols<3>();
   const double orth_error = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
@@ -50,8 +50,7 @@ using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
 Expected<FilePtr> open_for_writing(const std::string& path) {
   FilePtr file(std::fopen(path.c_str(), "w"));
   if (!file) {
-    return make_error(ErrorCode::kIoError,
-                      path + ": cannot open for writing: " + std::strerror(errno));
+    return make_error(ErrorCode::kIoError, path + ": cannot open for writing: " + std::strerror(errno));
   }
   return file;
 }
@@ -68,29 +67,28 @@ Status finish_writing(const std::string& path, FilePtr file) {
 }  // namespace
 
 Expected<Trajectory> read_tum_trajectory(const std::string& path) {
-  SITEPOSE_TRY(const std::vector<std::string> lines, detail::read_lines(path));
   Trajectory trajectory;
-  for (std::size_t i = 0; i < lines.size(); ++i) {
-    if (detail::is_comment_or_blank(lines[i])) continue;
-    const std::size_t line_no = i + 1;
-    SITEPOSE_TRY(const std::vector<double> v,
-                 detail::parse_number_line(path, line_no, lines[i], 8));
-    const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);  // w, x, y, z
-    if (std::abs(q.norm() - 1.0) > kRotationTolerance) {
-      std::ostringstream msg;
-      msg << detail::where(path, line_no) << "expected a unit quaternion (qx qy qz qw), norm is "
-          << q.norm();
-      return make_error(ErrorCode::kParseError, msg.str());
-    }
-    if (!trajectory.empty() && !(v[0] > trajectory.back().t_s)) {
-      std::ostringstream msg;
-      msg.precision(9);
-      msg << std::fixed << detail::where(path, line_no) << "expected a time after "
-          << trajectory.back().t_s << " s, got " << v[0] << " s (times must increase)";
-      return make_error(ErrorCode::kParseError, msg.str());
-    }
-    trajectory.push_back({v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3]))});
-  }
+  SITEPOSE_TRY_STATUS(detail::for_each_data_line(
+      path, detail::DataLines::kSkipCommentsAndBlanks,
+      [&](std::size_t line_no, std::string_view line) -> Status {
+        SITEPOSE_TRY(const std::vector<double> v, detail::parse_number_line(path, line_no, line, 8));
+        const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);  // w, x, y, z
+        if (std::abs(q.norm() - 1.0) > kRotationTolerance) {
+          std::ostringstream msg;
+          msg << detail::where(path, line_no) << "expected a unit quaternion (qx qy qz qw), norm is "
+              << q.norm();
+          return make_error(ErrorCode::kParseError, msg.str());
+        }
+        if (!trajectory.empty() && !(v[0] > trajectory.back().t_s)) {
+          std::ostringstream msg;
+          msg.precision(9);
+          msg << std::fixed << detail::where(path, line_no) << "expected a time after "
+              << trajectory.back().t_s << " s, got " << v[0] << " s (times must increase)";
+          return make_error(ErrorCode::kParseError, msg.str());
+        }
+        trajectory.push_back({v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3]))});
+        return ok_status();
+      }));
   return trajectory;
 }
 
@@ -98,8 +96,7 @@ Status write_tum_trajectory(const std::string& path, const Trajectory& trajector
   for (std::size_t i = 0; i < trajectory.size(); ++i) {
     if (!std::isfinite(trajectory[i].t_s) || !pose_is_finite(trajectory[i].T_world_cam)) {
       return make_error(ErrorCode::kInvalidArgument,
-                        path + ": refusing to write pose " + std::to_string(i) +
-                            ": non-finite time or pose");
+                        path + ": refusing to write pose " + std::to_string(i) + ": non-finite time or pose");
     }
   }
   SITEPOSE_TRY(FilePtr file, open_for_writing(path));
@@ -107,22 +104,22 @@ Status write_tum_trajectory(const std::string& path, const Trajectory& trajector
   for (const StampedPose& p : trajectory) {
     const Eigen::Vector3d& t = p.T_world_cam.translation();
     const Eigen::Quaterniond& q = p.T_world_cam.rotation();
-    std::fprintf(file.get(), "%.9f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", p.t_s, t.x(), t.y(),
-                 t.z(), q.x(), q.y(), q.z(), q.w());
+    std::fprintf(file.get(), "%.9f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", p.t_s, t.x(), t.y(), t.z(), q.x(),
+                 q.y(), q.z(), q.w());
   }
   return finish_writing(path, std::move(file));
 }
 
 Expected<std::vector<SE3>> read_kitti_poses(const std::string& path) {
-  SITEPOSE_TRY(const std::vector<std::string> lines, detail::read_lines(path));
-  const std::size_t end = detail::content_end(lines);
   std::vector<SE3> poses;
-  poses.reserve(end);
-  for (std::size_t i = 0; i < end; ++i) {
-    SITEPOSE_TRY(const std::vector<double> v, detail::parse_number_line(path, i + 1, lines[i], 12));
-    SITEPOSE_TRY(SE3 pose, pose_from_kitti_row(path, i + 1, v));
-    poses.push_back(pose);
-  }
+  SITEPOSE_TRY_STATUS(detail::for_each_data_line(
+      path, detail::DataLines::kEveryLineToContentEnd,
+      [&](std::size_t line_no, std::string_view line) -> Status {
+        SITEPOSE_TRY(const std::vector<double> v, detail::parse_number_line(path, line_no, line, 12));
+        SITEPOSE_TRY(SE3 pose, pose_from_kitti_row(path, line_no, v));
+        poses.push_back(pose);
+        return ok_status();
+      }));
   return poses;
 }
 
@@ -147,45 +144,43 @@ Status write_kitti_poses(const std::string& path, const std::vector<SE3>& poses)
 }
 
 Expected<std::vector<double>> read_times(const std::string& path) {
-  SITEPOSE_TRY(const std::vector<std::string> lines, detail::read_lines(path));
-  const std::size_t end = detail::content_end(lines);
   std::vector<double> times;
-  times.reserve(end);
   std::int64_t last_ns = 0;
-  for (std::size_t i = 0; i < end; ++i) {
-    SITEPOSE_TRY(const std::vector<double> v, detail::parse_number_line(path, i + 1, lines[i], 1));
-    const double t_s = v[0];
-    // Frames are stamped in int64 ns: the time must convert without overflow.
-    if (!(t_s >= 0.0 && t_s <= kMaxTimeS)) {
-      std::ostringstream msg;
-      msg << detail::where(path, i + 1) << "expected a time in 0.." << kMaxTimeS
-          << " s (from the start of the recording or the Unix epoch), got " << t_s << " s";
-      return make_error(ErrorCode::kParseError, msg.str());
-    }
-    const std::int64_t t_ns = std::llround(t_s * 1e9);
-    if (!times.empty() && !(t_ns > last_ns)) {
-      std::ostringstream msg;
-      msg.precision(9);
-      msg << std::fixed << detail::where(path, i + 1) << "expected a time after " << times.back()
-          << " s, got " << std::setprecision(t_s > times.back() ? 12 : 9) << t_s
-          << " s (times must increase by at least 1 ns)";
-      return make_error(ErrorCode::kParseError, msg.str());
-    }
-    times.push_back(t_s);
-    last_ns = t_ns;
-  }
+  SITEPOSE_TRY_STATUS(detail::for_each_data_line(
+      path, detail::DataLines::kEveryLineToContentEnd,
+      [&](std::size_t line_no, std::string_view line) -> Status {
+        SITEPOSE_TRY(const std::vector<double> v, detail::parse_number_line(path, line_no, line, 1));
+        const double t_s = v[0];
+        // Frames are stamped in int64 ns: the time must convert without overflow.
+        if (!(t_s >= 0.0 && t_s <= kMaxTimeS)) {
+          std::ostringstream msg;
+          msg << detail::where(path, line_no) << "expected a time in 0.." << kMaxTimeS
+              << " s (from the start of the recording or the Unix epoch), got " << t_s << " s";
+          return make_error(ErrorCode::kParseError, msg.str());
+        }
+        const std::int64_t t_ns = std::llround(t_s * 1e9);
+        if (!times.empty() && !(t_ns > last_ns)) {
+          std::ostringstream msg;
+          msg.precision(9);
+          msg << std::fixed << detail::where(path, line_no) << "expected a time after " << times.back()
+              << " s, got " << std::setprecision(t_s > times.back() ? 12 : 9) << t_s
+              << " s (times must increase by at least 1 ns)";
+          return make_error(ErrorCode::kParseError, msg.str());
+        }
+        times.push_back(t_s);
+        last_ns = t_ns;
+        return ok_status();
+      }));
   return times;
 }
 
-Expected<Trajectory> read_kitti_trajectory(const std::string& poses_path,
-                                           const std::string& times_path) {
+Expected<Trajectory> read_kitti_trajectory(const std::string& poses_path, const std::string& times_path) {
   SITEPOSE_TRY(const std::vector<SE3> poses, read_kitti_poses(poses_path));
   SITEPOSE_TRY(const std::vector<double> times, read_times(times_path));
   if (poses.size() != times.size()) {
     return make_error(ErrorCode::kInvalidArgument,
-                      poses_path + " has " + std::to_string(poses.size()) + " poses but " +
-                          times_path + " has " + std::to_string(times.size()) +
-                          " times; expected one time per pose");
+                      poses_path + " has " + std::to_string(poses.size()) + " poses but " + times_path +
+                          " has " + std::to_string(times.size()) + " times; expected one time per pose");
   }
   Trajectory trajectory;
   trajectory.reserve(poses.size());

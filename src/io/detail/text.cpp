@@ -21,8 +21,7 @@ Expected<std::vector<std::string>> read_lines(const std::string& path) {
   }
   std::ifstream in(path);
   if (!in) {
-    return make_error(ErrorCode::kIoError,
-                      path + ": cannot open for reading: " + std::strerror(errno));
+    return make_error(ErrorCode::kIoError, path + ": cannot open for reading: " + std::strerror(errno));
   }
   std::vector<std::string> lines;
   std::string line;
@@ -103,19 +102,18 @@ Expected<std::vector<double>> parse_number_line(const std::string& path, std::si
                                                 std::string_view line, std::size_t count) {
   const std::vector<std::string_view> tokens = split_whitespace(line);
   if (tokens.size() != count) {
-    return make_error(ErrorCode::kParseError,
-                      where(path, line_no) + "expected " + std::to_string(count) +
-                          (count == 1 ? " number, got " : " numbers, got ") +
-                          std::to_string(tokens.size()));
+    return make_error(ErrorCode::kParseError, where(path, line_no) + "expected " + std::to_string(count) +
+                                                  (count == 1 ? " number, got " : " numbers, got ") +
+                                                  std::to_string(tokens.size()));
   }
   std::vector<double> values;
   values.reserve(count);
   for (std::size_t i = 0; i < tokens.size(); ++i) {
     const std::optional<double> v = parse_double(tokens[i]);
     if (!v) {
-      return make_error(ErrorCode::kParseError,
-                        where(path, line_no) + "field " + std::to_string(i + 1) + " '" +
-                            echo_value(tokens[i]) + "' is not a finite number");
+      return make_error(ErrorCode::kParseError, where(path, line_no) + "field " + std::to_string(i + 1) +
+                                                    " '" + echo_value(tokens[i]) +
+                                                    "' is not a finite number");
     }
     values.push_back(*v);
   }
@@ -126,6 +124,11 @@ std::size_t content_end(const std::vector<std::string>& lines) {
   std::size_t end = lines.size();
   while (end > 0 && is_blank(lines[end - 1])) --end;
   return end;
+}
+
+Unexpected timestamp_not_increasing(const std::string& where, std::int64_t last_ns, std::int64_t t_ns) {
+  return make_error(ErrorCode::kParseError, where + "expected a timestamp after " + std::to_string(last_ns) +
+                                                " ns, got " + std::to_string(t_ns));
 }
 
 }  // namespace sitepose::io::detail

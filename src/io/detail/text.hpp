@@ -44,4 +44,27 @@ Expected<std::vector<double>> parse_number_line(const std::string& path, std::si
 // blank lines inside a per-frame file are not (they would shift frames).
 std::size_t content_end(const std::vector<std::string>& lines);
 
+// Which lines of a file hold data: files with free-form comments (TUM,
+// EuRoC csv) skip comments and blank lines anywhere; per-frame files (KITTI
+// poses, times.txt) take every line up to content_end.
+enum class DataLines { kSkipCommentsAndBlanks, kEveryLineToContentEnd };
+
+// Reads `path` and calls parse(line_no, line) -> Status on each data line in
+// order, stopping at the first error (line_no is 1-based).
+template <typename Parse>
+Status for_each_data_line(const std::string& path, DataLines which, Parse&& parse) {
+  SITEPOSE_TRY(const std::vector<std::string> lines, read_lines(path));
+  const bool skip = which == DataLines::kSkipCommentsAndBlanks;
+  const std::size_t end = skip ? lines.size() : content_end(lines);
+  for (std::size_t i = 0; i < end; ++i) {
+    if (skip && is_comment_or_blank(lines[i])) continue;
+    SITEPOSE_TRY_STATUS(parse(i + 1, std::string_view(lines[i])));
+  }
+  return ok_status();
+}
+
+// "<where>expected a timestamp after <last_ns> ns, got <t_ns>" for files whose
+// nanosecond timestamps must increase.
+Unexpected timestamp_not_increasing(const std::string& where, std::int64_t last_ns, std::int64_t t_ns);
+
 }  // namespace sitepose::io::detail
