@@ -7,10 +7,11 @@
 #include <opencv2/core.hpp>
 
 #include <algorithm>
-#include <cmath>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -22,8 +23,7 @@ namespace sitepose::config {
 
 namespace {
 
-constexpr const char* kDistortionKeys[] = {"Camera.k1", "Camera.k2", "Camera.p1", "Camera.p2",
-                                           "Camera.k3"};
+constexpr const char* kDistortionKeys[] = {"Camera.k1", "Camera.k2", "Camera.p1", "Camera.p2", "Camera.k3"};
 
 // Reads the keys of one file and collects every problem, like YamlReader.
 class SettingsReader {
@@ -32,12 +32,9 @@ class SettingsReader {
       : root_(fs.root()), source_(std::move(source)) {}
 
   bool number(const char* key, double& out) {
-    used_.emplace_back(key);
-    const cv::FileNode node = root_[key];
-    if (node.empty() || node.isNone()) {
-      missing(key);
-      return false;
-    }
+    const std::optional<cv::FileNode> found = required(key);
+    if (!found) return false;
+    const cv::FileNode& node = *found;
     if (!node.isReal() && !node.isInt()) {
       wrong(key, node, "expected a number");
       return false;
@@ -52,17 +49,13 @@ class SettingsReader {
   }
 
   bool integer(const char* key, int& out) {
-    used_.emplace_back(key);
-    const cv::FileNode node = root_[key];
-    if (node.empty() || node.isNone()) {
-      missing(key);
+    const std::optional<cv::FileNode> found = required(key);
+    if (!found) return false;
+    if (!found->isInt()) {
+      wrong(key, *found, "expected an integer");
       return false;
     }
-    if (!node.isInt()) {
-      wrong(key, node, "expected an integer");
-      return false;
-    }
-    out = static_cast<int>(node);
+    out = static_cast<int>(*found);
     return true;
   }
 
@@ -78,8 +71,7 @@ class SettingsReader {
   template <typename T>
   bool check(const char* key, T value, bool ok, const std::string& expectation) {
     if (!ok) {
-      problems_.push_back(source_ + ": " + key + " = " + detail::number_text(value) + ": " +
-                          expectation);
+      problems_.push_back(source_ + ": " + key + " = " + detail::number_text(value) + ": " + expectation);
     }
     return ok;
   }
@@ -103,6 +95,17 @@ class SettingsReader {
   const std::vector<std::string>& problems() const { return problems_; }
 
  private:
+  // The key's node, or nullopt (reported as missing) when it is absent.
+  std::optional<cv::FileNode> required(const char* key) {
+    used_.emplace_back(key);
+    cv::FileNode node = root_[key];
+    if (node.empty() || node.isNone()) {
+      missing(key);
+      return std::nullopt;
+    }
+    return node;
+  }
+
   void missing(const char* key) { problems_.push_back(source_ + ": " + key + ": missing (required key)"); }
 
   void wrong(const char* key, const cv::FileNode& node, const std::string& expectation) {
@@ -129,11 +132,8 @@ class SettingsReader {
   std::vector<std::string> problems_;
 };
 
-Expected<OrbSlam2Settings> read_settings(const cv::FileStorage& fs, const std::string& source) {
-  SettingsReader r(fs, source);
-  OrbSlam2Settings s;
-
-  // EuRoC-style files rectify on the fly; sitepose needs rectified input.
+// EuRoC-style files rectify on the fly; sitepose needs rectified input.
+Status refuse_rectification_maps(const SettingsReader& r, const std::string& source) {
   for (const char* key : {"LEFT.K", "LEFT.P", "LEFT.R", "RIGHT.K", "RIGHT.P", "RIGHT.R"}) {
     if (r.has(key)) {
       return make_error(ErrorCode::kUnsupported,
@@ -142,7 +142,12 @@ Expected<OrbSlam2Settings> read_settings(const cv::FileStorage& fs, const std::s
                             "and give the rectified Camera.* values");
     }
   }
+  return ok_status();
+}
 
+// Camera.* and ThDepth into s; returns Camera.bf (baseline_m is set from it
+// once every key is known to be valid).
+double read_camera(SettingsReader& r, OrbSlam2Settings& s) {
   StereoCamera& cam = s.camera;
   double bf = 0.0;
   if (r.number("Camera.fx", cam.fx)) r.check("Camera.fx", cam.fx, cam.fx > 0.0, "must be > 0");
@@ -159,8 +164,7 @@ Expected<OrbSlam2Settings> read_settings(const cv::FileStorage& fs, const std::s
   }
   if (have_cy && have_h) {
     r.check("Camera.cy", cam.cy, cam.cy >= 0.0 && cam.cy < cam.height,
-            "must be inside the image (0 <= cy < Camera.height = " + std::to_string(cam.height) +
-                ")");
+            "must be inside the image (0 <= cy < Camera.height = " + std::to_string(cam.height) + ")");
   }
   if (r.number("Camera.bf", bf)) r.check("Camera.bf", bf, bf > 0.0, "must be > 0 (fx * baseline)");
   if (r.number("Camera.fps", s.fps_hz)) {
@@ -174,20 +178,20 @@ Expected<OrbSlam2Settings> read_settings(const cv::FileStorage& fs, const std::s
   }
   if (r.has("Camera.RGB")) {
     int rgb = 0;
-    if (r.integer("Camera.RGB", rgb) && r.check("Camera.RGB", rgb, rgb == 0 || rgb == 1,
-                                                 "must be 0 (BGR) or 1 (RGB)")) {
+    if (r.integer("Camera.RGB", rgb) &&
+        r.check("Camera.RGB", rgb, rgb == 0 || rgb == 1, "must be 0 (BGR) or 1 (RGB)")) {
       s.rgb = rgb == 1;
     }
   }
   if (r.number("ThDepth", s.close_depth_baselines)) {
     r.check("ThDepth", s.close_depth_baselines,
-            s.close_depth_baselines > 0.0 &&
-                s.close_depth_baselines <= detail::kMaxCloseDepthBaselines,
-            "must be in (0, " + detail::number_text(detail::kMaxCloseDepthBaselines) +
-                "] (baselines)");
+            s.close_depth_baselines > 0.0 && s.close_depth_baselines <= detail::kMaxCloseDepthBaselines,
+            "must be in (0, " + detail::number_text(detail::kMaxCloseDepthBaselines) + "] (baselines)");
   }
+  return bf;
+}
 
-  OrbConfig& orb = s.orb;
+void read_orb_extractor(SettingsReader& r, OrbConfig& orb) {
   if (r.integer("ORBextractor.nFeatures", orb.n_features)) {
     r.check("ORBextractor.nFeatures", orb.n_features,
             orb.n_features >= detail::kMinOrbFeatures && orb.n_features <= detail::kMaxOrbFeatures,
@@ -207,24 +211,31 @@ Expected<OrbSlam2Settings> read_settings(const cv::FileStorage& fs, const std::s
   const bool have_ini =
       r.integer("ORBextractor.iniThFAST", orb.ini_fast_threshold) &&
       r.check("ORBextractor.iniThFAST", orb.ini_fast_threshold,
-              orb.ini_fast_threshold >= 1 && orb.ini_fast_threshold <= detail::kMaxFastThreshold,
-              fast_range);
+              orb.ini_fast_threshold >= 1 && orb.ini_fast_threshold <= detail::kMaxFastThreshold, fast_range);
   const bool have_min =
       r.integer("ORBextractor.minThFAST", orb.min_fast_threshold) &&
       r.check("ORBextractor.minThFAST", orb.min_fast_threshold,
-              orb.min_fast_threshold >= 1 && orb.min_fast_threshold <= detail::kMaxFastThreshold,
-              fast_range);
+              orb.min_fast_threshold >= 1 && orb.min_fast_threshold <= detail::kMaxFastThreshold, fast_range);
   if (have_ini && have_min) {
     r.check("ORBextractor.minThFAST", orb.min_fast_threshold,
             orb.min_fast_threshold <= orb.ini_fast_threshold,
             "must be <= ORBextractor.iniThFAST (" + std::to_string(orb.ini_fast_threshold) + ")");
   }
+}
+
+Expected<OrbSlam2Settings> read_settings(const cv::FileStorage& fs, const std::string& source) {
+  SettingsReader r(fs, source);
+  SITEPOSE_TRY_STATUS(refuse_rectification_maps(r, source));
+  OrbSlam2Settings s;
+  const double bf = read_camera(r, s);
+  read_orb_extractor(r, s.orb);
 
   if (!r.problems().empty()) {
     std::string message;
     for (const std::string& p : r.problems()) message += (message.empty() ? "" : "\n") + p;
     return make_error(ErrorCode::kInvalidArgument, message);
   }
+  StereoCamera& cam = s.camera;
   cam.baseline_m = bf / cam.fx;
   if (const Status valid = cam.validate(); !valid) {
     return make_error(ErrorCode::kInvalidArgument, source + ": " + valid.error().message);
@@ -239,8 +250,8 @@ std::string describe_cv_error(const cv::Exception& e, const std::string& source)
   for (const std::string* part : {&e.func, &e.err}) {
     const auto close = part->find("): ");
     if (!part->empty() && (*part)[0] == '(' && close != std::string::npos) {
-      return source + ":" + part->substr(1, close - 1) + ": malformed ORB-SLAM2 settings file: " +
-             part->substr(close + 3);
+      return source + ":" + part->substr(1, close - 1) +
+             ": malformed ORB-SLAM2 settings file: " + part->substr(close + 3);
     }
   }
   std::string text = source + ": malformed ORB-SLAM2 settings file: " + e.err;
@@ -254,16 +265,15 @@ Expected<OrbSlam2Settings> read_text(const std::string& text, const std::string&
                       source + ": empty file (expected ORB-SLAM2 settings starting with %YAML:1.0)");
   }
   try {
-    cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY |
-                                 cv::FileStorage::FORMAT_YAML);
+    cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
     if (!fs.isOpened()) {
-      return make_error(ErrorCode::kParseError,
-                        source + ": cannot read as an OpenCV FileStorage YAML file");
+      return make_error(ErrorCode::kParseError, source + ": cannot read as an OpenCV FileStorage YAML file");
     }
     if (!fs.root().isMap()) {
       return make_error(ErrorCode::kInvalidArgument,
-                        source + ": expected a mapping of Camera.*, ThDepth and ORBextractor.* "
-                                 "keys at the top level");
+                        source +
+                            ": expected a mapping of Camera.*, ThDepth and ORBextractor.* "
+                            "keys at the top level");
     }
     return read_settings(fs, source);
   } catch (const cv::Exception& e) {
@@ -277,8 +287,8 @@ Expected<OrbSlam2Settings> load_orbslam2_settings(const std::string& path) {
   // Read the text here so a missing file is kNotFound, not an OpenCV error.
   std::ifstream in(path, std::ios::binary);
   if (!in) {
-    return make_error(ErrorCode::kNotFound, "cannot open ORB-SLAM2 settings file " + path + ": " +
-                                                std::strerror(errno));
+    return make_error(ErrorCode::kNotFound,
+                      "cannot open ORB-SLAM2 settings file " + path + ": " + std::strerror(errno));
   }
   std::ostringstream text;
   text << in.rdbuf();
@@ -297,8 +307,7 @@ void apply_orbslam2_settings(const OrbSlam2Settings& settings, SiteposeConfig& c
   config.orb = settings.orb;
   config.orb.grid_cell_px = grid_cell_px;
   config.tracking.close_depth_baselines = settings.close_depth_baselines;
-  config.tracking.keyframe_max_interval_frames =
-      std::max(1, static_cast<int>(std::lround(settings.fps_hz)));
+  config.tracking.keyframe_max_interval_frames = std::max(1, static_cast<int>(std::lround(settings.fps_hz)));
 }
 
 }  // namespace sitepose::config

@@ -104,7 +104,7 @@ std::string prefix(const ReaderState& state, int line) {
   return state.source + ": ";
 }
 
-void add_problem(ReaderState& state, int line, std::string text) {
+void add_problem(ReaderState& state, int line, const std::string& text) {
   state.problems.push_back({line, prefix(state, line) + text});
 }
 
@@ -147,19 +147,37 @@ int open_record(ReaderState& state, const std::string& path, const YAML::Node& n
 // ---- decoding one node into a typed value -------------------------------
 
 struct Failure {
-  YAML::Node where;     // the offending node
-  std::string suffix;   // appended to the key path, e.g. "[3]"
+  YAML::Node where;    // the offending node
+  std::string suffix;  // appended to the key path, e.g. "[3]"
   std::string expectation;
 };
 
 template <typename T>
 const char* type_name();
-template <> const char* type_name<bool>() { return "a boolean (true or false)"; }
-template <> const char* type_name<int>() { return "an integer"; }
-template <> const char* type_name<std::int64_t>() { return "an integer"; }
-template <> const char* type_name<double>() { return "a finite number"; }
-template <> const char* type_name<std::string>() { return "a string"; }
-template <> const char* type_name<std::vector<double>>() { return "a list of numbers"; }
+template <>
+const char* type_name<bool>() {
+  return "a boolean (true or false)";
+}
+template <>
+const char* type_name<int>() {
+  return "an integer";
+}
+template <>
+const char* type_name<std::int64_t>() {
+  return "an integer";
+}
+template <>
+const char* type_name<double>() {
+  return "a finite number";
+}
+template <>
+const char* type_name<std::string>() {
+  return "a string";
+}
+template <>
+const char* type_name<std::vector<double>>() {
+  return "a list of numbers";
+}
 
 template <typename T>
 std::optional<Failure> decode_integer(const YAML::Node& node, T& out) {
@@ -182,9 +200,7 @@ std::optional<Failure> decode_integer(const YAML::Node& node, T& out) {
 }
 
 std::optional<Failure> decode(const YAML::Node& node, int& out) { return decode_integer(node, out); }
-std::optional<Failure> decode(const YAML::Node& node, std::int64_t& out) {
-  return decode_integer(node, out);
-}
+std::optional<Failure> decode(const YAML::Node& node, std::int64_t& out) { return decode_integer(node, out); }
 
 std::optional<Failure> decode(const YAML::Node& node, double& out) {
   const Failure fail{node, "", std::string("expected ") + type_name<double>()};
@@ -253,11 +269,9 @@ bool parse_any(ReaderState& state, int record_index, std::string_view key, T& ou
   T value = out;
   if (auto failure = decode(entry->value, value)) {
     const bool whole_value = failure->suffix.empty();
-    const int line = !whole_value && line_of(failure->where) > 0 ? line_of(failure->where)
-                                                                  : line_of(*entry);
+    const int line = !whole_value && line_of(failure->where) > 0 ? line_of(failure->where) : line_of(*entry);
     add_problem(state, line,
-                path + failure->suffix + " = " + value_text(failure->where) + ": " +
-                    failure->expectation);
+                path + failure->suffix + " = " + value_text(failure->where) + ": " + failure->expectation);
     return false;
   }
   out = std::move(value);
@@ -311,9 +325,9 @@ std::vector<detail::Problem> unknown_keys(const ReaderState& state) {
 }
 
 Unexpected too_large(const std::string& source, const std::string& size_bytes) {
-  return make_error(ErrorCode::kInvalidArgument,
-                    source + ": " + size_bytes + " bytes, larger than a configuration file may be (" +
-                        std::to_string(kMaxYamlBytes) + " bytes = 1 MiB)");
+  return make_error(ErrorCode::kInvalidArgument, source + ": " + size_bytes +
+                                                     " bytes, larger than a configuration file may be (" +
+                                                     std::to_string(kMaxYamlBytes) + " bytes = 1 MiB)");
 }
 
 }  // namespace
@@ -403,8 +417,7 @@ void YamlMap::report(std::string_view key, std::string_view message) const {
 
 void YamlMap::report_here(std::string_view message) const {
   const std::string& p = path();
-  add_problem(*state_, line(), (p.empty() ? std::string("(top level)") : p) + ": " +
-                                   std::string(message));
+  add_problem(*state_, line(), (p.empty() ? std::string("(top level)") : p) + ": " + std::string(message));
 }
 
 YamlMap YamlMap::map(std::string_view key) const {
@@ -456,8 +469,7 @@ Expected<std::string> read_yaml_file(const std::string& path) {
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) {
-    return make_error(ErrorCode::kNotFound,
-                      "cannot open config file " + path + ": " + std::strerror(errno));
+    return make_error(ErrorCode::kNotFound, "cannot open config file " + path + ": " + std::strerror(errno));
   }
   // One byte past the limit tells a file at the limit from a larger one
   // without reading all of a huge file.
@@ -491,9 +503,10 @@ Expected<YamlReader> YamlReader::from_string(std::string_view text, std::string 
   }
   if (document.IsDefined() && !document.IsNull() && !document.IsMap()) {
     const int line = line_of(document);
-    return make_error(ErrorCode::kInvalidArgument,
-                      prefix(*state, line) + "expected a mapping (key: value lines) at the top "
-                                             "level, got " + value_text(document));
+    return make_error(ErrorCode::kInvalidArgument, prefix(*state, line) +
+                                                       "expected a mapping (key: value lines) at the top "
+                                                       "level, got " +
+                                                       value_text(document));
   }
   if (!document.IsMap()) document = YAML::Node();  // empty file = empty mapping
   open_record(*state, "", document);
@@ -529,8 +542,7 @@ Status YamlReader::finish() const {
     message += all[i].text;
   }
   if (shown < all.size()) {
-    message += "\n" + state_->source + ": " + std::to_string(all.size() - shown) +
-               " more problems not shown";
+    message += "\n" + state_->source + ": " + std::to_string(all.size() - shown) + " more problems not shown";
   }
   return make_error(ErrorCode::kInvalidArgument, message);
 }

@@ -16,9 +16,12 @@ constexpr int kPixelMaskDilationPx = 4;
 
 const char* to_string(MotionState state) {
   switch (state) {
-    case MotionState::kStatic: return "static";
-    case MotionState::kMoving: return "moving";
-    case MotionState::kUnknown: break;
+    case MotionState::kStatic:
+      return "static";
+    case MotionState::kMoving:
+      return "moving";
+    case MotionState::kUnknown:
+      break;
   }
   return "unknown";
 }
@@ -42,6 +45,7 @@ cv::Mat box_instance_labels(const std::vector<ObjectBox>& boxes, cv::Size image_
   cv::Mat labels = cv::Mat::zeros(image_size, CV_16UC1);
   const cv::Rect image(cv::Point(0, 0), image_size);
   std::vector<const ObjectBox*> by_area;
+  by_area.reserve(boxes.size());
   for (const ObjectBox& b : boxes) by_area.push_back(&b);
   // Largest first, so smaller (usually nearer, in front) boxes overwrite.
   std::stable_sort(by_area.begin(), by_area.end(),
@@ -72,8 +76,8 @@ bool wants_pixel_mask(config::MaskingMode mode, double mar, const config::Dynami
           mar >= config.tau_mar);
 }
 
-Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& objects,
-                                cv::Size image_size, const config::DynamicConfig& config) {
+Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& objects, cv::Size image_size,
+                                const config::DynamicConfig& config) {
   MaskResult out;
   out.dynamic_boxes = dynamic_boxes(objects.boxes, image_size, config);
   out.mar = box_union_ratio(out.dynamic_boxes, image_size);
@@ -84,10 +88,9 @@ Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& ob
     out.instance_labels = box_instance_labels(out.dynamic_boxes, image_size);
   } else {
     if (!objects.segment) {
-      return make_error(ErrorCode::kUnsupported,
-                        std::string("mode ") + config::to_string(mode) +
-                            " needs pixel masks (mar " + std::to_string(out.mar) +
-                            "), but the detector has no segmentation");
+      return make_error(ErrorCode::kUnsupported, std::string("mode ") + config::to_string(mode) +
+                                                     " needs pixel masks (mar " + std::to_string(out.mar) +
+                                                     "), but the detector has no segmentation");
     }
     SITEPOSE_TRY(cv::Mat segmented, objects.segment(out.dynamic_boxes));
     if (segmented.type() != CV_16UC1 || segmented.size() != image_size) {
@@ -112,8 +115,8 @@ Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& ob
     cv::dilate(out.instance_labels, out.instance_labels, kernel);
     out.pixel_mask_used = true;
   }
-  out.masked_ratio = static_cast<double>(cv::countNonZero(out.instance_labels)) /
-                     std::max(1, image_size.area());
+  out.masked_ratio =
+      static_cast<double>(cv::countNonZero(out.instance_labels)) / std::max(1, image_size.area());
   return out;
 }
 

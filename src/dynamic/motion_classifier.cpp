@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "detail/point_displacement.hpp"
 #include "sitepose/core/stopwatch.hpp"
 #include "sitepose/features/hamming.hpp"
 #include "sitepose/optim/triangulation.hpp"
-#include "detail/point_displacement.hpp"
 
 namespace sitepose::dynamic {
 namespace {
@@ -80,7 +80,7 @@ std::vector<double> judge_paper(std::vector<double> errors_m, const config::Dyna
     const auto below = std::count_if(errors_m.begin(), errors_m.end(), [&](double e) { return e < gate; });
     v.score = static_cast<double>(below) / errors_m.size();
     v.raw = is_static_at(errors_m, gate, config.static_inlier_fraction) ? MotionState::kStatic
-                                                                       : MotionState::kMoving;
+                                                                        : MotionState::kMoving;
   }
   return errors_m;
 }
@@ -107,8 +107,7 @@ bool judge_sitepose(const std::vector<PointDisplacement>& points, const config::
   v.score = quantile(statistics, config.static_inlier_fraction);
   v.pooled_statistic = pooled_statistic(kept);
   const bool points_agree = is_static_at(statistics, config.chi2_static_3dof, config.static_inlier_fraction);
-  const bool object_still =
-      v.pooled_statistic <= (points_agree ? kPooledGate : kPooledGateWithPoints);
+  const bool object_still = v.pooled_statistic <= (points_agree ? kPooledGate : kPooledGateWithPoints);
   v.raw = !object_still ? MotionState::kMoving : points_agree ? MotionState::kStatic : MotionState::kUnknown;
   return v.raw == MotionState::kUnknown;
 }
@@ -142,7 +141,8 @@ std::vector<int> match_keypoints(const ObjectFeatures& current, const ObjectFeat
   for (int c = 0; c < n_cf; ++c) {
     const features::NearestTwo nearest = features::nearest_two(cf_descriptor(c), n_rf, rf_descriptor);
     const int r = nearest.index;
-    if (r < 0 || nearest.distance > kMaxMatchDistance || nearest.distance > kMatchRatio * nearest.second_distance) {
+    if (r < 0 || nearest.distance > kMaxMatchDistance ||
+        nearest.distance > kMatchRatio * nearest.second_distance) {
       continue;
     }
     if (nearest.distance < best_distance_of_ref[r]) {
@@ -162,13 +162,15 @@ std::vector<int> match_keypoints(const ObjectFeatures& current, const ObjectFeat
 
 // RF object of each CF object: votes of matched keypoints per (CF object, RF
 // object); greedily the pair with most votes, each object used once.
-std::map<std::uint16_t, std::uint16_t> associate_objects(const ObjectFeatures& current, const ObjectFeatures* ref,
+std::map<std::uint16_t, std::uint16_t> associate_objects(const ObjectFeatures& current,
+                                                         const ObjectFeatures* ref,
                                                          const std::vector<int>& match) {
   std::map<std::pair<std::uint16_t, std::uint16_t>, int> votes;
   for (std::size_t c = 0; c < match.size(); ++c) {
     if (match[c] >= 0) ++votes[{current.instance[c], ref->instance[match[c]]}];
   }
   std::vector<std::pair<int, std::pair<std::uint16_t, std::uint16_t>>> ranked;
+  ranked.reserve(votes.size());
   for (const auto& [pair, n] : votes) ranked.push_back({n, pair});
   std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   std::map<std::uint16_t, std::uint16_t> ref_of_current;
@@ -183,10 +185,9 @@ std::map<std::uint16_t, std::uint16_t> associate_objects(const ObjectFeatures& c
 
 }  // namespace
 
-ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
-                                    const std::vector<ObjectBox>& boxes, const SE3& T_world_cam,
-                                    const std::optional<Matrix6d>& covariance, double variance_factor,
-                                    double max_depth_m) {
+ObjectFeatures make_object_features(const tracking::PreparedFrame& frame, const std::vector<ObjectBox>& boxes,
+                                    const SE3& T_world_cam, const std::optional<Matrix6d>& covariance,
+                                    double variance_factor, double max_depth_m) {
   ObjectFeatures out;
   out.variance_factor = variance_factor;
   out.seq = frame.seq;
@@ -227,8 +228,8 @@ double clamped_variance_factor(double variance_factor) {
 
 bool is_static_at(const std::vector<double>& statistics, double threshold, double fraction) {
   if (statistics.empty()) return false;
-  const auto below = std::count_if(statistics.begin(), statistics.end(),
-                                   [&](double s) { return s < threshold; });
+  const auto below =
+      std::count_if(statistics.begin(), statistics.end(), [&](double s) { return s < threshold; });
   return static_cast<double>(below) > fraction * static_cast<double>(statistics.size());
 }
 
@@ -238,8 +239,8 @@ MotionClassifier::MotionClassifier(const StereoCamera& camera, const config::Dyn
   reference_offset_ = config.reference_offset_frames > 0
                           ? config.reference_offset_frames
                           : std::max(1, static_cast<int>(std::lround(fps / 2.5)));
-  capacity_ = static_cast<std::size_t>(
-      std::max<double>(reference_offset_, std::ceil(kRingSeconds * fps)) + 1);
+  capacity_ =
+      static_cast<std::size_t>(std::max<double>(reference_offset_, std::ceil(kRingSeconds * fps)) + 1);
   max_depth_m_ = kMaxDepthBaselines * camera.baseline_m;
   double s = 1.0;
   for (int l = 0; l < std::max(1, n_levels); ++l) {
@@ -268,18 +269,15 @@ void MotionClassifier::remember(ObjectFeatures frame) {
 
 double MotionClassifier::pixel_sigma_px(int octave, double variance_factor) const {
   const int level = std::clamp(octave, 0, static_cast<int>(level_scale_.size()) - 1);
-  return kPixelSigmaPx * level_scale_[level] *
-         std::sqrt(clamped_variance_factor(variance_factor));
+  return kPixelSigmaPx * level_scale_[level] * std::sqrt(clamped_variance_factor(variance_factor));
 }
 
-std::optional<MotionClassifier::WorldPoint> MotionClassifier::to_world(const Eigen::Vector2d& uv_px,
-                                                                       double u_right_px, int octave,
-                                                                       double variance_factor,
-                                                                       const SE3& T_world_cam,
-                                                                       const Matrix6d* pose_covariance) const {
+std::optional<MotionClassifier::WorldPoint> MotionClassifier::to_world(
+    const Eigen::Vector2d& uv_px, double u_right_px, int octave, double variance_factor,
+    const SE3& T_world_cam, const Matrix6d* pose_covariance) const {
   const double sigma_px = pixel_sigma_px(octave, variance_factor);
-  const auto p_cam = optim::stereo_point_in_camera(camera_, uv_px, u_right_px,
-                                                   optim::stereo_pixel_covariance(sigma_px, sigma_px, sigma_px));
+  const auto p_cam = optim::stereo_point_in_camera(
+      camera_, uv_px, u_right_px, optim::stereo_pixel_covariance(sigma_px, sigma_px, sigma_px));
   if (!p_cam) return std::nullopt;
   const optim::PointWithCovariance p_world = optim::point_to_world(*p_cam, T_world_cam, pose_covariance);
   const Eigen::Matrix3d R_world_cam = T_world_cam.rotation_matrix();
@@ -344,8 +342,8 @@ std::vector<ClassifiedObject> MotionClassifier::classify(const ObjectFeatures& c
   std::vector<ClassifiedObject> out = unclassified_objects(current.boxes);
   const auto t_match = SteadyClock::now();
   const ObjectFeatures* ref = select_reference(current);
-  const std::vector<int> match = ref != nullptr ? match_keypoints(current, *ref)
-                                                : std::vector<int>(current.uv_px.size(), -1);
+  const std::vector<int> match =
+      ref != nullptr ? match_keypoints(current, *ref) : std::vector<int>(current.uv_px.size(), -1);
   const std::map<std::uint16_t, std::uint16_t> ref_of_current = associate_objects(current, ref, match);
   timings_.match_ms = ms_since(t_match);
 
@@ -367,8 +365,8 @@ std::vector<PointDisplacement> MotionClassifier::displacements(const Pairing& pa
     if (pairing.match[c] < 0 || current.instance[c] != instance) continue;
     const int r = pairing.match[c];
     if (ref.instance[r] != ref_instance) continue;
-    const auto w_cf = to_world(current.uv_px[c], current.u_right_px[c], current.octave[c], current.variance_factor,
-                               current.T_world_cam, cov_cf);
+    const auto w_cf = to_world(current.uv_px[c], current.u_right_px[c], current.octave[c],
+                               current.variance_factor, current.T_world_cam, cov_cf);
     // RF's pose error is left out: RF and CF are tracked against the same map
     // points, so their errors are strongly correlated and adding both
     // covariances overstates the relative error (a machine 8 cm from where it
@@ -387,7 +385,8 @@ std::vector<PointDisplacement> MotionClassifier::displacements(const Pairing& pa
   return points;
 }
 
-void MotionClassifier::judge(const Pairing& pairing, const std::map<std::uint16_t, std::uint16_t>& ref_of_current,
+void MotionClassifier::judge(const Pairing& pairing,
+                             const std::map<std::uint16_t, std::uint16_t>& ref_of_current,
                              ClassifiedObject& object) {
   ObjectVerdict& v = object.verdict;
   const bool paper = config_.classifier == config::ClassifierMode::kPaper;

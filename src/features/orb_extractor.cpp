@@ -85,9 +85,8 @@ OrbExtractor::OrbExtractor(const config::OrbConfig& config) : config_(config) {
   // One level per compute() call: the keypoints are given in that level's
   // pixels, so OpenCV blurs exactly our level image (7x7, sigma 2) and uses
   // our angle; its border filter is kEdgeMarginPx, which our keypoints meet.
-  descriptor_ = cv::ORB::create(config.n_features, static_cast<float>(config.scale_factor), 1,
-                                kEdgeMarginPx, 0, 2, cv::ORB::HARRIS_SCORE, kPatchSizePx,
-                                config.ini_fast_threshold);
+  descriptor_ = cv::ORB::create(config.n_features, static_cast<float>(config.scale_factor), 1, kEdgeMarginPx,
+                                0, 2, cv::ORB::HARRIS_SCORE, kPatchSizePx, config.ini_fast_threshold);
 }
 
 Expected<OrbExtractor> OrbExtractor::create(const config::OrbConfig& config) {
@@ -114,7 +113,10 @@ ImagePyramid OrbExtractor::build_pyramid(const cv::Mat& image) const {
   return pyramid;
 }
 
-Expected<OrbFeatures> OrbExtractor::extract(const cv::Mat& image, const cv::Mat& mask) {
+namespace {
+
+// extract()'s preconditions, as errors that say what was given.
+Status check_extract_inputs(const cv::Mat& image, const cv::Mat& mask) {
   constexpr int kMinSide = 2 * (kEdgeMarginPx + 1);
   if (image.empty() || image.type() != CV_8UC1) {
     return make_error(ErrorCode::kInvalidArgument,
@@ -123,10 +125,10 @@ Expected<OrbFeatures> OrbExtractor::extract(const cv::Mat& image, const cv::Mat&
                           std::to_string(image.rows));
   }
   if (image.cols < kMinSide || image.rows < kMinSide) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "ORB extraction: image " + std::to_string(image.cols) + "x" +
-                          std::to_string(image.rows) + " is smaller than " + std::to_string(kMinSide) +
-                          "x" + std::to_string(kMinSide));
+    return make_error(ErrorCode::kInvalidArgument, "ORB extraction: image " + std::to_string(image.cols) +
+                                                       "x" + std::to_string(image.rows) +
+                                                       " is smaller than " + std::to_string(kMinSide) + "x" +
+                                                       std::to_string(kMinSide));
   }
   if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != image.size())) {
     return make_error(ErrorCode::kInvalidArgument,
@@ -135,7 +137,13 @@ Expected<OrbFeatures> OrbExtractor::extract(const cv::Mat& image, const cv::Mat&
                           std::to_string(mask.type()) + " size " + std::to_string(mask.cols) + "x" +
                           std::to_string(mask.rows));
   }
+  return ok_status();
+}
 
+}  // namespace
+
+Expected<OrbFeatures> OrbExtractor::extract(const cv::Mat& image, const cv::Mat& mask) {
+  SITEPOSE_TRY_STATUS(check_extract_inputs(image, mask));
   OrbFeatures out;
   out.pyramid = build_pyramid(image);
   const ImagePyramid& pyramid = out.pyramid;
@@ -160,12 +168,10 @@ Expected<OrbFeatures> OrbExtractor::extract(const cv::Mat& image, const cv::Mat&
       const int v = std::clamp(static_cast<int>(std::lround(float(p0.y))), 0, mask.rows - 1);
       return mask.at<std::uint8_t>(v, u) != 0;
     };
-    const std::vector<cv::KeyPoint> candidates =
-        detail::detect_fast_per_cell(img, area, config_.grid_cell_px, config_.ini_fast_threshold,
-                                     config_.min_fast_threshold, is_masked);
+    const std::vector<cv::KeyPoint> candidates = detail::detect_fast_per_cell(
+        img, area, config_.grid_cell_px, config_.ini_fast_threshold, config_.min_fast_threshold, is_masked);
     const std::vector<int> picked = detail::distribute_quadtree(
-        candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)),
-        budget);
+        candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)), budget);
     if (picked.empty()) continue;
     // Unused budget (texture-poor or masked level) moves to the next level.
     carried_budget = budget - static_cast<int>(picked.size());

@@ -17,11 +17,10 @@ constexpr std::int64_t kNsPerSecond = 1'000'000'000;
 constexpr std::int64_t kNsPerDay = 86'400 * kNsPerSecond;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-Unexpected field_error(std::string_view type, int index, std::string_view meaning,
-                       std::string_view text, std::string_view expected) {
-  return make_error(ErrorCode::kParseError,
-                    fmt::format("{} field {} ({}) = '{}': expected {}", type, index, meaning, text,
-                                expected));
+Unexpected field_error(std::string_view type, int index, std::string_view meaning, std::string_view text,
+                       std::string_view expected) {
+  return make_error(ErrorCode::kParseError, fmt::format("{} field {} ({}) = '{}': expected {}", type, index,
+                                                        meaning, text, expected));
 }
 
 std::vector<std::string_view> split_fields(std::string_view body) {
@@ -79,7 +78,7 @@ Expected<double> parse_angle(std::string_view type, int index, std::string_view 
   const int degree_digits = latitude ? 2 : 3;
   const std::size_t dot = text.find('.');
   const std::size_t integer_digits = dot == std::string_view::npos ? text.size() : dot;
-  if (!value || *value < 0.0 || integer_digits != static_cast<std::size_t>(degree_digits + 2)) {
+  if (!value || *value < 0.0 || integer_digits != static_cast<std::size_t>(degree_digits) + 2) {
     return field_error(type, index, meaning, text,
                        latitude ? "2 degree digits then minutes, e.g. 4807.038"
                                 : "3 degree digits then minutes, e.g. 01131.000");
@@ -88,16 +87,15 @@ Expected<double> parse_angle(std::string_view type, int index, std::string_view 
   const double minutes = *value - degrees * 100.0;
   const double limit = latitude ? 90.0 : 180.0;
   if (minutes >= 60.0 || degrees + minutes / 60.0 > limit) {
-    return field_error(type, index, meaning, text,
-                       latitude ? "at most 90 degrees and minutes < 60"
-                                : "at most 180 degrees and minutes < 60");
+    return field_error(
+        type, index, meaning, text,
+        latitude ? "at most 90 degrees and minutes < 60" : "at most 180 degrees and minutes < 60");
   }
   double result = degrees + minutes / 60.0;
   const char positive = latitude ? 'N' : 'E';
   const char negative = latitude ? 'S' : 'W';
   if (hemisphere.size() != 1 || (hemisphere[0] != positive && hemisphere[0] != negative)) {
-    return field_error(type, index + 1, latitude ? "N/S" : "E/W", hemisphere,
-                       latitude ? "N or S" : "E or W");
+    return field_error(type, index + 1, latitude ? "N/S" : "E/W", hemisphere, latitude ? "N or S" : "E or W");
   }
   if (hemisphere[0] == negative) result = -result;
   return result;
@@ -137,8 +135,8 @@ Expected<GgaSentence> parse_gga(const std::vector<std::string_view>& f) {
   const bool has_lat = std::isfinite(s.fix.position.latitude_deg);
   const bool has_lon = std::isfinite(s.fix.position.longitude_deg);
   if (has_lat != has_lon) {
-    return field_error("GGA", has_lat ? 4 : 2, has_lat ? "longitude" : "latitude",
-                       has_lat ? f[4] : f[2], "both latitude and longitude, or neither");
+    return field_error("GGA", has_lat ? 4 : 2, has_lat ? "longitude" : "latitude", has_lat ? f[4] : f[2],
+                       "both latitude and longitude, or neither");
   }
   const bool has_lat_lon = has_lat && has_lon;
   if (!has_lat_lon) {
@@ -167,8 +165,7 @@ Expected<RmcSentence> parse_rmc(const std::vector<std::string_view>& f) {
   // $--RMC,time,status,lat,N,lon,E,sog,cog,ddmmyy,magvar,E[,mode[,nav status]]
   if (f.size() < 12) {
     return make_error(ErrorCode::kParseError,
-                      fmt::format("RMC: {} fields, expected at least 12 (time .. variation E/W)",
-                                  f.size()));
+                      fmt::format("RMC: {} fields, expected at least 12 (time .. variation E/W)", f.size()));
   }
   RmcSentence s;
   SITEPOSE_TRY(s.time_of_day_ns, parse_time("RMC", 1, f[1]));
@@ -204,8 +201,7 @@ Expected<NmeaSentence> parse_nmea_sentence(std::string_view line) {
   }
   const std::size_t star = line.rfind('*');
   if (star == std::string_view::npos || star + 3 != line.size()) {
-    return make_error(ErrorCode::kParseError,
-                      "missing checksum: expected the sentence to end with '*hh'");
+    return make_error(ErrorCode::kParseError, "missing checksum: expected the sentence to end with '*hh'");
   }
   const std::string_view body = line.substr(1, star - 1);
   unsigned expected_checksum = 0;
@@ -225,8 +221,7 @@ Expected<NmeaSentence> parse_nmea_sentence(std::string_view line) {
   const std::vector<std::string_view> fields = split_fields(body);
   if (fields[0].size() != 5) {
     return make_error(ErrorCode::kParseError,
-                      fmt::format("address field '{}': expected 2-letter talker + 3-letter type",
-                                  fields[0]));
+                      fmt::format("address field '{}': expected 2-letter talker + 3-letter type", fields[0]));
   }
   NmeaSentence sentence;
   sentence.talker = std::string(fields[0].substr(0, 2));
@@ -267,8 +262,7 @@ Expected<NmeaReadResult> read_nmea_stream(std::istream& in, const std::string& s
     ++result.lines_read;
     auto sentence = parse_nmea_sentence(view);
     if (!sentence) {
-      const std::string where =
-          fmt::format("{}:{}: {}", source_name, line_number, sentence.error().message);
+      const std::string where = fmt::format("{}:{}: {}", source_name, line_number, sentence.error().message);
       if (!options.skip_bad_lines) return make_error(sentence.error().code, where);
       if (result.lines_rejected++ == 0) result.first_rejection = where;
       continue;
@@ -282,8 +276,8 @@ Expected<NmeaReadResult> read_nmea_stream(std::istream& in, const std::string& s
     }
   }
   if (in.bad()) {
-    return make_error(ErrorCode::kIoError, fmt::format("{}: read error after line {}", source_name,
-                                                       line_number));
+    return make_error(ErrorCode::kIoError,
+                      fmt::format("{}: read error after line {}", source_name, line_number));
   }
   if (!ggas.empty() && rmcs.empty()) {
     return make_error(ErrorCode::kParseError,

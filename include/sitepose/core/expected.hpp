@@ -51,19 +51,19 @@ inline Unexpected make_error(ErrorCode code, std::string message) {
 }
 
 // SITEPOSE_CHECK: programmer errors (broken invariants), never input errors.
-#define SITEPOSE_CHECK(cond)                                                     \
-  do {                                                                           \
-    if (!(cond)) {                                                               \
+#define SITEPOSE_CHECK(cond)                                                        \
+  do {                                                                              \
+    if (!(cond)) {                                                                  \
       std::fprintf(stderr, "%s:%d: check failed: %s\n", __FILE__, __LINE__, #cond); \
-      std::abort();                                                              \
-    }                                                                            \
+      std::abort();                                                                 \
+    }                                                                               \
   } while (false)
 
 template <typename T>
 class [[nodiscard]] Expected {
  public:
   Expected(T value) : storage_(std::in_place_index<0>, std::move(value)) {}  // NOLINT
-  Expected(Unexpected unexpected)                                           // NOLINT
+  Expected(Unexpected unexpected)                                            // NOLINT
       : storage_(std::in_place_index<1>, std::move(unexpected.error)) {}
 
   bool has_value() const { return storage_.index() == 0; }
@@ -124,13 +124,16 @@ inline Status ok_status() { return Status{}; }
 //   SITEPOSE_TRY(auto cam, load_camera(path));
 #define SITEPOSE_CONCAT_INNER(a, b) a##b
 #define SITEPOSE_CONCAT(a, b) SITEPOSE_CONCAT_INNER(a, b)
-#define SITEPOSE_TRY(decl, expr)                                      \
-  auto SITEPOSE_CONCAT(sitepose_try_, __LINE__) = (expr);             \
-  if (!SITEPOSE_CONCAT(sitepose_try_, __LINE__))                      \
+// The NOLINT must stay on the line that uses decl.
+// clang-format off
+#define SITEPOSE_TRY(decl, expr)                                                     \
+  auto SITEPOSE_CONCAT(sitepose_try_, __LINE__) = (expr);                            \
+  if (!SITEPOSE_CONCAT(sitepose_try_, __LINE__))                                     \
     return ::sitepose::Unexpected{SITEPOSE_CONCAT(sitepose_try_, __LINE__).error()}; \
-  decl = std::move(SITEPOSE_CONCAT(sitepose_try_, __LINE__)).value()
-#define SITEPOSE_TRY_STATUS(expr)                                     \
-  do {                                                                \
-    auto sitepose_status_ = (expr);                                   \
+  decl = std::move(SITEPOSE_CONCAT(sitepose_try_, __LINE__)).value() /* NOLINT(bugprone-macro-parentheses): decl declares */
+// clang-format on
+#define SITEPOSE_TRY_STATUS(expr)                                                   \
+  do {                                                                              \
+    auto sitepose_status_ = (expr);                                                 \
     if (!sitepose_status_) return ::sitepose::Unexpected{sitepose_status_.error()}; \
   } while (false)

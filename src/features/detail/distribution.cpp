@@ -16,8 +16,8 @@ namespace {
 constexpr int kFastApronPx = 4;
 }  // namespace
 
-std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area,
-                                               int cell_px, int ini_threshold, int min_threshold,
+std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area, int cell_px,
+                                               int ini_threshold, int min_threshold,
                                                const std::function<bool(float, float)>& is_masked) {
   const cv::Rect roi(area.x - kFastApronPx, area.y - kFastApronPx, area.width + 2 * kFastApronPx,
                      area.height + 2 * kFastApronPx);
@@ -25,8 +25,12 @@ std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const
   const int n_cols = std::max(1, static_cast<int>(std::lround(double(area.width) / cell_px)));
   const int n_rows = std::max(1, static_cast<int>(std::lround(double(area.height) / cell_px)));
   // Integer cell edges, so "inside the cell" is exact for integer pixels.
-  auto col_edge = [&](int c) { return area.x + static_cast<int>(std::lround(double(area.width) * c / n_cols)); };
-  auto row_edge = [&](int r) { return area.y + static_cast<int>(std::lround(double(area.height) * r / n_rows)); };
+  auto col_edge = [&](int c) {
+    return area.x + static_cast<int>(std::lround(double(area.width) * c / n_cols));
+  };
+  auto row_edge = [&](int r) {
+    return area.y + static_cast<int>(std::lround(double(area.height) * r / n_rows));
+  };
 
   std::vector<cv::KeyPoint> found;
   cv::FAST(level_image(roi), found, ini_threshold, true, cv::FastFeatureDetector::TYPE_9_16);
@@ -56,7 +60,8 @@ std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const
   for (int r = 0; r < n_rows; ++r) {
     for (int c = 0; c < n_cols; ++c) {
       if (served[r * n_cols + c]) continue;
-      const cv::Rect cell(col_edge(c), row_edge(r), col_edge(c + 1) - col_edge(c), row_edge(r + 1) - row_edge(r));
+      const cv::Rect cell(col_edge(c), row_edge(r), col_edge(c + 1) - col_edge(c),
+                          row_edge(r + 1) - row_edge(r));
       if (cell.width <= 0 || cell.height <= 0) continue;
       const cv::Rect cell_roi(cell.x - kFastApronPx, cell.y - kFastApronPx, cell.width + 2 * kFastApronPx,
                               cell.height + 2 * kFastApronPx);
@@ -81,22 +86,12 @@ struct Node {
   float area() const { return (x1 - x0) * (y1 - y0); }
 };
 
-}  // namespace
-
-std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates,
-                                     const cv::Rect2f& area, int target) {
-  std::vector<int> picked;
-  if (target <= 0 || candidates.empty()) return picked;
-  if (static_cast<int>(candidates.size()) <= target) {
-    picked.resize(candidates.size());
-    std::iota(picked.begin(), picked.end(), 0);
-    return picked;
-  }
-
-  std::vector<Node> nodes;
-  // Near-square roots so that splits in four keep cells near-square.
+// Near-square root nodes side by side over `area`, so that splits in four
+// keep cells near-square; each candidate joins the root that holds its x.
+std::vector<Node> root_nodes(const std::vector<cv::KeyPoint>& candidates, const cv::Rect2f& area) {
   const int n_roots = std::max(1, static_cast<int>(std::lround(area.width / std::max(area.height, 1.0f))));
   const float root_w = area.width / n_roots;
+  std::vector<Node> nodes;
   for (int r = 0; r < n_roots; ++r) {
     nodes.push_back({area.x + r * root_w, area.y, area.x + (r + 1) * root_w, area.y + area.height, {}});
   }
@@ -105,6 +100,58 @@ std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates
     const int r = std::clamp(static_cast<int>((x - area.x) / root_w), 0, n_roots - 1);
     nodes[r].members.push_back(i);
   }
+  return nodes;
+}
+
+// The member with the strongest response (the lowest index among equals).
+int strongest_member(const Node& node, const std::vector<cv::KeyPoint>& candidates) {
+  int best = node.members.front();
+  for (const int m : node.members) {
+    if (candidates[m].response > candidates[best].response ||
+        (candidates[m].response == candidates[best].response && m < best)) {
+      best = m;
+    }
+  }
+  return best;
+}
+
+// The strongest member of each final node, ascending. The last split may
+// overshoot the target by up to three nodes: the weakest `overshoot` of its
+// children are left out, so the spread elsewhere is untouched.
+std::vector<int> strongest_of_final_nodes(const std::vector<Node>& nodes, const std::vector<int>& final_nodes,
+                                          std::vector<int> last_children, int overshoot,
+                                          const std::vector<cv::KeyPoint>& candidates) {
+  std::vector<char> dropped(nodes.size(), 0);
+  if (overshoot > 0) {
+    std::sort(last_children.begin(), last_children.end(), [&](int a, int b) {
+      return candidates[strongest_member(nodes[a], candidates)].response <
+             candidates[strongest_member(nodes[b], candidates)].response;
+    });
+    for (int k = 0; k < overshoot; ++k) dropped[last_children[k]] = 1;
+  }
+  std::vector<int> picked;
+  picked.reserve(final_nodes.size());
+  for (const int id : final_nodes) {
+    if (!dropped[id]) picked.push_back(strongest_member(nodes[id], candidates));
+  }
+  std::sort(picked.begin(), picked.end());
+  return picked;
+}
+
+}  // namespace
+
+std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates, const cv::Rect2f& area,
+                                     int target) {
+  std::vector<int> picked;
+  if (target <= 0 || candidates.empty()) return picked;
+  if (static_cast<int>(candidates.size()) <= target) {
+    picked.resize(candidates.size());
+    std::iota(picked.begin(), picked.end(), 0);
+    return picked;
+  }
+
+  std::vector<Node> nodes = root_nodes(candidates, area);
+  const int n_roots = static_cast<int>(nodes.size());
 
   // Largest node first, so cells shrink evenly over the image (spatial
   // spread); among equal sizes the more crowded one, then creation order.
@@ -165,32 +212,7 @@ std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates
     splittable.pop();
   }
 
-  auto strongest = [&](int id) {
-    const auto& members = nodes[id].members;
-    int best = members.front();
-    for (const int m : members) {
-      if (candidates[m].response > candidates[best].response ||
-          (candidates[m].response == candidates[best].response && m < best)) {
-        best = m;
-      }
-    }
-    return best;
-  };
-  // The last split may overshoot by up to three nodes: drop the weakest of
-  // its children only, so the spread elsewhere is untouched.
-  std::vector<char> dropped(nodes.size(), 0);
-  if (n_nodes > target) {
-    std::sort(last_children.begin(), last_children.end(), [&](int a, int b) {
-      return candidates[strongest(a)].response < candidates[strongest(b)].response;
-    });
-    for (int k = 0; k < n_nodes - target; ++k) dropped[last_children[k]] = 1;
-  }
-  picked.reserve(final_nodes.size());
-  for (const int id : final_nodes) {
-    if (!dropped[id]) picked.push_back(strongest(id));
-  }
-  std::sort(picked.begin(), picked.end());
-  return picked;
+  return strongest_of_final_nodes(nodes, final_nodes, std::move(last_children), n_nodes - target, candidates);
 }
 
 }  // namespace sitepose::features::detail
