@@ -155,9 +155,8 @@ bool contains(const std::vector<std::string>& list, std::string_view item) {
 
 }  // namespace
 
-Status compare_documented(const DocumentedFile& file, const std::string& text,
-                          const YamlReader& reader, const std::vector<YamlEntry>& defaults,
-                          const std::vector<YamlEntry>& documented) {
+Status compare_documented(const DocumentedFile& file, const std::string& text, const YamlReader& reader,
+                          const std::vector<YamlEntry>& defaults, const std::vector<YamlEntry>& documented) {
   std::unordered_map<std::string, const YamlEntry*> documented_by_path;
   for (const YamlEntry& entry : documented) documented_by_path[entry.path] = &entry;
   const YamlMap root = reader.root();
@@ -165,14 +164,12 @@ Status compare_documented(const DocumentedFile& file, const std::string& text,
   for (const YamlEntry& entry : defaults) {
     const std::string where = file.path + ": " + entry.path;
     const bool in_file = present(root, entry.path);
-    const bool elsewhere =
-        contains(file.documented_elsewhere, entry.path.substr(0, entry.path.find('.')));
+    const bool elsewhere = contains(file.documented_elsewhere, entry.path.substr(0, entry.path.find('.')));
     if (entry.absent) {
       if (in_file) {
         problems.push_back(where + ": set, but absent by default (document it in a comment)");
       } else if (!elsewhere && !commented(text, entry.key)) {
-        problems.push_back(where + ": not documented (expected a comment line \"# " + entry.key +
-                           ": ...\")");
+        problems.push_back(where + ": not documented (expected a comment line \"# " + entry.key + ": ...\")");
       }
       continue;
     }
@@ -187,18 +184,19 @@ Status compare_documented(const DocumentedFile& file, const std::string& text,
     const auto found = documented_by_path.find(entry.path);
     const std::string value = found != documented_by_path.end() ? found->second->value : "";
     const bool shipped = contains(file.shipped_values, entry.path);
+    std::string problem = where;
+    problem.append(" = ").append(value);
     if (shipped && value == entry.value) {
-      problems.push_back(where + " = " + value +
-                         ": listed as a deployment value, but equals the default");
+      problems.push_back(problem.append(": listed as a deployment value, but equals the default"));
     } else if (!shipped && value != entry.value) {
-      problems.push_back(where + " = " + value + ": the default is " + entry.value);
+      problems.push_back(problem.append(": the default is ").append(entry.value));
     }
   }
   for (const std::string& path : file.shipped_values) {
-    const bool known = std::any_of(defaults.begin(), defaults.end(), [&](const YamlEntry& e) {
-      return e.path == path && !e.section;
-    });
-    if (!known) problems.push_back(file.path + ": " + path + ": listed as a deployment value, but no such key");
+    const bool known = std::any_of(defaults.begin(), defaults.end(),
+                                   [&](const YamlEntry& e) { return e.path == path && !e.section; });
+    if (!known)
+      problems.push_back(file.path + ": " + path + ": listed as a deployment value, but no such key");
   }
   if (problems.empty()) return ok_status();
   std::string message;

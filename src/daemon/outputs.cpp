@@ -31,8 +31,7 @@ Expected<std::unique_ptr<Anchoring>> Anchoring::create(const GeoConfig& config) 
 
 void Anchoring::push_fix(const geo::GnssFix& fix) {
   // Drop-oldest: a burst of fixes must not stall the receiving thread.
-  geo::GnssFix copy = fix;
-  (void)fixes_.push_drop_oldest(std::move(copy));
+  (void)fixes_.push_drop_oldest(geo::GnssFix{fix});
 }
 
 void Anchoring::set_scheduled_fixes(std::vector<geo::GnssFix> fixes) {
@@ -125,13 +124,11 @@ Status CanOutput::publish(const pipeline::PosePacket& packet) {
     in.altitude_m = site->geodetic.height_m;
     in.heading_rad = site->heading_deg * kDegToRad;  // NaN stays NaN: "not available"
     in.quality.position_std_m = site->position_std_m;
-    const Eigen::Vector3d forward =
-        site->T_site_cam.rotation() * geo::axis_vector(anchoring_.forward_axis());
+    const Eigen::Vector3d forward = site->T_site_cam.rotation() * geo::axis_vector(anchoring_.forward_axis());
     in.pitch_rad = std::atan2(forward.z(), std::hypot(forward.x(), forward.y()));
     in.course_over_ground_rad = in.speed_over_ground_mps = kNaN;
     const Eigen::Vector3d p = site->T_site_cam.translation();
-    if (last_site_position_ && pose.t_ns > last_site_position_->first &&
-        pose.state != TrackingState::kLost) {
+    if (last_site_position_ && pose.t_ns > last_site_position_->first && pose.state != TrackingState::kLost) {
       const Eigen::Vector3d d = p - last_site_position_->second;
       const double dt_s = static_cast<double>(pose.t_ns - last_site_position_->first) * 1e-9;
       in.speed_over_ground_mps = std::hypot(d.x(), d.y()) / dt_s;

@@ -47,9 +47,9 @@ namespace sitepose::config {
 // One line of written YAML: a key with its value text, or the start of a
 // nested mapping (section) whose keys follow one level deeper.
 struct YamlEntry {
-  std::string path;   // dotted key path, "outputs.can.path"
-  std::string key;    // its last part, "path"
-  int depth = 0;      // nesting level, 0 at the top
+  std::string path;  // dotted key path, "outputs.can.path"
+  std::string key;   // its last part, "path"
+  int depth = 0;     // nesting level, 0 at the top
   bool section = false;
   std::string value;  // YAML text of the value; empty for a section
   // An optional section absent from the value: nothing is written for it
@@ -167,14 +167,14 @@ class Section {
   template <typename Get, typename Set, typename... Rules>
   Section& computed(std::string name, Get get, Set set, Rules... rules) {
     using Y = std::decay_t<std::invoke_result_t<Get, const S&>>;
-    return add_key(std::move(name), false, Access<Y>{std::move(get), std::move(set)},
-                   std::move(rules)...);
+    return add_key(std::move(name), false, Access<Y>{std::move(get), std::move(set)}, std::move(rules)...);
   }
   // An enum member written as its name; other names are errors listing the
   // accepted ones ("expected one of: candump, stdout").
   template <typename E>
   Section& choice(std::string name, E S::*member, std::vector<Choice<E>> choices) {
     std::vector<std::string> names;
+    names.reserve(choices.size());
     for (const auto& c : choices) names.emplace_back(c.name);
     std::string expectation = "expected one of: " + join_choices(names, ", ");
     auto parse = [choices, expectation](const std::string& text) -> Expected<E> {
@@ -209,7 +209,7 @@ class Section {
 
   // A nested mapping.
   template <typename N>
-  Section& section(std::string name, N S::*member, Section<N> nested) {
+  Section& section(const std::string& name, N S::*member, Section<N> nested) {
     auto table = std::make_shared<const Section<N>>(std::move(nested));
     Field field;
     field.name = name;
@@ -228,7 +228,7 @@ class Section {
   }
   // A nested mapping whose keys are fields of S itself (a file layout that
   // groups keys differently from the structs).
-  Section& group(std::string name, Section<S> nested) {
+  Section& group(const std::string& name, Section<S> nested) {
     auto table = std::make_shared<const Section<S>>(std::move(nested));
     Field field;
     field.name = name;
@@ -248,8 +248,8 @@ class Section {
   // A nested mapping that is absent unless the file gives it (then read
   // from N's defaults); `note` says what holds when it is absent.
   template <typename N>
-  Section& optional_section(std::string name, std::optional<N> S::*member, Section<N> nested,
-                            std::string note) {
+  Section& optional_section(const std::string& name, std::optional<N> S::*member, Section<N> nested,
+                            const std::string& note) {
     auto table = std::make_shared<const Section<N>>(std::move(nested));
     Field field;
     field.name = name;
@@ -320,8 +320,7 @@ class Section {
     std::function<void(S&, Y)> set;
 
     static Access of(Y S::*member) {
-      return {[member](const S& s) { return s.*member; },
-              [member](S& s, Y v) { s.*member = std::move(v); }};
+      return {[member](const S& s) { return s.*member; }, [member](S& s, Y v) { s.*member = std::move(v); }};
     }
   };
 
@@ -339,8 +338,7 @@ class Section {
     field.name = name;
     field.read = [name, required, access, rules...](const YamlMap& map, S& s) {
       Y value = access.get(s);
-      const bool ok = required ? map.read_required(name, value, rules...)
-                               : map.read(name, value, rules...);
+      const bool ok = required ? map.read_required(name, value, rules...) : map.read(name, value, rules...);
       if (ok) access.set(s, std::move(value));
       return ok;
     };
@@ -385,9 +383,8 @@ namespace detail {
 // Compares a documented file with the table's keys: `defaults` and
 // `documented` are the entries (expand_absent) of S{} and of the file read
 // into S{}; `reader` holds the file (finish() passed).
-Status compare_documented(const DocumentedFile& file, const std::string& text,
-                          const YamlReader& reader, const std::vector<YamlEntry>& defaults,
-                          const std::vector<YamlEntry>& documented);
+Status compare_documented(const DocumentedFile& file, const std::string& text, const YamlReader& reader,
+                          const std::vector<YamlEntry>& defaults, const std::vector<YamlEntry>& documented);
 }  // namespace detail
 
 // A documented file agrees with the table: it reads without a problem (no

@@ -42,8 +42,9 @@ class OpencvDnnPlugin final : public PluginImpl {
     double score_threshold = 0.3, nms_iou = 0.45;
   };
 
-  OpencvDnnPlugin(Options options, cv::dnn::Net net, std::vector<std::string> classes)
-      : options_(std::move(options)), net_(std::move(net)), classes_(std::move(classes)) {
+  // cv::dnn::Net is a shared handle without a move constructor: copies are cheap.
+  OpencvDnnPlugin(Options options, const cv::dnn::Net& net, std::vector<std::string> classes)
+      : options_(std::move(options)), net_(net), classes_(std::move(classes)) {
     outputs_ = net_.getUnconnectedOutLayersNames();
   }
 
@@ -53,9 +54,9 @@ class OpencvDnnPlugin final : public PluginImpl {
                                              std::int64_t) override {
     cv::Mat bgr;
     cv::cvtColor(left, bgr, cv::COLOR_GRAY2BGR);
-    const cv::Mat blob = cv::dnn::blobFromImage(
-        bgr, 1.0 / 255.0, cv::Size(options_.input_width_px, options_.input_height_px),
-        cv::Scalar(), true, false, CV_32F);
+    const cv::Mat blob =
+        cv::dnn::blobFromImage(bgr, 1.0 / 255.0, cv::Size(options_.input_width_px, options_.input_height_px),
+                               cv::Scalar(), true, false, CV_32F);
     net_.setInput(blob);
     std::vector<cv::Mat> outs;
     net_.forward(outs, outputs_);
@@ -67,8 +68,8 @@ class OpencvDnnPlugin final : public PluginImpl {
       if (out.dims != 2 || out.cols < 6 || out.type() != CV_32F) {
         return make_error(ErrorCode::kUnsupported,
                           "opencv-dnn: output is not YOLO-style (rows of [cx, cy, w, h, obj, "
-                          "classes...]): dims " + std::to_string(out.dims) + ", cols " +
-                              std::to_string(out.cols));
+                          "classes...]): dims " +
+                              std::to_string(out.dims) + ", cols " + std::to_string(out.cols));
       }
       for (int r = 0; r < out.rows; ++r) {
         const float* row = out.ptr<float>(r);
@@ -107,17 +108,16 @@ class OpencvDnnPlugin final : public PluginImpl {
     for (int k : keep) {
       const auto i = static_cast<std::size_t>(k);
       const int c = class_ids[i];
-      const std::string name = c < static_cast<int>(classes_.size())
-                                   ? classes_[static_cast<std::size_t>(c)]
-                                   : "class" + std::to_string(c);
+      const std::string name = c < static_cast<int>(classes_.size()) ? classes_[static_cast<std::size_t>(c)]
+                                                                     : "class" + std::to_string(c);
       if (id == 0xFFFF) break;
       result.push_back(make_detection(name, scores[i], boxes[i], ++id));
     }
     return result;
   }
 
-  Status segment(const cv::Mat&, const cv::Mat&, std::int64_t, std::int64_t,
-                 const std::vector<sp_detection>&, cv::Mat&) override {
+  Status segment(const cv::Mat&, const cv::Mat&, std::int64_t, std::int64_t, const std::vector<sp_detection>&,
+                 cv::Mat&) override {
     return make_error(ErrorCode::kUnsupported, "opencv-dnn: no segmentation");
   }
 
@@ -181,16 +181,15 @@ Expected<std::unique_ptr<PluginImpl>> make_plugin(const YAML::Node& config) {
   try {
     net = cv::dnn::readNet(o.model_weights, o.model_config);
   } catch (const cv::Exception& e) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "opencv-dnn: cannot read model " + o.model_weights + " / " + o.model_config +
-                          ": " + e.what());
+    return make_error(ErrorCode::kInvalidArgument, "opencv-dnn: cannot read model " + o.model_weights +
+                                                       " / " + o.model_config + ": " + e.what());
   }
   if (net.empty()) {
     return make_error(ErrorCode::kInvalidArgument, "opencv-dnn: empty network from " + o.model_weights);
   }
   net.setPreferableBackend(cv::dnn::DNN_BACKEND_OPENCV);
   net.setPreferableTarget(cv::dnn::DNN_TARGET_CPU);
-  return std::unique_ptr<PluginImpl>(new OpencvDnnPlugin(std::move(o), std::move(net), std::move(classes)));
+  return std::unique_ptr<PluginImpl>(new OpencvDnnPlugin(std::move(o), net, std::move(classes)));
 }
 
 }  // namespace sitepose::detect::plugin

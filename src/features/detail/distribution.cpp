@@ -92,6 +92,7 @@ std::vector<Node> root_nodes(const std::vector<cv::KeyPoint>& candidates, const 
   const int n_roots = std::max(1, static_cast<int>(std::lround(area.width / std::max(area.height, 1.0f))));
   const float root_w = area.width / n_roots;
   std::vector<Node> nodes;
+  nodes.reserve(static_cast<std::size_t>(n_roots));
   for (int r = 0; r < n_roots; ++r) {
     nodes.push_back({area.x + r * root_w, area.y, area.x + (r + 1) * root_w, area.y + area.height, {}});
   }

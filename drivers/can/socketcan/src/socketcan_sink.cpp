@@ -45,17 +45,14 @@ ErrnoKind classify(int err) {
 #endif
       return ErrnoKind::kTxFull;
     case ENETDOWN:
-    case ENETUNREACH:
-      return ErrnoKind::kDown;
+    case ENETUNREACH: return ErrnoKind::kDown;
     case ENODEV:
     case ENXIO:
     case EPIPE:
     case EBADF:
     case ECONNRESET:
-    case ENOTCONN:
-      return ErrnoKind::kGone;
-    default:
-      return ErrnoKind::kOther;
+    case ENOTCONN: return ErrnoKind::kGone;
+    default: return ErrnoKind::kOther;
   }
 }
 
@@ -67,20 +64,13 @@ CanFrame with_source_address(CanFrame f, std::uint8_t source_address) {
 // Why a pose is refused in a state other than kUp.
 const char* refusal_reason(CanLinkState state) {
   switch (state) {
-    case CanLinkState::kClaiming:
-      return "J1939 address claim in progress";
-    case CanLinkState::kCannotClaim:
-      return "no J1939 address (lost the claim, Cannot Claim sent)";
-    case CanLinkState::kBusOff:
-      return "controller bus-off";
-    case CanLinkState::kDown:
-      return "interface down";
-    case CanLinkState::kGone:
-      return "interface gone";
-    case CanLinkState::kClosed:
-      return "sink closed";
-    case CanLinkState::kUp:
-      break;
+    case CanLinkState::kClaiming: return "J1939 address claim in progress";
+    case CanLinkState::kCannotClaim: return "no J1939 address (lost the claim, Cannot Claim sent)";
+    case CanLinkState::kBusOff: return "controller bus-off";
+    case CanLinkState::kDown: return "interface down";
+    case CanLinkState::kGone: return "interface gone";
+    case CanLinkState::kClosed: return "sink closed";
+    case CanLinkState::kUp: break;
   }
   return "up";
 }
@@ -94,29 +84,21 @@ struct LogLine {
 
 const char* to_string(CanLinkState state) {
   switch (state) {
-    case CanLinkState::kClaiming:
-      return "claiming";
-    case CanLinkState::kUp:
-      return "up";
-    case CanLinkState::kCannotClaim:
-      return "cannot-claim";
-    case CanLinkState::kBusOff:
-      return "bus-off";
-    case CanLinkState::kDown:
-      return "down";
-    case CanLinkState::kGone:
-      return "gone";
-    case CanLinkState::kClosed:
-      return "closed";
+    case CanLinkState::kClaiming: return "claiming";
+    case CanLinkState::kUp: return "up";
+    case CanLinkState::kCannotClaim: return "cannot-claim";
+    case CanLinkState::kBusOff: return "bus-off";
+    case CanLinkState::kDown: return "down";
+    case CanLinkState::kGone: return "gone";
+    case CanLinkState::kClosed: return "closed";
   }
   return "?";
 }
 
 Status check_socketcan_sink_options(const SocketCanSinkOptions& o) {
   if (o.queue_frames < kMinQueueFrames || o.queue_frames > kMaxQueueFrames) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "SocketCAN queue = " + std::to_string(o.queue_frames) +
-                          " frames: must be 13..65536 (one pose has up to 13)");
+    return make_error(ErrorCode::kInvalidArgument, "SocketCAN queue = " + std::to_string(o.queue_frames) +
+                                                       " frames: must be 13..65536 (one pose has up to 13)");
   }
   if (o.backoff_min_ns <= 0 || o.backoff_max_ns < o.backoff_min_ns) {
     return make_error(ErrorCode::kInvalidArgument,
@@ -130,16 +112,12 @@ Status check_socketcan_sink_options(const SocketCanSinkOptions& o) {
 
 std::string format_stats(const std::string& interface, const SocketCanStats& s) {
   return interface + " " + to_string(s.state) + " sa=" + std::to_string(s.source_address) +
-         " poses submitted=" + std::to_string(s.poses_submitted) +
-         " sent=" + std::to_string(s.poses_sent) + " refused=" + std::to_string(s.poses_refused) +
-         " dropped=" + std::to_string(s.poses_dropped) +
+         " poses submitted=" + std::to_string(s.poses_submitted) + " sent=" + std::to_string(s.poses_sent) +
+         " refused=" + std::to_string(s.poses_refused) + " dropped=" + std::to_string(s.poses_dropped) +
          " (partial " + std::to_string(s.poses_partially_sent) + ")" +
-         " queued=" + std::to_string(s.poses_queued) +
-         " frames written=" + std::to_string(s.frames_written) +
-         " tx_full=" + std::to_string(s.tx_full) +
-         " write_errors=" + std::to_string(s.write_errors) +
-         " bus_off=" + std::to_string(s.bus_off) +
-         " error_passive=" + std::to_string(s.error_passive) +
+         " queued=" + std::to_string(s.poses_queued) + " frames written=" + std::to_string(s.frames_written) +
+         " tx_full=" + std::to_string(s.tx_full) + " write_errors=" + std::to_string(s.write_errors) +
+         " bus_off=" + std::to_string(s.bus_off) + " error_passive=" + std::to_string(s.error_passive) +
          " down=" + std::to_string(s.link_down) + " gone=" + std::to_string(s.link_gone) +
          " recoveries=" + std::to_string(s.recoveries) +
          " claims lost=" + std::to_string(s.node.contests_lost) +
@@ -226,22 +204,15 @@ class SocketCanSink::Io {
   CanLinkState state_locked() const {
     if (closed_) return CanLinkState::kClosed;
     switch (fault_) {
-      case Fault::kBusOff:
-        return CanLinkState::kBusOff;
-      case Fault::kDown:
-        return CanLinkState::kDown;
-      case Fault::kGone:
-        return CanLinkState::kGone;
-      case Fault::kNone:
-        break;
+      case Fault::kBusOff: return CanLinkState::kBusOff;
+      case Fault::kDown: return CanLinkState::kDown;
+      case Fault::kGone: return CanLinkState::kGone;
+      case Fault::kNone: break;
     }
     switch (node_.state()) {
-      case output::J1939AddressState::kClaimed:
-        return CanLinkState::kUp;
-      case output::J1939AddressState::kCannotClaim:
-        return CanLinkState::kCannotClaim;
-      default:
-        return CanLinkState::kClaiming;
+      case output::J1939AddressState::kClaimed: return CanLinkState::kUp;
+      case output::J1939AddressState::kCannotClaim: return CanLinkState::kCannotClaim;
+      default: return CanLinkState::kClaiming;
     }
   }
 
@@ -259,8 +230,8 @@ class SocketCanSink::Io {
       {
         std::lock_guard lock(mutex_);
         const std::int64_t now = now_ns();
-        if (stopping_ && ((queue_.empty() && net_out_.empty()) || now >= stop_deadline_ns_ ||
-                          fault_ != Fault::kNone)) {
+        if (stopping_ &&
+            ((queue_.empty() && net_out_.empty()) || now >= stop_deadline_ns_ || fault_ != Fault::kNone)) {
           finish(logs);
           emit(logs);
           return;
@@ -279,8 +250,7 @@ class SocketCanSink::Io {
     if (timeout_ns <= 0) return;
     struct pollfd fds[2] = {{fd, static_cast<short>(POLLIN | (want_write ? POLLOUT : 0)), 0},
                             {event_fd_, POLLIN, 0}};
-    const auto timeout_ms =
-        static_cast<int>((std::min(timeout_ns, kMaxPollNs) + kNsPerMs - 1) / kNsPerMs);
+    const auto timeout_ms = static_cast<int>((std::min(timeout_ns, kMaxPollNs) + kNsPerMs - 1) / kNsPerMs);
     if (::poll(fds, 2, timeout_ms) > 0 && (fds[1].revents & POLLIN) != 0) {
       std::uint64_t count;
       [[maybe_unused]] const ssize_t n = ::read(event_fd_, &count, sizeof(count));
@@ -409,9 +379,7 @@ class SocketCanSink::Io {
           enter_fault(Fault::kDown, now, "send: " + errno_text(err), logs);
         }
         return;
-      case ErrnoKind::kGone:
-        enter_fault(Fault::kGone, now, "send: " + errno_text(err), logs);
-        return;
+      case ErrnoKind::kGone: enter_fault(Fault::kGone, now, "send: " + errno_text(err), logs); return;
       case ErrnoKind::kOther:
         ++stats_.write_errors;
         enter_fault(Fault::kDown, now, "send: " + errno_text(err), logs);
@@ -425,8 +393,7 @@ class SocketCanSink::Io {
   }
 
   // Drops what is queued (the link failed under it), silences the node.
-  void enter_fault(Fault fault, std::int64_t now, const std::string& reason,
-                   std::vector<LogLine>& logs) {
+  void enter_fault(Fault fault, std::int64_t now, const std::string& reason, std::vector<LogLine>& logs) {
     const PoseTxQueue::Dropped d = queue_.clear();
     stats_.poses_dropped += d.poses;
     stats_.poses_partially_sent += d.partially_sent;
@@ -444,23 +411,20 @@ class SocketCanSink::Io {
         ++stats_.bus_off;
         node_.set_controller_state(output::N2kControllerState::kBusOff);
         break;
-      case Fault::kDown:
-        ++stats_.link_down;
-        break;
+      case Fault::kDown: ++stats_.link_down; break;
       case Fault::kGone:
         ++stats_.link_gone;
         ops_.close(fd_);
         fd_ = -1;
         break;
-      case Fault::kNone:
-        break;
+      case Fault::kNone: break;
     }
     stats_.last_error = reason;
-    logs.push_back({spdlog::level::warn,
-                    "SocketCAN " + options_.interface + ": " + reason + " -> " +
-                        to_string(state_locked()) + "; dropped " + std::to_string(d.poses) +
-                        " queued poses (" + std::to_string(d.partially_sent) +
-                        " partly sent); poses are refused until it recovers"});
+    logs.push_back({spdlog::level::warn, "SocketCAN " + options_.interface + ": " + reason + " -> " +
+                                             to_string(state_locked()) + "; dropped " +
+                                             std::to_string(d.poses) + " queued poses (" +
+                                             std::to_string(d.partially_sent) +
+                                             " partly sent); poses are refused until it recovers"});
   }
 
   void recover(std::int64_t now, bool claim, std::vector<LogLine>& logs) {
@@ -471,10 +435,9 @@ class SocketCanSink::Io {
     node_.set_controller_state(output::N2kControllerState::kErrorActive);
     if (claim) node_.start(now);
     const double out_s = static_cast<double>(now - fault_since_ns_) * 1e-9;
-    logs.push_back({spdlog::level::info,
-                    "SocketCAN " + options_.interface + ": recovered from " + to_string(was) +
-                        " after " + std::to_string(out_s) + " s; claiming address " +
-                        std::to_string(node_.address())});
+    logs.push_back({spdlog::level::info, "SocketCAN " + options_.interface + ": recovered from " +
+                                             to_string(was) + " after " + std::to_string(out_s) +
+                                             " s; claiming address " + std::to_string(node_.address())});
   }
 
   // The pose's messages, by PGN, for answers to Requests.
@@ -484,8 +447,7 @@ class SocketCanSink::Io {
       const std::uint32_t pgn = output::split_j1939_id(frames[begin].id).pgn;
       std::size_t end = begin + 1;
       while (end < frames.size() && output::split_j1939_id(frames[end].id).pgn == pgn) ++end;
-      node_.remember_message(pgn, std::vector<CanFrame>(frames.begin() + begin,
-                                                        frames.begin() + end));
+      node_.remember_message(pgn, std::vector<CanFrame>(frames.begin() + begin, frames.begin() + end));
       begin = end;
     }
   }
@@ -540,8 +502,8 @@ Expected<std::unique_ptr<SocketCanSink>> SocketCanSink::open(const SocketCanSink
   if (event_fd < 0) {
     const int err = errno;
     ops.close(fd);
-    return make_error(ErrorCode::kIoError, "SocketCAN " + options.interface +
-                                               ": eventfd: " + errno_text(err));
+    return make_error(ErrorCode::kIoError,
+                      "SocketCAN " + options.interface + ": eventfd: " + errno_text(err));
   }
   std::unique_ptr<SocketCanSink> sink(new SocketCanSink(options));
   sink->io_ = std::make_unique<Io>(options, std::move(ops), fd, event_fd);
@@ -552,8 +514,7 @@ SocketCanSink::SocketCanSink(SocketCanSinkOptions options) : options_(std::move(
 
 SocketCanSink::~SocketCanSink() { close(); }
 
-Status SocketCanSink::do_send(std::int64_t /*t_ns: the kernel stamps frames*/,
-                              const CanFrame& frame) {
+Status SocketCanSink::do_send(std::int64_t /*t_ns: the kernel stamps frames*/, const CanFrame& frame) {
   if (pending_refused_) {  // the refused pose is abandoned for this new one
     io_->count_abandoned();
     pending_.clear();
@@ -572,7 +533,7 @@ Status SocketCanSink::flush() {
   if (closed_) {
     return make_error(ErrorCode::kIoError, "SocketCAN " + options_.interface + ": sink closed");
   }
-  const Status st = io_->admit(pending_, !pending_refused_);
+  Status st = io_->admit(pending_, !pending_refused_);
   if (st) {
     pending_.clear();
     pending_refused_ = false;
