@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -29,8 +30,8 @@ double median_period_s(const io::Trajectory& gt) {
 
 class OffsetObjective {
  public:
-  OffsetObjective(const io::Trajectory& gt, std::vector<Eigen::Vector3d> p_est,
-                  std::vector<double> t_est, double max_gap_s)
+  OffsetObjective(const io::Trajectory& gt, std::vector<Eigen::Vector3d> p_est, std::vector<double> t_est,
+                  double max_gap_s)
       : gt_(gt), p_est_(std::move(p_est)), t_est_(std::move(t_est)), max_gap_s_(max_gap_s) {}
 
   // Aligned position RMSE at this offset; +inf when fewer than 3 poses fall
@@ -55,8 +56,7 @@ class OffsetObjective {
       if (gap > max_gap_s_) continue;
       const double alpha = (t - prev->t_s) / gap;
       src_.push_back(p_est_[j]);
-      dst_.push_back((1.0 - alpha) * prev->T_world_cam.translation() +
-                     alpha * it->T_world_cam.translation());
+      dst_.push_back((1.0 - alpha) * prev->T_world_cam.translation() + alpha * it->T_world_cam.translation());
     }
     auto T = umeyama_se3(src_, dst_);
     if (!T) return std::numeric_limits<double>::infinity();
@@ -77,14 +77,62 @@ class OffsetObjective {
   int evaluations_ = 0;
 };
 
+// The best offset on a grid over [-range_s, range_s]: half a period
+// resolves the basin of the true offset (the objective varies on the scale
+// of the motion, not of the sampling). `step_s` returns the grid step.
+std::pair<double, double> grid_search(OffsetObjective& objective, double range_s, double period_s,
+                                      double& step_s) {
+  step_s = 0.5 * period_s;
+  int half_steps = static_cast<int>(std::ceil(range_s / step_s));
+  if (2 * half_steps + 1 > kMaxGridPoints) {
+    half_steps = (kMaxGridPoints - 1) / 2;
+    step_s = range_s / half_steps;
+  }
+  double best_offset = 0.0;
+  double best_value = std::numeric_limits<double>::infinity();
+  for (int k = -half_steps; k <= half_steps; ++k) {
+    const double offset = std::clamp(k * step_s, -range_s, range_s);
+    const double value = objective(offset);
+    if (value < best_value) {
+      best_value = value;
+      best_offset = offset;
+    }
+  }
+  return {best_offset, best_value};
+}
+
+// Golden-section search for the minimum within [a, b], to kRefineToleranceS.
+double golden_section_minimum(OffsetObjective& objective, double a, double b) {
+  constexpr double kInvPhi = 0.6180339887498949;
+  double c = b - kInvPhi * (b - a);
+  double d = a + kInvPhi * (b - a);
+  double fc = objective(c);
+  double fd = objective(d);
+  while (b - a > kRefineToleranceS) {
+    if (fc < fd) {
+      b = d;
+      d = c;
+      fd = fc;
+      c = b - kInvPhi * (b - a);
+      fc = objective(c);
+    } else {
+      a = c;
+      c = d;
+      fc = fd;
+      d = a + kInvPhi * (b - a);
+      fd = objective(d);
+    }
+  }
+  return 0.5 * (a + b);
+}
+
 }  // namespace
 
 Expected<TimeOffsetResult> search_time_offset(const io::Trajectory& gt, const io::Trajectory& est,
                                               double range_s) {
   if (!std::isfinite(range_s) || range_s <= 0.0) {
     return make_error(ErrorCode::kInvalidArgument,
-                      fmt::format("time offset search range = {} s: must be a finite value > 0",
-                                  range_s));
+                      fmt::format("time offset search range = {} s: must be a finite value > 0", range_s));
   }
   SITEPOSE_TRY_STATUS(check_timestamps(gt, "ground-truth"));
   SITEPOSE_TRY_STATUS(check_timestamps(est, "estimated"));
@@ -116,53 +164,16 @@ Expected<TimeOffsetResult> search_time_offset(const io::Trajectory& gt, const io
   const double period_s = median_period_s(gt);
   OffsetObjective objective(gt, std::move(p_est), std::move(t_est), kMaxGapPeriods * period_s);
 
-  // Coarse grid: half a period resolves the basin of the true offset (the
-  // objective varies on the scale of the motion, not of the sampling).
-  double step_s = 0.5 * period_s;
-  int half_steps = static_cast<int>(std::ceil(range_s / step_s));
-  if (2 * half_steps + 1 > kMaxGridPoints) {
-    half_steps = (kMaxGridPoints - 1) / 2;
-    step_s = range_s / half_steps;
-  }
-  double best_offset = 0.0;
-  double best_value = std::numeric_limits<double>::infinity();
-  for (int k = -half_steps; k <= half_steps; ++k) {
-    const double offset = std::clamp(k * step_s, -range_s, range_s);
-    const double value = objective(offset);
-    if (value < best_value) {
-      best_value = value;
-      best_offset = offset;
-    }
-  }
+  double step_s = 0.0;
+  const auto [best_offset, best_value] = grid_search(objective, range_s, period_s, step_s);
   if (!std::isfinite(best_value)) {
     return make_error(ErrorCode::kInvalidArgument,
                       "time offset search: no offset in range puts 3 estimated poses on "
                       "interpolable ground truth (gaps wider than 3 frame periods)");
   }
-  // Golden-section refinement within one grid step either side.
-  constexpr double kInvPhi = 0.6180339887498949;
-  double a = std::max(-range_s, best_offset - step_s);
-  double b = std::min(range_s, best_offset + step_s);
-  double c = b - kInvPhi * (b - a);
-  double d = a + kInvPhi * (b - a);
-  double fc = objective(c);
-  double fd = objective(d);
-  while (b - a > kRefineToleranceS) {
-    if (fc < fd) {
-      b = d;
-      d = c;
-      fd = fc;
-      c = b - kInvPhi * (b - a);
-      fc = objective(c);
-    } else {
-      a = c;
-      c = d;
-      fc = fd;
-      d = a + kInvPhi * (b - a);
-      fd = objective(d);
-    }
-  }
-  const double refined = 0.5 * (a + b);
+  // Refined within one grid step either side.
+  const double refined = golden_section_minimum(objective, std::max(-range_s, best_offset - step_s),
+                                                std::min(range_s, best_offset + step_s));
   const double refined_value = objective(refined);
   TimeOffsetResult result;
   if (refined_value <= best_value) {

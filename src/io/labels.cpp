@@ -33,29 +33,86 @@ Expected<int> parse_int_field(const std::string& path, std::size_t line_no, std:
                               std::string_view token) {
   const std::optional<std::int64_t> v = detail::parse_int64(token);
   if (!v || *v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max()) {
-    return make_error(ErrorCode::kParseError, detail::where(path, line_no) + "field '" +
-                                                  std::string(name) + "': expected an integer, got '" +
-                                                  echo_value(token) + "'");
+    return make_error(ErrorCode::kParseError, detail::where(path, line_no) + "field '" + std::string(name) +
+                                                  "': expected an integer, got '" + echo_value(token) + "'");
   }
   return static_cast<int>(*v);
 }
 
-Expected<double> parse_number_field(const std::string& path, std::size_t line_no,
-                                    std::string_view name, std::string_view token) {
+Expected<double> parse_number_field(const std::string& path, std::size_t line_no, std::string_view name,
+                                    std::string_view token) {
   const std::optional<double> v = detail::parse_double(token);
   // Pixel coordinates beyond +-1e6 would overflow cv::Rect's int arithmetic.
   if (!v || std::abs(*v) > 1e6) {
-    return make_error(ErrorCode::kParseError,
-                      detail::where(path, line_no) + "field '" + std::string(name) +
-                          "': expected a pixel coordinate, got '" + echo_value(token) + "'");
+    return make_error(ErrorCode::kParseError, detail::where(path, line_no) + "field '" + std::string(name) +
+                                                  "': expected a pixel coordinate, got '" +
+                                                  echo_value(token) + "'");
   }
   return *v;
 }
 
 }  // namespace
 
-Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
-                                               std::optional<std::size_t> n_frames) {
+namespace {
+
+// One row "frame,instance,class,x,y,w,h,moving" (already split in 8 fields).
+Expected<LabelBox> parse_box_row(const std::string& path, std::size_t line_no,
+                                 const std::vector<std::string_view>& f,
+                                 std::optional<std::size_t> n_frames) {
+  LabelBox box;
+  SITEPOSE_TRY(box.frame, parse_int_field(path, line_no, "frame", f[0]));
+  SITEPOSE_TRY(box.instance, parse_int_field(path, line_no, "instance", f[1]));
+  if (box.frame < 0) {
+    return make_error(
+        ErrorCode::kParseError,
+        detail::where(path, line_no) + "field 'frame': expected >= 0, got " + std::to_string(box.frame));
+  }
+  if (n_frames && static_cast<std::size_t>(box.frame) >= *n_frames) {
+    return make_error(ErrorCode::kParseError, detail::where(path, line_no) + "field 'frame': expected < " +
+                                                  std::to_string(*n_frames) +
+                                                  " (frames in the sequence), got " +
+                                                  std::to_string(box.frame));
+  }
+  if (box.instance <= 0 || box.instance > kMaxInstanceId) {
+    return make_error(
+        ErrorCode::kParseError,
+        detail::where(path, line_no) + "field 'instance': expected 1.." + std::to_string(kMaxInstanceId) +
+            " (0 is the mask background; masks are 16-bit PNGs), got " + std::to_string(box.instance));
+  }
+  if (!is_word(f[2])) {
+    return make_error(
+        ErrorCode::kParseError,
+        detail::where(path, line_no) + "field 'class': expected one word, got '" + echo_value(f[2]) + "'");
+  }
+  box.class_name = std::string(f[2]);
+  SITEPOSE_TRY(const double x, parse_number_field(path, line_no, "x", f[3]));
+  SITEPOSE_TRY(const double y, parse_number_field(path, line_no, "y", f[4]));
+  SITEPOSE_TRY(const double w, parse_number_field(path, line_no, "w", f[5]));
+  SITEPOSE_TRY(const double h, parse_number_field(path, line_no, "h", f[6]));
+  if (!(w > 0.0) || !(h > 0.0)) {
+    return make_error(ErrorCode::kParseError, detail::where(path, line_no) +
+                                                  "fields 'w', 'h': expected > 0, got '" + echo_value(f[5]) +
+                                                  "', '" + echo_value(f[6]) + "'");
+  }
+  const int x0 = static_cast<int>(std::floor(x));
+  const int y0 = static_cast<int>(std::floor(y));
+  box.box =
+      cv::Rect(x0, y0, static_cast<int>(std::ceil(x + w)) - x0, static_cast<int>(std::ceil(y + h)) - y0);
+  if (f[7] == "1") {
+    box.moving = true;
+  } else if (f[7] == "0") {
+    box.moving = false;
+  } else if (!f[7].empty()) {
+    return make_error(ErrorCode::kParseError, detail::where(path, line_no) +
+                                                  "field 'moving': expected 1, 0 or empty (unknown), got '" +
+                                                  echo_value(f[7]) + "'");
+  }
+  return box;
+}
+
+}  // namespace
+
+Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path, std::optional<std::size_t> n_frames) {
   SITEPOSE_TRY(const std::vector<std::string> lines, detail::read_lines(path));
   if (lines.empty() || detail::trim(lines[0]) != kBoxesHeader) {
     return make_error(ErrorCode::kParseError,
@@ -69,65 +126,15 @@ Expected<std::vector<LabelBox>> read_boxes_csv(const std::string& path,
     if (detail::is_blank(lines[i])) continue;
     const std::vector<std::string_view> f = detail::split_fields(lines[i], ',');
     if (f.size() != kBoxesFields) {
-      return make_error(ErrorCode::kParseError,
-                        detail::where(path, line_no) + "expected 8 fields (" + kBoxesHeader +
-                            "), got " + std::to_string(f.size()));
+      return make_error(ErrorCode::kParseError, detail::where(path, line_no) + "expected 8 fields (" +
+                                                    kBoxesHeader + "), got " + std::to_string(f.size()));
     }
-    LabelBox box;
-    SITEPOSE_TRY(box.frame, parse_int_field(path, line_no, "frame", f[0]));
-    SITEPOSE_TRY(box.instance, parse_int_field(path, line_no, "instance", f[1]));
-    if (box.frame < 0) {
-      return make_error(ErrorCode::kParseError, detail::where(path, line_no) +
-                                                    "field 'frame': expected >= 0, got " +
-                                                    std::to_string(box.frame));
-    }
-    if (n_frames && static_cast<std::size_t>(box.frame) >= *n_frames) {
-      return make_error(ErrorCode::kParseError,
-                        detail::where(path, line_no) + "field 'frame': expected < " +
-                            std::to_string(*n_frames) + " (frames in the sequence), got " +
-                            std::to_string(box.frame));
-    }
-    if (box.instance <= 0 || box.instance > kMaxInstanceId) {
-      return make_error(ErrorCode::kParseError,
-                        detail::where(path, line_no) + "field 'instance': expected 1.." +
-                            std::to_string(kMaxInstanceId) +
-                            " (0 is the mask background; masks are 16-bit PNGs), got " +
-                            std::to_string(box.instance));
-    }
-    if (!is_word(f[2])) {
-      return make_error(ErrorCode::kParseError, detail::where(path, line_no) +
-                                                    "field 'class': expected one word, got '" +
-                                                    echo_value(f[2]) + "'");
-    }
-    box.class_name = std::string(f[2]);
-    SITEPOSE_TRY(const double x, parse_number_field(path, line_no, "x", f[3]));
-    SITEPOSE_TRY(const double y, parse_number_field(path, line_no, "y", f[4]));
-    SITEPOSE_TRY(const double w, parse_number_field(path, line_no, "w", f[5]));
-    SITEPOSE_TRY(const double h, parse_number_field(path, line_no, "h", f[6]));
-    if (!(w > 0.0) || !(h > 0.0)) {
-      return make_error(ErrorCode::kParseError,
-                        detail::where(path, line_no) + "fields 'w', 'h': expected > 0, got '" +
-                            echo_value(f[5]) + "', '" + echo_value(f[6]) + "'");
-    }
-    const int x0 = static_cast<int>(std::floor(x));
-    const int y0 = static_cast<int>(std::floor(y));
-    box.box = cv::Rect(x0, y0, static_cast<int>(std::ceil(x + w)) - x0,
-                       static_cast<int>(std::ceil(y + h)) - y0);
-    if (f[7] == "1") {
-      box.moving = true;
-    } else if (f[7] == "0") {
-      box.moving = false;
-    } else if (!f[7].empty()) {
-      return make_error(ErrorCode::kParseError,
-                        detail::where(path, line_no) +
-                            "field 'moving': expected 1, 0 or empty (unknown), got '" +
-                            echo_value(f[7]) + "'");
-    }
+    SITEPOSE_TRY(LabelBox box, parse_box_row(path, line_no, f, n_frames));
     if (!seen.emplace(box.frame, box.instance).second) {
-      return make_error(ErrorCode::kParseError,
-                        detail::where(path, line_no) + "instance " + std::to_string(box.instance) +
-                            " appears twice in frame " + std::to_string(box.frame) +
-                            "; expected one row per (frame, instance)");
+      return make_error(ErrorCode::kParseError, detail::where(path, line_no) + "instance " +
+                                                    std::to_string(box.instance) +
+                                                    " appears twice in frame " + std::to_string(box.frame) +
+                                                    "; expected one row per (frame, instance)");
     }
     boxes.push_back(std::move(box));
   }
@@ -150,8 +157,8 @@ Expected<cv::Mat> read_instance_mask(const std::string& path) {
     const int bits = mask.depth() == CV_8U ? 8 : mask.depth() == CV_16U ? 16 : 0;
     return make_error(ErrorCode::kParseError,
                       path + ": expected a 16-bit single-channel PNG (instance ids), got " +
-                          (bits > 0 ? std::to_string(bits) + "-bit" : std::string("non-integer")) +
-                          " with " + std::to_string(mask.channels()) + " channel(s)");
+                          (bits > 0 ? std::to_string(bits) + "-bit" : std::string("non-integer")) + " with " +
+                          std::to_string(mask.channels()) + " channel(s)");
   }
   return mask;
 }
@@ -180,7 +187,8 @@ Status check_instance_mask_header(const std::string& path, int width, int height
   if (bit_depth != 16 || colour_type != 0) {
     return make_error(ErrorCode::kParseError,
                       path + ": expected a 16-bit single-channel PNG (instance ids), got " +
-                          std::to_string(bit_depth) + "-bit " + (colour_type == 0 ? "gray" : "colour or palette"));
+                          std::to_string(bit_depth) + "-bit " +
+                          (colour_type == 0 ? "gray" : "colour or palette"));
   }
   if (be32(16) != static_cast<std::uint32_t>(width) || be32(20) != static_cast<std::uint32_t>(height)) {
     return make_error(ErrorCode::kInvalidArgument, path + ": mask is " + std::to_string(be32(16)) + "x" +

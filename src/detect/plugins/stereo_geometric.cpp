@@ -20,6 +20,168 @@ double iou(const cv::Rect& a, const cv::Rect& b) {
   return uni > 0.0 ? inter / uni : 0.0;
 }
 
+// The detector's pinhole at its working scale (`scale` of the input).
+struct ScaledCamera {
+  double scale, fx, fy, cx, cy, bf;
+};
+
+ScaledCamera scaled_camera(const StereoGeometricOptions& o) {
+  const double s = o.scale;
+  const double fx = o.fx * s;
+  return {s, fx, o.fy * s, (o.cx + 0.5) * s - 0.5, (o.cy + 0.5) * s - 0.5, fx * o.baseline_m};
+}
+
+// 3D points (camera frame, m) of the pixels with a disparity; `valid` marks them.
+cv::Mat points_from_disparity(const cv::Mat& disp, const ScaledCamera& cam, cv::Mat& valid) {
+  cv::Mat points(disp.size(), CV_32FC3, cv::Scalar::all(0));
+  valid = cv::Mat(disp.size(), CV_8U, cv::Scalar(0));
+  for (int v = 0; v < disp.rows; ++v) {
+    const float* d = disp.ptr<float>(v);
+    auto* p = points.ptr<cv::Vec3f>(v);
+    auto* ok = valid.ptr<std::uint8_t>(v);
+    for (int u = 0; u < disp.cols; ++u) {
+      if (!(d[u] > 0.5f)) continue;
+      const double z = cam.bf / d[u];
+      p[u] = cv::Vec3f(static_cast<float>((u - cam.cx) * z / cam.fx),
+                       static_cast<float>((v - cam.cy) * z / cam.fy), static_cast<float>(z));
+      ok[u] = 1;
+    }
+  }
+  return points;
+}
+
+// Pixels by their height above the ground plane: `grow` between
+// grow_height_m and max_height_m (opened and closed), `high` above
+// min_height_m (the seeds), `heights` in m (-1 where no object pixel).
+struct HeightMasks {
+  cv::Mat grow, high, heights;
+};
+
+HeightMasks height_masks(const cv::Mat& points, const cv::Mat& valid, const Eigen::Vector4d& plane,
+                         const StereoGeometricOptions& o) {
+  const Eigen::Vector3d n = plane.head<3>();
+  const double d0 = plane[3];
+  HeightMasks m{cv::Mat(points.size(), CV_8U, cv::Scalar(0)), cv::Mat(points.size(), CV_8U, cv::Scalar(0)),
+                cv::Mat(points.size(), CV_32F, cv::Scalar(-1.0f))};
+  for (int v = 0; v < points.rows; ++v) {
+    const auto* p = points.ptr<cv::Vec3f>(v);
+    const auto* ok = valid.ptr<std::uint8_t>(v);
+    auto* g = m.grow.ptr<std::uint8_t>(v);
+    auto* h = m.high.ptr<std::uint8_t>(v);
+    auto* hm = m.heights.ptr<float>(v);
+    for (int u = 0; u < points.cols; ++u) {
+      if (ok[u] == 0 || p[u][2] > o.max_range_m) continue;
+      const double height = n.x() * p[u][0] + n.y() * p[u][1] + n.z() * p[u][2] + d0;
+      if (height > o.grow_height_m && height < o.max_height_m) {
+        g[u] = 255;
+        hm[u] = static_cast<float>(height);
+        if (height > o.min_height_m) h[u] = 255;
+      }
+    }
+  }
+  const cv::Mat kernel3 = cv::getStructuringElement(cv::MORPH_RECT, {3, 3});
+  const cv::Mat kernel5 = cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5});
+  cv::morphologyEx(m.grow, m.grow, cv::MORPH_OPEN, kernel3);
+  cv::morphologyEx(m.grow, m.grow, cv::MORPH_CLOSE, kernel5);
+  return m;
+}
+
+// Per connected component: seed pixels, and count, depth sum and lowest
+// height of its 3D points.
+struct ComponentPoints {
+  std::vector<int> seeds, n_points;
+  std::vector<double> depth_sum, lowest;
+};
+
+ComponentPoints component_points(const cv::Mat& labels, int n_labels, const HeightMasks& m,
+                                 const cv::Mat& points) {
+  const auto n_comp = static_cast<std::size_t>(n_labels);
+  ComponentPoints c{std::vector<int>(n_comp, 0), std::vector<int>(n_comp, 0),
+                    std::vector<double>(n_comp, 0.0),
+                    std::vector<double>(n_comp, std::numeric_limits<double>::infinity())};
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    const auto* h = m.high.ptr<std::uint8_t>(v);
+    const auto* hm = m.heights.ptr<float>(v);
+    const auto* p = points.ptr<cv::Vec3f>(v);
+    for (int u = 0; u < labels.cols; ++u) {
+      const auto k = static_cast<std::size_t>(l[u]);
+      if (k == 0) continue;
+      c.seeds[k] += h[u] != 0;
+      if (hm[u] < 0.0f) continue;  // filled in by the morphology: no 3D point
+      ++c.n_points[k];
+      c.depth_sum[k] += p[u][2];
+      c.lowest[k] = std::min(c.lowest[k], static_cast<double>(hm[u]));
+    }
+  }
+  return c;
+}
+
+struct Candidate {
+  int label;
+  cv::Rect box;  // in input pixels
+  double score;
+};
+
+// The components that are large, seeded, tall enough and standing on the
+// ground, with their boxes in input pixels.
+std::vector<Candidate> select_candidates(const cv::Mat& stats, int n_labels, const ComponentPoints& c,
+                                         const ScaledCamera& cam, cv::Size working_size, cv::Size input_size,
+                                         const StereoGeometricOptions& o) {
+  const double min_area = o.min_area_fraction * working_size.height * working_size.width;
+  const double s = cam.scale;
+  std::vector<Candidate> candidates;
+  for (int i = 1; i < n_labels; ++i) {
+    const int area = stats.at<int>(i, cv::CC_STAT_AREA);
+    if (area < min_area || c.seeds[static_cast<std::size_t>(i)] < o.min_seed_fraction * area) {
+      continue;
+    }
+    const cv::Rect small(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
+                         stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
+    const auto k = static_cast<std::size_t>(i);
+    if (c.n_points[k] == 0) continue;
+    // An object is as tall as "clearly above the ground" (thin stripes of
+    // disparity noise along far walls are not) ...
+    const double depth_m = c.depth_sum[k] / c.n_points[k];
+    if (small.height * depth_m / cam.fy < o.min_height_m) continue;
+    // ... and stands on the ground: its lowest points are near the plane
+    // unless it is cut by the bottom image border. Mismatched repetitive
+    // texture (windows of far facades) floats above the ground.
+    const bool at_bottom = small.br().y >= working_size.height - 1;
+    if (!at_bottom && c.lowest[k] > o.max_foot_height_m) continue;
+    const cv::Point tl(static_cast<int>(std::floor(small.x / s)), static_cast<int>(std::floor(small.y / s)));
+    const cv::Point br(static_cast<int>(std::ceil(small.br().x / s)),
+                       static_cast<int>(std::ceil(small.br().y / s)));
+    const cv::Rect box = cv::Rect(tl, br) & cv::Rect(0, 0, input_size.width, input_size.height);
+    if (box.empty()) continue;
+    candidates.push_back({i, box, static_cast<double>(area) / small.area()});
+  }
+  return candidates;
+}
+
+// Greedy IoU association with the previous frame, best pairs first: the
+// previous object's id per candidate, 0 where none matches.
+std::vector<std::uint16_t> ids_from_previous(const std::vector<Candidate>& candidates,
+                                             const std::vector<GeometricObject>& previous, double min_iou) {
+  std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;
+  for (std::size_t c = 0; c < candidates.size(); ++c) {
+    for (std::size_t p = 0; p < previous.size(); ++p) {
+      const double o = iou(candidates[c].box, previous[p].box);
+      if (o >= min_iou) pairs.emplace_back(o, c, p);
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(),
+            [](const auto& a, const auto& b) { return std::get<0>(a) > std::get<0>(b); });
+  std::vector<std::uint16_t> ids(candidates.size(), 0);
+  std::vector<bool> prev_used(previous.size(), false);
+  for (const auto& [o, c, p] : pairs) {
+    if (ids[c] != 0 || prev_used[p]) continue;
+    ids[c] = previous[p].instance;
+    prev_used[p] = true;
+  }
+  return ids;
+}
+
 }  // namespace
 
 StereoGeometric::StereoGeometric(const StereoGeometricOptions& options) : options_(options) {}
@@ -32,8 +194,7 @@ Status StereoGeometric::validate(const StereoGeometricOptions& o) {
   if (!(o.scale > 0.05 && o.scale <= 1.0)) return bad("scale must be in (0.05, 1]");
   if (!(o.min_depth_m > 0)) return bad("min_depth_m must be > 0");
   if (!(o.max_range_m > o.min_depth_m)) return bad("max_range_m must be > min_depth_m");
-  if (!(o.grow_height_m > 0 && o.min_height_m >= o.grow_height_m &&
-        o.max_height_m > o.min_height_m)) {
+  if (!(o.grow_height_m > 0 && o.min_height_m >= o.grow_height_m && o.max_height_m > o.min_height_m)) {
     return bad("need 0 < grow_height_m <= min_height_m < max_height_m");
   }
   if (!(o.max_foot_height_m >= o.grow_height_m)) {
@@ -58,12 +219,11 @@ cv::Mat StereoGeometric::disparity(const cv::Mat& left, const cv::Mat& right) co
   cv::resize(left, l, cv::Size(), options_.scale, options_.scale, cv::INTER_AREA);
   cv::resize(right, r, cv::Size(), options_.scale, options_.scale, cv::INTER_AREA);
   const double bf = options_.fx * options_.scale * options_.baseline_m;
-  const int max_disp = std::clamp(static_cast<int>(std::ceil(bf / options_.min_depth_m / 16.0)) * 16,
-                                  16, 512);
+  const int max_disp =
+      std::clamp(static_cast<int>(std::ceil(bf / options_.min_depth_m / 16.0)) * 16, 16, 512);
   constexpr int kBlock = 5;
-  auto sgbm = cv::StereoSGBM::create(0, max_disp, kBlock, 8 * kBlock * kBlock,
-                                     32 * kBlock * kBlock, 1, 0, 10, 100, 2,
-                                     cv::StereoSGBM::MODE_SGBM_3WAY);
+  auto sgbm = cv::StereoSGBM::create(0, max_disp, kBlock, 8 * kBlock * kBlock, 32 * kBlock * kBlock, 1, 0, 10,
+                                     100, 2, cv::StereoSGBM::MODE_SGBM_3WAY);
   // SGBM leaves the first max_disp columns without disparity; a left margin
   // gives them a partial search range instead (near objects at the left
   // border are the ones that matter).
@@ -77,8 +237,7 @@ cv::Mat StereoGeometric::disparity(const cv::Mat& left, const cv::Mat& right) co
   return out;
 }
 
-std::optional<Eigen::Vector4d> StereoGeometric::fit_ground(const cv::Mat& points,
-                                                           const cv::Mat& valid) {
+std::optional<Eigen::Vector4d> StereoGeometric::fit_ground(const cv::Mat& points, const cv::Mat& valid) {
   // Candidate ground points: lower half of the image, within range.
   std::vector<Eigen::Vector3d> pts;
   const int step = 2;
@@ -144,29 +303,12 @@ std::uint16_t StereoGeometric::next_id() {
   }
 }
 
-Expected<std::vector<GeometricObject>> StereoGeometric::detect(const cv::Mat& left,
-                                                               const cv::Mat& right,
+Expected<std::vector<GeometricObject>> StereoGeometric::detect(const cv::Mat& left, const cv::Mat& right,
                                                                std::int64_t seq) {
   const cv::Mat disp = disparity(left, right);
-  const double s = options_.scale;
-  const double fx = options_.fx * s, fy = options_.fy * s;
-  const double cx = (options_.cx + 0.5) * s - 0.5, cy = (options_.cy + 0.5) * s - 0.5;
-  const double bf = fx * options_.baseline_m;
-
-  cv::Mat points(disp.size(), CV_32FC3, cv::Scalar::all(0));
-  cv::Mat valid(disp.size(), CV_8U, cv::Scalar(0));
-  for (int v = 0; v < disp.rows; ++v) {
-    const float* d = disp.ptr<float>(v);
-    auto* p = points.ptr<cv::Vec3f>(v);
-    auto* ok = valid.ptr<std::uint8_t>(v);
-    for (int u = 0; u < disp.cols; ++u) {
-      if (!(d[u] > 0.5f)) continue;
-      const double z = bf / d[u];
-      p[u] = cv::Vec3f(static_cast<float>((u - cx) * z / fx), static_cast<float>((v - cy) * z / fy),
-                       static_cast<float>(z));
-      ok[u] = 1;
-    }
-  }
+  const ScaledCamera cam = scaled_camera(options_);
+  cv::Mat valid;
+  const cv::Mat points = points_from_disparity(disp, cam, valid);
   if (auto plane = fit_ground(points, valid)) plane_ = plane;
 
   std::vector<GeometricObject> objects;
@@ -178,104 +320,14 @@ Expected<std::vector<GeometricObject>> StereoGeometric::detect(const cv::Mat& le
     previous_.clear();
     return objects;
   }
-  const Eigen::Vector3d n = plane_->head<3>();
-  const double d0 = (*plane_)[3];
-  cv::Mat grow(disp.size(), CV_8U, cv::Scalar(0));
-  cv::Mat high(disp.size(), CV_8U, cv::Scalar(0));
-  cv::Mat heights(disp.size(), CV_32F, cv::Scalar(-1.0f));  // -1: no object pixel
-  for (int v = 0; v < disp.rows; ++v) {
-    const auto* p = points.ptr<cv::Vec3f>(v);
-    const auto* ok = valid.ptr<std::uint8_t>(v);
-    auto* g = grow.ptr<std::uint8_t>(v);
-    auto* h = high.ptr<std::uint8_t>(v);
-    auto* hm = heights.ptr<float>(v);
-    for (int u = 0; u < disp.cols; ++u) {
-      if (ok[u] == 0 || p[u][2] > options_.max_range_m) continue;
-      const double height = n.x() * p[u][0] + n.y() * p[u][1] + n.z() * p[u][2] + d0;
-      if (height > options_.grow_height_m && height < options_.max_height_m) {
-        g[u] = 255;
-        hm[u] = static_cast<float>(height);
-        if (height > options_.min_height_m) h[u] = 255;
-      }
-    }
-  }
-  const cv::Mat kernel3 = cv::getStructuringElement(cv::MORPH_RECT, {3, 3});
-  const cv::Mat kernel5 = cv::getStructuringElement(cv::MORPH_ELLIPSE, {5, 5});
-  cv::morphologyEx(grow, grow, cv::MORPH_OPEN, kernel3);
-  cv::morphologyEx(grow, grow, cv::MORPH_CLOSE, kernel5);
-
+  const HeightMasks masks = height_masks(points, valid, *plane_, options_);
   cv::Mat labels, stats, centroids;
-  const int n_labels = cv::connectedComponentsWithStats(grow, labels, stats, centroids, 8, CV_32S);
-  // Per component: seed pixels, mean depth and lowest height of its 3D points.
-  const auto n_comp = static_cast<std::size_t>(n_labels);
-  std::vector<int> seeds(n_comp, 0), n_points(n_comp, 0);
-  std::vector<double> depth_sum(n_comp, 0.0);
-  std::vector<double> lowest(n_comp, std::numeric_limits<double>::infinity());
-  for (int v = 0; v < labels.rows; ++v) {
-    const int* l = labels.ptr<int>(v);
-    const auto* h = high.ptr<std::uint8_t>(v);
-    const auto* hm = heights.ptr<float>(v);
-    const auto* p = points.ptr<cv::Vec3f>(v);
-    for (int u = 0; u < labels.cols; ++u) {
-      const auto c = static_cast<std::size_t>(l[u]);
-      if (c == 0) continue;
-      seeds[c] += h[u] != 0;
-      if (hm[u] < 0.0f) continue;  // filled in by the morphology: no 3D point
-      ++n_points[c];
-      depth_sum[c] += p[u][2];
-      lowest[c] = std::min(lowest[c], static_cast<double>(hm[u]));
-    }
-  }
-  const double min_area = options_.min_area_fraction * disp.rows * disp.cols;
-  struct Candidate {
-    int label;
-    cv::Rect box;
-    double score;
-  };
-  std::vector<Candidate> candidates;
-  for (int i = 1; i < n_labels; ++i) {
-    const int area = stats.at<int>(i, cv::CC_STAT_AREA);
-    if (area < min_area || seeds[static_cast<std::size_t>(i)] < options_.min_seed_fraction * area) {
-      continue;
-    }
-    const cv::Rect small(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
-                         stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
-    const auto c = static_cast<std::size_t>(i);
-    if (n_points[c] == 0) continue;
-    // An object is as tall as "clearly above the ground" (thin stripes of
-    // disparity noise along far walls are not) ...
-    const double depth_m = depth_sum[c] / n_points[c];
-    if (small.height * depth_m / fy < options_.min_height_m) continue;
-    // ... and stands on the ground: its lowest points are near the plane
-    // unless it is cut by the bottom image border. Mismatched repetitive
-    // texture (windows of far facades) floats above the ground.
-    const bool at_bottom = small.br().y >= disp.rows - 1;
-    if (!at_bottom && lowest[c] > options_.max_foot_height_m) continue;
-    const cv::Point tl(static_cast<int>(std::floor(small.x / s)),
-                       static_cast<int>(std::floor(small.y / s)));
-    const cv::Point br(static_cast<int>(std::ceil(small.br().x / s)),
-                       static_cast<int>(std::ceil(small.br().y / s)));
-    const cv::Rect box = cv::Rect(tl, br) & cv::Rect(0, 0, left.cols, left.rows);
-    if (box.empty()) continue;
-    candidates.push_back({i, box, static_cast<double>(area) / small.area()});
-  }
+  const int n_labels = cv::connectedComponentsWithStats(masks.grow, labels, stats, centroids, 8, CV_32S);
+  const ComponentPoints components = component_points(labels, n_labels, masks, points);
+  const std::vector<Candidate> candidates =
+      select_candidates(stats, n_labels, components, cam, disp.size(), left.size(), options_);
 
-  // Greedy IoU association with the previous frame: best pairs first.
-  std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;
-  for (std::size_t c = 0; c < candidates.size(); ++c) {
-    for (std::size_t p = 0; p < previous_.size(); ++p) {
-      const double o = iou(candidates[c].box, previous_[p].box);
-      if (o >= options_.track_iou) pairs.emplace_back(o, c, p);
-    }
-  }
-  std::sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) { return std::get<0>(a) > std::get<0>(b); });
-  std::vector<std::uint16_t> ids(candidates.size(), 0);
-  std::vector<bool> prev_used(previous_.size(), false);
-  for (const auto& [o, c, p] : pairs) {
-    if (ids[c] != 0 || prev_used[p]) continue;
-    ids[c] = previous_[p].instance;
-    prev_used[p] = true;
-  }
+  std::vector<std::uint16_t> ids = ids_from_previous(candidates, previous_, options_.track_iou);
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     if (ids[c] == 0) ids[c] = next_id();
     objects.push_back({candidates[c].box, ids[c], candidates[c].score});
