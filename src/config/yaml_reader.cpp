@@ -9,6 +9,7 @@
 #include <fstream>
 #include <limits>
 #include <optional>
+#include <type_traits>
 #include <unordered_map>
 
 #include "sitepose/core/echo.hpp"
@@ -152,31 +153,18 @@ struct Failure {
   std::string expectation;
 };
 
+// What a value of type T must look like, for "expected ..." messages.
 template <typename T>
-const char* type_name();
-template <>
-const char* type_name<bool>() {
-  return "a boolean (true or false)";
-}
-template <>
-const char* type_name<int>() {
-  return "an integer";
-}
-template <>
-const char* type_name<std::int64_t>() {
-  return "an integer";
-}
-template <>
-const char* type_name<double>() {
-  return "a finite number";
-}
-template <>
-const char* type_name<std::string>() {
-  return "a string";
-}
-template <>
-const char* type_name<std::vector<double>>() {
-  return "a list of numbers";
+const char* type_name() {
+  if constexpr (std::is_same_v<T, bool>) return "a boolean (true or false)";
+  if constexpr (std::is_same_v<T, int> || std::is_same_v<T, std::int64_t>) return "an integer";
+  if constexpr (std::is_same_v<T, double>) return "a finite number";
+  if constexpr (std::is_same_v<T, std::string>) return "a string";
+  if constexpr (std::is_same_v<T, std::vector<double>>) return "a list of numbers";
+  static_assert(std::is_same_v<T, bool> || std::is_same_v<T, int> || std::is_same_v<T, std::int64_t> ||
+                    std::is_same_v<T, double> || std::is_same_v<T, std::string> ||
+                    std::is_same_v<T, std::vector<double>>,
+                "type_name: a type the YAML reader does not decode");
 }
 
 template <typename T>

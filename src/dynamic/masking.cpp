@@ -16,12 +16,9 @@ constexpr int kPixelMaskDilationPx = 4;
 
 const char* to_string(MotionState state) {
   switch (state) {
-    case MotionState::kStatic:
-      return "static";
-    case MotionState::kMoving:
-      return "moving";
-    case MotionState::kUnknown:
-      break;
+    case MotionState::kStatic: return "static";
+    case MotionState::kMoving: return "moving";
+    case MotionState::kUnknown: break;
   }
   return "unknown";
 }

@@ -309,9 +309,7 @@ MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, M
   t.last_seq = seq;
   const int n = config_.hysteresis_frames;
   switch (raw) {
-    case MotionState::kMoving:
-      t.mask_as_moving();
-      break;
+    case MotionState::kMoving: t.mask_as_moving(); break;
     case MotionState::kStatic:
       t.unknown_streak = 0;
       if (!static_evidence_counts) break;  // too short a time span to tell

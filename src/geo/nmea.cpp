@@ -101,12 +101,17 @@ Expected<double> parse_angle(std::string_view type, int index, std::string_view 
   return result;
 }
 
+// A sentence needs at least `minimum` fields; `expected` says how many, in words.
+Status check_field_count(std::string_view type, const std::vector<std::string_view>& f, std::size_t minimum,
+                         std::string_view expected) {
+  if (f.size() >= minimum) return ok_status();
+  return make_error(ErrorCode::kParseError,
+                    fmt::format("{}: {} fields, expected {}", type, f.size(), expected));
+}
+
 Expected<GgaSentence> parse_gga(const std::vector<std::string_view>& f) {
   // $--GGA,time,lat,N,lon,E,quality,nsat,hdop,alt,M,sep,M,age,station
-  if (f.size() < 15) {
-    return make_error(ErrorCode::kParseError,
-                      fmt::format("GGA: {} fields, expected 15 (time .. station id)", f.size()));
-  }
+  SITEPOSE_TRY_STATUS(check_field_count("GGA", f, 15, "15 (time .. station id)"));
   GgaSentence s;
   SITEPOSE_TRY(s.time_of_day_ns, parse_time("GGA", 1, f[1]));
   SITEPOSE_TRY(s.fix.position.latitude_deg, parse_angle("GGA", 2, f[2], f[3], true));
@@ -163,10 +168,7 @@ Expected<GgaSentence> parse_gga(const std::vector<std::string_view>& f) {
 
 Expected<RmcSentence> parse_rmc(const std::vector<std::string_view>& f) {
   // $--RMC,time,status,lat,N,lon,E,sog,cog,ddmmyy,magvar,E[,mode[,nav status]]
-  if (f.size() < 12) {
-    return make_error(ErrorCode::kParseError,
-                      fmt::format("RMC: {} fields, expected at least 12 (time .. variation E/W)", f.size()));
-  }
+  SITEPOSE_TRY_STATUS(check_field_count("RMC", f, 12, "at least 12 (time .. variation E/W)"));
   RmcSentence s;
   SITEPOSE_TRY(s.time_of_day_ns, parse_time("RMC", 1, f[1]));
   if (f[2] != "A" && f[2] != "V") return field_error("RMC", 2, "status", f[2], "A or V");
