@@ -44,6 +44,7 @@ LocalBaProblem build_local_ba_problem(const map::MapData& map, map::KeyFrameId k
     }
   }
   std::vector<std::pair<int, map::KeyFrameId>> ranked;
+  ranked.reserve(outside_count.size());
   for (const auto& [id, count] : outside_count) ranked.emplace_back(count, id);
   std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) {
     return a.first != b.first ? a.first > b.first : a.second < b.second;

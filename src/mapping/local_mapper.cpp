@@ -105,7 +105,7 @@ Status LocalMapper::process_pending() {
 void LocalMapper::start() {
   if (running_.load()) return;
   running_.store(true);
-  thread_ = std::jthread([this](std::stop_token stop_token) { run(stop_token); });
+  thread_ = std::jthread([this](const std::stop_token& stop_token) { run(stop_token); });
   // Names the thread for top/gdb/perf; the kernel limit is 15 characters.
   pthread_setname_np(thread_.native_handle(), "sp-mapping");
 }
@@ -126,7 +126,7 @@ void LocalMapper::stop() {
 
 bool LocalMapper::running() const { return running_.load(); }
 
-void LocalMapper::run(std::stop_token stop_token) {
+void LocalMapper::run(const std::stop_token& stop_token) {
   // Mapping is background work, tracking is what the machine waits for: on
   // a small onboard computer (2 cores) a local BA must not delay a frame.
   // Raising a thread's own nice value needs no privilege; failure is harmless.

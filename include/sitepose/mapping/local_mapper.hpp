@@ -122,7 +122,7 @@ class LocalMapper {
   MappingStats stats() const;
 
  private:
-  void run(std::stop_token stop_token);
+  void run(const std::stop_token& stop_token);
   Status process_keyframe(map::KeyFrameId keyframe);
   bool process_new_keyframe(map::KeyFrameId keyframe);
   void cull_recent_points(map::KeyFrameId keyframe);

@@ -22,6 +22,7 @@ class StereoGeometricPlugin final : public PluginImpl {
                                              std::int64_t, std::int64_t seq) override {
     SITEPOSE_TRY(auto objects, detector_.detect(left, right, seq));
     std::vector<sp_detection> out;
+    out.reserve(objects.size());
     for (const auto& o : objects) {
       out.push_back(make_detection("object", static_cast<float>(o.score), o.box, o.instance));
     }
