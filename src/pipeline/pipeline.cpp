@@ -111,9 +111,9 @@ void Pipeline::start() {
   if (started_.exchange(true)) return;
   // Consumers first, so nothing waits on a thread that does not exist yet.
   publish_thread_ = std::jthread([this] { publish_loop(); });
-  track_thread_ = std::jthread([this](std::stop_token st) { track_loop(st); });
-  detect_thread_ = std::jthread([this](std::stop_token st) { detect_loop(st); });
-  capture_thread_ = std::jthread([this](std::stop_token st) { capture_loop(st); });
+  track_thread_ = std::jthread([this](const std::stop_token& st) { track_loop(st); });
+  detect_thread_ = std::jthread([this](const std::stop_token& st) { detect_loop(st); });
+  capture_thread_ = std::jthread([this](const std::stop_token& st) { capture_loop(st); });
 }
 
 void Pipeline::stop() {
@@ -135,7 +135,7 @@ Status Pipeline::wait() {
   return source_status_;
 }
 
-void Pipeline::capture_loop(std::stop_token stop) {
+void Pipeline::capture_loop(const std::stop_token& stop) {
   name_this_thread("sp-capture");
   SteadyTime last_frame = SteadyClock::now();
   while (!stop.stop_requested()) {
@@ -173,7 +173,7 @@ void Pipeline::capture_loop(std::stop_token stop) {
   thread_done();
 }
 
-void Pipeline::detect_loop(std::stop_token stop) {
+void Pipeline::detect_loop(const std::stop_token& stop) {
   name_this_thread("sp-detect");
   while (auto packet = to_detect_.pop()) {
     const SteadyTime t0 = SteadyClock::now();
@@ -209,7 +209,7 @@ void Pipeline::record_track_rate(SteadyTime now) {
                            std::memory_order_relaxed);
 }
 
-void Pipeline::track_loop(std::stop_token stop) {
+void Pipeline::track_loop(const std::stop_token& stop) {
   name_this_thread("sp-track");
   PoseEstimate last_pose;  // LOST, identity: what a stall before any frame repeats
   last_pose.state_reason = "no frame yet";

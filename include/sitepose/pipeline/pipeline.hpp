@@ -106,9 +106,9 @@ class Pipeline {
            std::unique_ptr<DetectHook> detect, std::unique_ptr<PoseTracker> tracker,
            std::vector<std::unique_ptr<PoseOutput>> outputs);
 
-  void capture_loop(std::stop_token stop);
-  void detect_loop(std::stop_token stop);
-  void track_loop(std::stop_token stop);
+  void capture_loop(const std::stop_token& stop);
+  void detect_loop(const std::stop_token& stop);
+  void track_loop(const std::stop_token& stop);
   void publish_loop();
   void publish_to(OutputSlot& slot, const PosePacket& packet);
   void publish_health_to_outputs();

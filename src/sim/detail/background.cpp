@@ -38,7 +38,7 @@ struct Ctx {
 
 // Horizontal ground rectangle over x in [x0, x1], lateral d in [d0, d1],
 // at height z, textured with a repeating tile.
-void ground_rect(Ctx& c, double x0, double x1, double d0, double d1, double z, TexturePtr tile,
+void ground_rect(Ctx& c, double x0, double x1, double d0, double d1, double z, const TexturePtr& tile,
                  double tpm, bool with_overlay) {
   Patch p;
   const double ya = c.y(d0), yb = c.y(d1);
@@ -64,7 +64,7 @@ void ground_rect(Ctx& c, double x0, double x1, double d0, double d1, double z, T
 
 // Vertical rectangle facing the camera side, x in [x0, x1] at lateral d,
 // from z0 to z1, texture shown upright.
-void facing_wall(Ctx& c, double x0, double x1, double d, double z0, double z1, TexturePtr t,
+void facing_wall(Ctx& c, double x0, double x1, double d, double z0, double z1, const TexturePtr& t,
                  bool two_sided) {
   Patch p;
   // Viewer at smaller d looks towards +d: right-hand direction is -view_sign * x... computed
@@ -93,7 +93,7 @@ void facing_wall(Ctx& c, double x0, double x1, double d, double z0, double z1, T
 // Closed box in the site frame, axis-aligned, all faces from `faces`
 // (front = the face towards the camera).
 void site_box(Ctx& c, double x0, double x1, double d0, double d1, double z0, double z1,
-              TexturePtr front, TexturePtr side, TexturePtr top) {
+              const TexturePtr& front, const TexturePtr& side, const TexturePtr& top) {
   facing_wall(c, x0, x1, d0, z0, z1, front, false);
   // Ends (perpendicular to x), visible at oblique angles; and the roof.
   for (int e = 0; e < 2; ++e) {
@@ -191,7 +191,7 @@ TexturePtr plain(Rng& rng, double w, double h, int level, double tpm) {
 }
 
 // Soil pile: a low irregular cone of triangles with the soil tile.
-void soil_pile(Ctx& c, TexturePtr soil, double x, double d, double radius, double height) {
+void soil_pile(Ctx& c, const TexturePtr& soil, double x, double d, double radius, double height) {
   const int sides = 9;
   const Vector3d apex(x + c.rng.uniform(-0.5, 0.5), c.y(d), height);
   std::vector<Vector3d> ring;

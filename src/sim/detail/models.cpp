@@ -60,14 +60,14 @@ void add_box(Mesh& mesh, const Vector3d& corner, const Vector3d& size, const Box
   mesh.patches.push_back(top);
 }
 
-void add_box(Mesh& mesh, const Vector3d& lo, const Vector3d& hi, TexturePtr all) {
+void add_box(Mesh& mesh, const Vector3d& lo, const Vector3d& hi, const TexturePtr& all) {
   add_box(mesh, lo, hi - lo, BoxTextures{all, all, all, all, all});
 }
 
 // Cylinder with its axis along y (wheels, drums): `sides` rectangles and two
 // end discs.
 void add_cylinder(Mesh& mesh, const Vector3d& centre, double radius, double width, int sides,
-                  TexturePtr tread, TexturePtr hub) {
+                  const TexturePtr& tread, const TexturePtr& hub) {
   const Vector3d half_w(0.0, width * 0.5, 0.0);
   for (int i = 0; i < sides; ++i) {
     const double a0 = 2.0 * std::numbers::pi * i / sides;

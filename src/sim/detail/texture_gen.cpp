@@ -111,7 +111,7 @@ cv::Mat soil_tile(Rng& rng, int size_px) {
         shadow_poly.push_back(p + c + o + cv::Point(2, 2));
         body.push_back(p + c + o);
       }
-      cv::fillConvexPoly(img, shadow_poly, level / 2, cv::LINE_8);
+      cv::fillConvexPoly(img, shadow_poly, static_cast<double>(level / 2), cv::LINE_8);
       cv::fillConvexPoly(img, body, level, cv::LINE_8);
     });
   }
