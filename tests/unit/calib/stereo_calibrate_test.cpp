@@ -144,8 +144,7 @@ TEST(StereoCalibrate, NamesAndSkipsViewsWithoutTheBoard) {
 TEST(StereoCalibrate, TooFewViewsIsAnInputErrorThatSaysWhy) {
   const StereoRigTruth rig = testing::test_stereo_rig();
   const CheckerboardSpec spec;
-  auto views = testing::render_calibration_set(rig, spec);
-  views.resize(3);
+  auto views = testing::render_calibration_set(rig, spec, 3);
   views[2].first = cv::Mat(rig.size, CV_8UC1, cv::Scalar(110));
   auto report = calibrate_stereo(views.size(), loader(views), board_of(spec), {});
   ASSERT_FALSE(report);

@@ -113,10 +113,11 @@ inline std::pair<cv::Mat, cv::Mat> render_stereo_view(const StereoRigTruth& rig,
           render_checkerboard(right, board, rig.size, seed + 1)};
 }
 
-// Ten views spread in tilt (up to 30 deg), roll and distance (0.55-0.9 m),
-// the board centred between the cameras.
+// Up to ten views (the first `count`) spread in tilt (up to 30 deg), roll and
+// distance (0.55-0.9 m), the board centred between the cameras.
 inline std::vector<std::pair<cv::Mat, cv::Mat>> render_calibration_set(const StereoRigTruth& rig,
-                                                                       const CheckerboardSpec& board) {
+                                                                       const CheckerboardSpec& board,
+                                                                       std::size_t count = 10) {
   struct Pose {
     double ax, ay, az, x, y, z;
   };
@@ -128,6 +129,7 @@ inline std::vector<std::pair<cv::Mat, cv::Mat>> render_calibration_set(const Ste
   std::vector<std::pair<cv::Mat, cv::Mat>> views;
   std::uint64_t seed = 10;
   for (const Pose& p : poses) {
+    if (views.size() == count) break;
     views.push_back(
         render_stereo_view(rig, board, rotation_deg(p.ax, p.ay, p.az), cv::Vec3d(p.x, p.y, p.z), seed));
     seed += 2;
