@@ -45,7 +45,7 @@ Expected<BoardSpec> parse_board(const std::string& text, double square_m) {
 
 std::vector<cv::Point3f> board_points(const BoardSpec& board) {
   std::vector<cv::Point3f> points;
-  points.reserve(static_cast<std::size_t>(board.cols * board.rows));
+  points.reserve(static_cast<std::size_t>(board.cols) * static_cast<std::size_t>(board.rows));
   for (int r = 0; r < board.rows; ++r) {
     for (int c = 0; c < board.cols; ++c) {
       points.emplace_back(static_cast<float>(c * board.square_m), static_cast<float>(r * board.square_m),
@@ -64,7 +64,8 @@ std::vector<cv::Point2f> find_board_corners(const cv::Mat& gray, const BoardSpec
   double spacing = 1e9;
   for (int r = 0; r < board.rows; ++r) {
     for (int c = 0; c + 1 < board.cols; ++c) {
-      const auto i = static_cast<std::size_t>(r * board.cols + c);
+      const std::size_t i =
+          static_cast<std::size_t>(r) * static_cast<std::size_t>(board.cols) + static_cast<std::size_t>(c);
       spacing = std::min(spacing, cv::norm(corners[i + 1] - corners[i]));
     }
   }

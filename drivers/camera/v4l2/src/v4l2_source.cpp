@@ -18,7 +18,7 @@ constexpr int kPollSliceMs = 20;
 constexpr std::size_t kMaxPending = 8;
 
 // Sleeps until `until` or a stop request, whichever is first.
-void wait_interruptibly(std::stop_token stop, std::chrono::steady_clock::time_point until) {
+void wait_interruptibly(const std::stop_token& stop, std::chrono::steady_clock::time_point until) {
   std::mutex mutex;
   std::condition_variable_any cv;
   std::unique_lock lock(mutex);
@@ -207,7 +207,7 @@ Expected<std::optional<std::pair<RawFrame, RawFrame>>> V4l2Source::poll_cameras(
   return pairer_.pop();
 }
 
-Expected<pipeline::SourceEvent> V4l2Source::deliver(std::pair<RawFrame, RawFrame> pair) {
+Expected<pipeline::SourceEvent> V4l2Source::deliver(const std::pair<RawFrame, RawFrame>& pair) {
   StereoFrame frame;
   SITEPOSE_TRY_STATUS(rectifier_.rectify(pair.first.gray, pair.second.gray, frame.left, frame.right));
   frame.seq = seq_++;
@@ -223,7 +223,7 @@ Expected<pipeline::SourceEvent> V4l2Source::next(std::stop_token stop, pipeline:
   using pipeline::SourceEventKind;
   for (;;) {
     if (stop.stop_requested()) return SourceEvent{SourceEventKind::kEnd, {}};
-    if (auto pair = pairer_.pop()) return deliver(std::move(*pair));
+    if (auto pair = pairer_.pop()) return deliver(*pair);
     const auto now = Clock::now();
     if (!cameras_[0]) {
       if (now >= next_retry_) try_reconnect(now);
@@ -241,7 +241,7 @@ Expected<pipeline::SourceEvent> V4l2Source::next(std::stop_token stop, pipeline:
     const auto left_ms = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now).count();
     const int wait_ms = static_cast<int>(std::clamp<std::int64_t>(left_ms, 0, kPollSliceMs));
     SITEPOSE_TRY(auto pair, poll_cameras(wait_ms));
-    if (pair) return deliver(std::move(*pair));
+    if (pair) return deliver(*pair);
   }
 }
 

@@ -89,7 +89,7 @@ class V4l2Source final : public pipeline::FrameSource {
   // Reads what the devices have ready (waits up to `wait_ms`); a pair when
   // one is complete.
   Expected<std::optional<std::pair<RawFrame, RawFrame>>> poll_cameras(int wait_ms);
-  Expected<pipeline::SourceEvent> deliver(std::pair<RawFrame, RawFrame> pair);
+  Expected<pipeline::SourceEvent> deliver(const std::pair<RawFrame, RawFrame>& pair);
   void publish_stats();
 
   V4l2SourceOptions options_;
