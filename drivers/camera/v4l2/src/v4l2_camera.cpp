@@ -236,13 +236,13 @@ Expected<std::optional<RawFrame>> V4l2Camera::dequeue() {
     frame.t_ns = monotonic_now_ns();
     ++counts_.host_timestamps;
   }
-  Expected<cv::Mat> gray = make_error(ErrorCode::kIoError, "flagged corrupt by the driver");
-  if ((buf.flags & V4L2_BUF_FLAG_ERROR) == 0) {
-    const Buffer& b = buffers_[buf.index];
-    gray = to_gray(format_, static_cast<const std::uint8_t*>(b.start),
-                   std::min<std::size_t>(buf.bytesused, b.length), options_.width, options_.height,
-                   bytes_per_line_);
-  }
+  const Buffer& b = buffers_[buf.index];
+  Expected<cv::Mat> gray =
+      (buf.flags & V4L2_BUF_FLAG_ERROR) != 0
+          ? Expected<cv::Mat>(make_error(ErrorCode::kIoError, "flagged corrupt by the driver"))
+          : to_gray(format_, static_cast<const std::uint8_t*>(b.start),
+                    std::min<std::size_t>(buf.bytesused, b.length), options_.width, options_.height,
+                    bytes_per_line_);
   // The copy is made: the buffer goes back to the driver at once.
   if (io_->ioctl(fd_, VIDIOC_QBUF, &buf) != 0)
     return make_error(ErrorCode::kIoError, fail_text("VIDIOC_QBUF", errno));
