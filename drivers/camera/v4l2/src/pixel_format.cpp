@@ -18,24 +18,18 @@ Expected<std::vector<PixelFormat>> parse_pixel_preference(const std::string& nam
 
 const char* to_string(PixelFormat format) {
   switch (format) {
-    case PixelFormat::kGrey:
-      return "GREY";
-    case PixelFormat::kYuyv:
-      return "YUYV";
-    case PixelFormat::kMjpeg:
-      return "MJPG";
+    case PixelFormat::kGrey: return "GREY";
+    case PixelFormat::kYuyv: return "YUYV";
+    case PixelFormat::kMjpeg: return "MJPG";
   }
   return "?";
 }
 
 std::uint32_t fourcc(PixelFormat format) {
   switch (format) {
-    case PixelFormat::kGrey:
-      return V4L2_PIX_FMT_GREY;
-    case PixelFormat::kYuyv:
-      return V4L2_PIX_FMT_YUYV;
-    case PixelFormat::kMjpeg:
-      return V4L2_PIX_FMT_MJPEG;
+    case PixelFormat::kGrey: return V4L2_PIX_FMT_GREY;
+    case PixelFormat::kYuyv: return V4L2_PIX_FMT_YUYV;
+    case PixelFormat::kMjpeg: return V4L2_PIX_FMT_MJPEG;
   }
   return 0;
 }
