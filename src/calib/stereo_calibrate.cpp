@@ -1,0 +1,127 @@
+#include "sitepose/calib/stereo_calibrate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+
+namespace sitepose::calib {
+
+namespace fs = std::filesystem;
+
+Expected<BoardSpec> parse_board(const std::string& text, double square_m) {
+  BoardSpec board;
+  const auto x = text.find_first_of("xX");
+  auto parse_int = [](const std::string& s, int& out) {
+    if (s.empty() || s.size() > 4 || !std::all_of(s.begin(), s.end(), ::isdigit)) return false;
+    out = std::stoi(s);
+    return true;
+  };
+  if (x == std::string::npos || !parse_int(text.substr(0, x), board.cols) ||
+      !parse_int(text.substr(x + 1), board.rows)) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "board \"" + text + "\": expected COLSxROWS, inner corners, e.g. 9x6");
+  }
+  if (board.cols < 2 || board.rows < 2) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "board \"" + text + "\": needs at least 2x2 inner corners");
+  }
+  if (board.cols == board.rows) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "board \"" + text +
+                          "\": a square board has an ambiguous orientation; use one with "
+                          "different inner-corner counts (e.g. 9x6)");
+  }
+  if (!(square_m > 0.0) || !std::isfinite(square_m)) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "square size " + std::to_string(square_m) + " m: must be > 0");
+  }
+  board.square_m = square_m;
+  return board;
+}
+
+std::vector<cv::Point3f> board_points(const BoardSpec& board) {
+  std::vector<cv::Point3f> points;
+  points.reserve(static_cast<std::size_t>(board.cols) * static_cast<std::size_t>(board.rows));
+  for (int r = 0; r < board.rows; ++r) {
+    for (int c = 0; c < board.cols; ++c) {
+      points.emplace_back(static_cast<float>(c * board.square_m), static_cast<float>(r * board.square_m),
+                          0.0f);
+    }
+  }
+  return points;
+}
+
+std::vector<cv::Point2f> find_board_corners(const cv::Mat& gray, const BoardSpec& board) {
+  std::vector<cv::Point2f> corners;
+  const cv::Size pattern(board.cols, board.rows);
+  const int flags = cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE;
+  if (!cv::findChessboardCorners(gray, pattern, corners, flags)) return {};
+  // The search window grows with the corner spacing, up to 11x11.
+  double spacing = 1e9;
+  for (int r = 0; r < board.rows; ++r) {
+    for (int c = 0; c + 1 < board.cols; ++c) {
+      const std::size_t i =
+          static_cast<std::size_t>(r) * static_cast<std::size_t>(board.cols) + static_cast<std::size_t>(c);
+      spacing = std::min(spacing, cv::norm(corners[i + 1] - corners[i]));
+    }
+  }
+  const int half = std::clamp(static_cast<int>(spacing / 4.0), 2, 11);
+  cv::cornerSubPix(gray, corners, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+  return corners;
+}
+
+Expected<std::vector<std::string>> list_calibration_views(const std::string& dir) {
+  const fs::path left = fs::path(dir) / "left";
+  const fs::path right = fs::path(dir) / "right";
+  for (const fs::path& p : {fs::path(dir), left, right}) {
+    if (!fs::is_directory(p)) {
+      return make_error(ErrorCode::kNotFound,
+                        "calibration views: no folder " + p.string() + " (expected DIR/left, DIR/right)");
+    }
+  }
+  auto pngs = [](const fs::path& folder) {
+    std::set<std::string> names;
+    for (const auto& e : fs::directory_iterator(folder)) {
+      if (e.is_regular_file() && e.path().extension() == ".png") names.insert(e.path().filename());
+    }
+    return names;
+  };
+  const std::set<std::string> l = pngs(left);
+  const std::set<std::string> r = pngs(right);
+  for (const auto& n : l) {
+    if (!r.count(n)) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        "calibration views: " + (left / n).string() + " has no twin in " + right.string());
+    }
+  }
+  for (const auto& n : r) {
+    if (!l.count(n)) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        "calibration views: " + (right / n).string() + " has no twin in " + left.string());
+    }
+  }
+  if (l.empty()) {
+    return make_error(ErrorCode::kInvalidArgument, "calibration views: no .png images in " + left.string());
+  }
+  return std::vector<std::string>(l.begin(), l.end());
+}
+
+Expected<CalibrationView> load_calibration_view(const std::string& dir, const std::string& name) {
+  CalibrationView view;
+  view.name = name;
+  for (auto [side, mat] : {std::pair{"left", &view.left}, std::pair{"right", &view.right}}) {
+    const std::string path = (fs::path(dir) / side / name).string();
+    *mat = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    if (mat->empty()) {
+      return make_error(ErrorCode::kInvalidArgument, "calibration view " + path + ": cannot read the image");
+    }
+  }
+  return view;
+}
+
+}  // namespace sitepose::calib
