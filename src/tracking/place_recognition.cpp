@@ -42,6 +42,7 @@ std::vector<PlaceCandidate> rank_places(const PlaceIndex& index, const cv::Mat& 
     for (std::size_t j = index.offset[i]; j < index.offset[i + 1]; ++j) ++votes[index.keyframes[j]];
   }
   std::vector<PlaceCandidate> ranked;
+  ranked.reserve(votes.size());
   for (const auto& [keyframe, n] : votes) ranked.push_back({keyframe, n});
   std::sort(ranked.begin(), ranked.end(), [](const PlaceCandidate& a, const PlaceCandidate& b) {
     return a.votes != b.votes ? a.votes > b.votes : a.keyframe > b.keyframe;
