@@ -388,6 +388,7 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
     }
     if (votes.empty() && map.keyframe(reference_keyframe_) != nullptr) votes[reference_keyframe_] = 1;
     std::vector<std::pair<int, map::KeyFrameId>> ranked;
+    ranked.reserve(votes.size());
     for (const auto& [kf, n] : votes) ranked.emplace_back(n, kf);
     std::sort(ranked.begin(), ranked.end(), std::greater<>());
     std::set<map::KeyFrameId> local;
