@@ -49,8 +49,8 @@ Section<OrbConfig> orb_section() {
       .key("grid_cell_px", &OrbConfig::grid_cell_px, in_range(8, 500))
       .check([](const ReadKeys& keys, const OrbConfig& orb) {
         if (keys.valid("min_fast_threshold") && orb.min_fast_threshold > orb.ini_fast_threshold) {
-          keys.report("min_fast_threshold", "must be <= orb.ini_fast_threshold (" +
-                                                std::to_string(orb.ini_fast_threshold) + ")");
+          keys.report("min_fast_threshold",
+                      "must be <= orb.ini_fast_threshold (" + std::to_string(orb.ini_fast_threshold) + ")");
         }
       });
   return s;
@@ -84,6 +84,7 @@ Section<TrackingConfig> tracking_section() {
       // A stereo pose has 6 dof; below ~10 inliers "tracking OK" means nothing.
       .key("min_inliers_ok", &T::min_inliers_ok, at_least(10))
       .key("min_inliers_recovering", &T::min_inliers_recovering, at_least(3))
+      .key("relocalisation_hold_frames", &T::relocalisation_hold_frames, in_range(1, 100))
       .key("keyframe_max_interval_frames", &T::keyframe_max_interval_frames, non_negative())
       .key("keyframe_tracked_ratio", &T::keyframe_tracked_ratio, greater_than(0.0), at_most(1.0))
       .key("keyframe_min_close_points", &T::keyframe_min_close_points, non_negative())
@@ -91,8 +92,8 @@ Section<TrackingConfig> tracking_section() {
       .check([](const ReadKeys& keys, const T& tracking) {
         if (keys.valid("min_inliers_recovering") &&
             tracking.min_inliers_recovering > tracking.min_inliers_ok) {
-          keys.report("min_inliers_recovering", "must be <= tracking.min_inliers_ok (" +
-                                                    std::to_string(tracking.min_inliers_ok) + ")");
+          keys.report("min_inliers_recovering",
+                      "must be <= tracking.min_inliers_ok (" + std::to_string(tracking.min_inliers_ok) + ")");
         }
       });
   return s;
@@ -103,8 +104,7 @@ Section<MappingConfig> mapping_section() {
   s.key("enabled", &MappingConfig::enabled)
       .key("local_ba_keyframes", &MappingConfig::local_ba_keyframes, in_range(1, 100))
       .key("local_ba_iterations", &MappingConfig::local_ba_iterations, in_range(1, 200))
-      .key("keyframe_redundancy", &MappingConfig::keyframe_redundancy, greater_than(0.0),
-           at_most(1.0))
+      .key("keyframe_redundancy", &MappingConfig::keyframe_redundancy, greater_than(0.0), at_most(1.0))
       .key("min_point_observations", &MappingConfig::min_point_observations, in_range(1, 20));
   return s;
 }
@@ -112,12 +112,13 @@ Section<MappingConfig> mapping_section() {
 Section<DynamicConfig> dynamic_section() {
   using D = DynamicConfig;
   Section<D> s;
-  s.parsed("mode", &D::mode, [](const std::string& t) { return parse_masking_mode(t); },
-           [](MaskingMode m) { return to_string(m); })
+  s.parsed(
+       "mode", &D::mode, [](const std::string& t) { return parse_masking_mode(t); },
+       [](MaskingMode m) { return to_string(m); })
       .key("tau_mar", &D::tau_mar, in_range(0.0, 1.0))
-      .parsed("classifier", &D::classifier,
-              [](const std::string& t) { return parse_classifier_mode(t); },
-              [](ClassifierMode m) { return to_string(m); })
+      .parsed(
+          "classifier", &D::classifier, [](const std::string& t) { return parse_classifier_mode(t); },
+          [](ClassifierMode m) { return to_string(m); })
       .key("sigma_bkg_m", &D::sigma_bkg_m, positive())
       .key("static_inlier_fraction", &D::static_inlier_fraction, greater_than(0.0), at_most(1.0))
       .key("reference_offset_frames", &D::reference_offset_frames, in_range(0, 1000))
@@ -201,25 +202,23 @@ const Section<SiteposeConfig>& sitepose_sections() {
   return sections;
 }
 
-std::string to_yaml(const SiteposeConfig& config) {
-  return write_yaml(sitepose_sections(), config);
-}
+std::string to_yaml(const SiteposeConfig& config) { return write_yaml(sitepose_sections(), config); }
 
 Expected<SiteposeConfig> load_config(const std::string& path) {
   SITEPOSE_TRY(const std::string text, read_yaml_file(path));
   return load_config_from_string(text, path);
 }
 
-Expected<SiteposeConfig> load_config_from_string(std::string_view text,
-                                                 const std::string& source_name) {
+Expected<SiteposeConfig> load_config_from_string(std::string_view text, const std::string& source_name) {
   // yaml-cpp accepts OpenCV's "%YAML:1.0" header, and every key would then
   // be reported unknown; name the likely mix-up instead.
   if (text.substr(0, 6) == "%YAML:") {
     return make_error(ErrorCode::kInvalidArgument,
-                      source_name + ":1: this is an OpenCV FileStorage file (%YAML:1.0), such as "
-                                    "ORB-SLAM2 settings, not a sitepose configuration (see "
-                                    "config/sitepose.yaml); ORB-SLAM2 settings are read by "
-                                    "load_orbslam2_settings");
+                      source_name +
+                          ":1: this is an OpenCV FileStorage file (%YAML:1.0), such as "
+                          "ORB-SLAM2 settings, not a sitepose configuration (see "
+                          "config/sitepose.yaml); ORB-SLAM2 settings are read by "
+                          "load_orbslam2_settings");
   }
   SITEPOSE_TRY(const YamlReader reader, YamlReader::from_string(text, source_name));
   return finish_loading(reader);
@@ -230,27 +229,34 @@ bool operator==(const CameraConfig& a, const CameraConfig& b) {
   if (!a.stereo) return true;
   const StereoCamera& x = *a.stereo;
   const StereoCamera& y = *b.stereo;
-  return x.fx == y.fx && x.fy == y.fy && x.cx == y.cx && x.cy == y.cy &&
-         x.baseline_m == y.baseline_m && x.width == y.width && x.height == y.height;
+  return x.fx == y.fx && x.fy == y.fy && x.cx == y.cx && x.cy == y.cy && x.baseline_m == y.baseline_m &&
+         x.width == y.width && x.height == y.height;
 }
 
 // ---- enums ----------------------------------------------------------------
 
 const char* to_string(MaskingMode mode) {
   switch (mode) {
-    case MaskingMode::kNone: return "none";
-    case MaskingMode::kBbox: return "bbox";
-    case MaskingMode::kPixel: return "pixel";
-    case MaskingMode::kHierarchical: return "hierarchical";
-    case MaskingMode::kFull: return "full";
+    case MaskingMode::kNone:
+      return "none";
+    case MaskingMode::kBbox:
+      return "bbox";
+    case MaskingMode::kPixel:
+      return "pixel";
+    case MaskingMode::kHierarchical:
+      return "hierarchical";
+    case MaskingMode::kFull:
+      return "full";
   }
   return "unknown";
 }
 
 const char* to_string(ClassifierMode mode) {
   switch (mode) {
-    case ClassifierMode::kPaper: return "paper";
-    case ClassifierMode::kSitepose: return "sitepose";
+    case ClassifierMode::kPaper:
+      return "paper";
+    case ClassifierMode::kSitepose:
+      return "sitepose";
   }
   return "unknown";
 }
@@ -273,8 +279,7 @@ Expected<ClassifierMode> parse_classifier_mode(std::string_view name) {
     if (name == to_string(mode)) return mode;
   }
   return make_error(ErrorCode::kInvalidArgument,
-                    "unknown classifier \"" + echo_value(name) +
-                        "\" (expected one of: paper, sitepose)");
+                    "unknown classifier \"" + echo_value(name) + "\" (expected one of: paper, sitepose)");
 }
 
 }  // namespace sitepose::config

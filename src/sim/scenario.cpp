@@ -57,7 +57,8 @@ void read_realism(YamlMap m, RealismSpec& r) {
   m.read("contrast", r.contrast, in_range(0.1, 2.0));
   m.read("brightness", r.brightness, in_range(0.2, 3.0));
   m.read("motion_blur_samples", r.motion_blur_samples, in_range(1, 15),
-         config::make_rule([](int n) { return n % 2 == 1; }, "must be odd (labels come from the middle render)"));
+         config::make_rule([](int n) { return n % 2 == 1; },
+                           "must be odd (labels come from the middle render)"));
   m.read("exposure_time_s", r.exposure_time_s, in_range(0.0, 0.2));
   m.read("right_gain", r.right_gain, in_range(0.5, 1.5));
   m.read("distorted", r.distorted);
@@ -66,6 +67,16 @@ void read_realism(YamlMap m, RealismSpec& r) {
   d.read("k2", r.distortion.k2, in_range(-1.0, 1.0));
   d.read("p1", r.distortion.p1, in_range(-0.05, 0.05));
   d.read("p2", r.distortion.p2, in_range(-0.05, 0.05));
+  double last_end_s = -1.0;
+  for (YamlMap c : m.maps("lens_covered")) {
+    LensCoverSpec cover;
+    c.read_required("at_s", cover.at_s, at_least(0.0));
+    c.read_required("duration_s", cover.duration_s, positive());
+    c.read("transmission", cover.transmission, in_range(0.0, 1.0));
+    if (cover.at_s <= last_end_s) c.report("at_s", "covers must be in time order and not overlap");
+    last_end_s = cover.at_s + cover.duration_s;
+    r.lens_covered.push_back(cover);
+  }
 }
 
 void read_world(YamlMap m, WorldSpec& w) {
@@ -89,14 +100,14 @@ void read_machine(YamlMap m, MachineSpec& s) {
         return std::all_of(pts.begin(), pts.end(), [](const auto& p) { return p.size() == 2; });
       },
       "every waypoint must be [x, y]");
-  const auto at_least_two = config::make_rule(
-      [](const std::vector<std::vector<double>>& pts) { return pts.size() >= 2; },
-      "needs at least 2 waypoints");
+  const auto at_least_two =
+      config::make_rule([](const std::vector<std::vector<double>>& pts) { return pts.size() >= 2; },
+                        "needs at least 2 waypoints");
   if (m.read("waypoints", s.waypoints, two_numbers, at_least_two)) {
     double length = 0.0;
     for (size_t i = 1; i < s.waypoints.size(); ++i) {
-      length += std::hypot(s.waypoints[i][0] - s.waypoints[i - 1][0],
-                           s.waypoints[i][1] - s.waypoints[i - 1][1]);
+      length +=
+          std::hypot(s.waypoints[i][0] - s.waypoints[i - 1][0], s.waypoints[i][1] - s.waypoints[i - 1][1]);
     }
     if (!(length > 0.0)) m.report("waypoints", "the path has zero length");
     if (m.has("x_m") || m.has("y_m") || m.has("yaw_deg")) {
@@ -162,9 +173,9 @@ Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::strin
 
 Expected<Scenario> load_scenario(const std::string& name_or_path, const std::string& dir_in) {
   const std::string dir = dir_in.empty() ? default_scenario_dir() : dir_in;
-  const bool is_path = name_or_path.find('/') != std::string::npos ||
-                       (name_or_path.size() > 5 &&
-                        name_or_path.compare(name_or_path.size() - 5, 5, ".yaml") == 0);
+  const bool is_path =
+      name_or_path.find('/') != std::string::npos ||
+      (name_or_path.size() > 5 && name_or_path.compare(name_or_path.size() - 5, 5, ".yaml") == 0);
   const std::string path = is_path ? name_or_path : dir + "/" + name_or_path + ".yaml";
   std::ifstream in(path);
   if (!in) {

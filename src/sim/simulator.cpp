@@ -46,7 +46,9 @@ bool same_pose(const SE3& a, const SE3& b) {
 // returns the number of frames. kInvalidArgument names a bad override.
 Expected<int> apply_options(const SimOptions& options, Scenario& s) {
   if (options.seed) {
-    if (*options.seed < 0) return make_error(ErrorCode::kInvalidArgument, "seed = " + std::to_string(*options.seed) + ": must be >= 0");
+    if (*options.seed < 0)
+      return make_error(ErrorCode::kInvalidArgument,
+                        "seed = " + std::to_string(*options.seed) + ": must be >= 0");
     s.seed = *options.seed;
   }
   if (options.width) {
@@ -59,17 +61,21 @@ Expected<int> apply_options(const SimOptions& options, Scenario& s) {
   }
   if (s.camera.width < 16 || s.camera.height < 16 || s.camera.width > 8192 || s.camera.height > 8192) {
     return make_error(ErrorCode::kInvalidArgument, "image size " + std::to_string(s.camera.width) + "x" +
-                                                       std::to_string(s.camera.height) + ": must be in [16, 8192]");
+                                                       std::to_string(s.camera.height) +
+                                                       ": must be in [16, 8192]");
   }
   if (options.fps) {
     if (!(*options.fps > 0.0 && *options.fps <= 120.0)) {
-      return make_error(ErrorCode::kInvalidArgument, "fps = " + std::to_string(*options.fps) + ": must be in (0, 120]");
+      return make_error(ErrorCode::kInvalidArgument,
+                        "fps = " + std::to_string(*options.fps) + ": must be in (0, 120]");
     }
     s.fps = *options.fps;
   }
   int frames = s.frame_count();
   if (options.frames) {
-    if (*options.frames < 1) return make_error(ErrorCode::kInvalidArgument, "frames = " + std::to_string(*options.frames) + ": must be >= 1");
+    if (*options.frames < 1)
+      return make_error(ErrorCode::kInvalidArgument,
+                        "frames = " + std::to_string(*options.frames) + ": must be >= 1");
     frames = *options.frames;
   }
   if (s.realism.motion_blur_samples % 2 == 0) {
@@ -130,7 +136,7 @@ Expected<Simulator> Simulator::create(const Scenario& scenario_in, const SimOpti
   sim.scenario_ = scenario_in;
   SITEPOSE_TRY(sim.frames_, apply_options(options, sim.scenario_));
   const Scenario& s = sim.scenario_;
-  sim.camera_ = StereoCamera{s.camera.fx, s.camera.fy, s.camera.width / 2.0, s.camera.height / 2.0,
+  sim.camera_ = StereoCamera{s.camera.fx,         s.camera.fy,    s.camera.width / 2.0, s.camera.height / 2.0,
                              s.camera.baseline_m, s.camera.width, s.camera.height};
   SITEPOSE_TRY_STATUS(sim.camera_.validate());
   sim.ego_profile_ = ego_speed_profile(s.ego);
@@ -153,7 +159,7 @@ void Simulator::add_objects() {
     o.class_name = m.class_name;
     Rng mrng(mix64(static_cast<std::uint64_t>(s.seed) * 104729ull + o.instance));
     const detail::MachineLook look{m.paint, m.label};
-    Mesh mesh = m.class_name == "roller" ? detail::make_roller(mrng, look)
+    Mesh mesh = m.class_name == "roller"  ? detail::make_roller(mrng, look)
                 : m.class_name == "truck" ? detail::make_truck(mrng, look)
                                           : detail::make_excavator(mrng, look);
     o.mesh = std::make_shared<const Mesh>(std::move(mesh));
@@ -186,7 +192,8 @@ void Simulator::make_distortion_maps() {
   std::vector<cv::Point2f> pixels;
   pixels.reserve(static_cast<size_t>(s.camera.width) * s.camera.height);
   for (int v = 0; v < s.camera.height; ++v)
-    for (int u = 0; u < s.camera.width; ++u) pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
+    for (int u = 0; u < s.camera.width; ++u)
+      pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
   const cv::Matx33d K(camera_.fx, 0, camera_.cx, 0, camera_.fy, camera_.cy, 0, 0, 1);
   const cv::Vec4d D(s.realism.distortion.k1, s.realism.distortion.k2, s.realism.distortion.p1,
                     s.realism.distortion.p2);
@@ -244,15 +251,18 @@ cv::Mat Simulator::render_radiance(double t_s, bool right_camera, RenderBuffers*
   const SE3 T_left_right(Eigen::Quaterniond::Identity(), Eigen::Vector3d(camera_.baseline_m, 0, 0));
   cv::Mat sum;
   for (int i = 0; i < n; ++i) {
-    const double ts = n == 1 ? t_s : t_s + scenario_.realism.exposure_time_s * (static_cast<double>(i) / (n - 1) - 0.5);
+    const double ts =
+        n == 1 ? t_s : t_s + scenario_.realism.exposure_time_s * (static_cast<double>(i) / (n - 1) - 0.5);
     SE3 T = T_site_cam(ts);
     if (right_camera) T = T * T_left_right;
     RenderBuffers buffers;
     renderer_.render(scene_at(ts), camera_, T, buffers);
     if (labels && i == n / 2) *labels = buffers;
     if (n == 1) return buffers.radiance;
-    if (sum.empty()) sum = buffers.radiance.clone();
-    else sum += buffers.radiance;
+    if (sum.empty())
+      sum = buffers.radiance.clone();
+    else
+      sum += buffers.radiance;
   }
   return sum / n;
 }
@@ -263,9 +273,14 @@ double Simulator::exposure_gain(int k) const {
   // Slow drift of the auto exposure plus a per-frame step.
   const double slow = 0.6 * std::sin(2 * std::numbers::pi * t / 9.7 + exposure_phase_[0]) +
                       0.4 * std::sin(2 * std::numbers::pi * t / 3.1 + exposure_phase_[1]);
-  Rng rng(mix64(static_cast<std::uint64_t>(scenario_.seed) ^ (static_cast<std::uint64_t>(k) << 20) ^ 0xE7ull));
+  Rng rng(
+      mix64(static_cast<std::uint64_t>(scenario_.seed) ^ (static_cast<std::uint64_t>(k) << 20) ^ 0xE7ull));
   const double step = rng.uniform(-1.0, 1.0);
-  return r.brightness * (1.0 + r.exposure_variation * (0.7 * slow + 0.3 * step));
+  double transmission = 1.0;
+  for (const LensCoverSpec& cover : r.lens_covered) {
+    if (t >= cover.at_s && t < cover.at_s + cover.duration_s) transmission = cover.transmission;
+  }
+  return transmission * r.brightness * (1.0 + r.exposure_variation * (0.7 * slow + 0.3 * step));
 }
 
 cv::Mat Simulator::to_image(const cv::Mat& radiance, double gain, int frame_index, int camera_index) const {
@@ -276,24 +291,27 @@ cv::Mat Simulator::to_image(const cv::Mat& radiance, double gain, int frame_inde
   const float sigma = static_cast<float>(r.noise_sigma * 1.7320508);  // Irwin-Hall(4) has std 1/sqrt(3)
   const std::uint64_t base = mix64(static_cast<std::uint64_t>(scenario_.seed) * 0x9E37ull +
                                    static_cast<std::uint64_t>(frame_index) * 4ull + camera_index);
-  cv::parallel_for_(cv::Range(0, radiance.rows), [&](const cv::Range& rows) {
-    for (int v = rows.start; v < rows.end; ++v) {
-      const float* in = radiance.ptr<float>(v);
-      uchar* o = out.ptr<uchar>(v);
-      std::uint64_t state = mix64(base + static_cast<std::uint64_t>(v));
-      for (int u = 0; u < radiance.cols; ++u) {
-        // xorshift64: four 16-bit uniforms per step.
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        const float sum4 = static_cast<float>((state & 0xFFFF) + ((state >> 16) & 0xFFFF) +
-                                              ((state >> 32) & 0xFFFF) + (state >> 48)) *
-                           (1.0f / 65536.0f);
-        const float value = 128.0f + (in[u] * g - 128.0f) * contrast + (sum4 - 2.0f) * sigma;
-        o[u] = cv::saturate_cast<uchar>(value);
-      }
-    }
-  }, 8);
+  cv::parallel_for_(
+      cv::Range(0, radiance.rows),
+      [&](const cv::Range& rows) {
+        for (int v = rows.start; v < rows.end; ++v) {
+          const float* in = radiance.ptr<float>(v);
+          uchar* o = out.ptr<uchar>(v);
+          std::uint64_t state = mix64(base + static_cast<std::uint64_t>(v));
+          for (int u = 0; u < radiance.cols; ++u) {
+            // xorshift64: four 16-bit uniforms per step.
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            const float sum4 = static_cast<float>((state & 0xFFFF) + ((state >> 16) & 0xFFFF) +
+                                                  ((state >> 32) & 0xFFFF) + (state >> 48)) *
+                               (1.0f / 65536.0f);
+            const float value = 128.0f + (in[u] * g - 128.0f) * contrast + (sum4 - 2.0f) * sigma;
+            o[u] = cv::saturate_cast<uchar>(value);
+          }
+        }
+      },
+      8);
   return out;
 }
 

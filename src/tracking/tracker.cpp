@@ -9,19 +9,31 @@
 #include "sitepose/core/stopwatch.hpp"
 #include "sitepose/features/hamming.hpp"
 #include "sitepose/optim/reprojection_costs.hpp"
+#include "sitepose/tracking/place_recognition.hpp"
 
 namespace sitepose::tracking {
+
+// A keyframe relocalisation tries: its pose, its good points and those of
+// its best covisible keyframes (the projection search after PnP).
+struct RelocalisationCandidate {
+  SE3 T_cam_world;
+  std::vector<PointView> points;
+  std::vector<PointView> neighbourhood_points;
+};
+
 namespace {
 
 // ORB-SLAM2 thresholds, named (METHOD.md "Core tracker").
-constexpr int kMinMatchesMotionModel = 20;   // else widen the window / relocalise
+constexpr int kMinMatchesMotionModel = 20;  // else widen the window / relocalise
 constexpr int kMinInliersMotionModel = 10;
 constexpr double kMotionModelRadiusPx = 7.0;  // stereo (ORB-SLAM2 TrackWithMotionModel)
 constexpr double kLocalMapRadiusPx = 1.0;     // times 2.5 / 4 by viewing angle
 constexpr double kLocalMapRatio = 0.8;
 constexpr int kMaxLocalKeyframes = 80;
-constexpr int kRelocalisationKeyframes = 6;
 constexpr int kRelocalisationMinMatches = 15;
+constexpr int kRelocalisationNeighbours = 5;      // covisible keyframes searched after PnP
+constexpr double kRelocalisationRadiusPx = 10.0;  // ORB-SLAM2 Relocalization's projection search
+constexpr int kRelocalisationGoodInliers = 50;    // fewer after PnP + BA: search by projection
 
 // ORB-SLAM2's local map search: ratio test, viewing angle and scale checks,
 // radius times 2.5 (head-on) or 4.
@@ -46,9 +58,9 @@ config::OrbConfig object_orb_config(const config::OrbConfig& orb) {
 Status check_frame(const StereoFrame& frame, const cv::Mat& instance_labels, const StereoCamera& camera) {
   if (frame.left.empty() || frame.right.empty() || frame.left.size() != frame.right.size() ||
       frame.left.type() != CV_8UC1 || frame.right.type() != CV_8UC1) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "frame " + std::to_string(frame.seq) +
-                          ": left and right must be 8-bit gray images of equal size");
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        "frame " + std::to_string(frame.seq) + ": left and right must be 8-bit gray images of equal size");
   }
   if (frame.left.cols != camera.width || frame.left.rows != camera.height) {
     return make_error(ErrorCode::kInvalidArgument,
@@ -59,8 +71,7 @@ Status check_frame(const StereoFrame& frame, const cv::Mat& instance_labels, con
   }
   if (!instance_labels.empty() &&
       (instance_labels.type() != CV_16UC1 || instance_labels.size() != frame.left.size())) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "instance labels must be CV_16UC1 of the image size");
+    return make_error(ErrorCode::kInvalidArgument, "instance labels must be CV_16UC1 of the image size");
   }
   return ok_status();
 }
@@ -83,32 +94,26 @@ void tag_keypoints(const cv::Mat& instance_labels, PreparedFrame& out) {
   }
 }
 
-// A keyframe relocalisation tries: its pose and its good points.
-struct RelocalisationCandidate {
-  SE3 T_cam_world;
-  std::vector<PointView> points;
-};
-
-// The reference keyframe (else the last) and its best covisible ones: the
-// machine rarely goes far while tracking is lost.
-std::vector<RelocalisationCandidate> relocalisation_candidates(const map::MapData& map,
-                                                               map::KeyFrameId reference) {
-  std::vector<RelocalisationCandidate> candidates;
-  map::KeyFrameId ref = reference;
-  if (map.keyframe(ref) == nullptr) ref = map.last_keyframe();
-  if (map.keyframe(ref) == nullptr) return candidates;
-  std::vector<map::KeyFrameId> ids{ref};
-  for (auto id : map.best_covisible(ref, kRelocalisationKeyframes - 1)) ids.push_back(id);
-  for (auto id : ids) {
-    const map::KeyFrame* kf = map.keyframe(id);
-    RelocalisationCandidate c;
-    c.T_cam_world = kf->T_cam_world();
-    for (map::PointId pid : kf->point_of_keypoint) {
-      if (const map::MapPoint* p = map.good_point(pid); p != nullptr) c.points.push_back(make_point_view(*p));
+RelocalisationCandidate relocalisation_candidate(const map::MapData& map, const map::KeyFrame& kf) {
+  RelocalisationCandidate c;
+  c.T_cam_world = kf.T_cam_world();
+  std::set<map::PointId> seen;
+  for (map::PointId pid : kf.point_of_keypoint) {
+    if (const map::MapPoint* p = map.good_point(pid); p != nullptr && seen.insert(pid).second) {
+      c.points.push_back(make_point_view(*p));
     }
-    candidates.push_back(std::move(c));
   }
-  return candidates;
+  c.neighbourhood_points = c.points;
+  for (map::KeyFrameId id : map.best_covisible(kf.id, kRelocalisationNeighbours)) {
+    const map::KeyFrame* neighbour = map.keyframe(id);
+    if (neighbour == nullptr) continue;
+    for (map::PointId pid : neighbour->point_of_keypoint) {
+      if (const map::MapPoint* p = map.good_point(pid); p != nullptr && seen.insert(pid).second) {
+        c.neighbourhood_points.push_back(make_point_view(*p));
+      }
+    }
+  }
+  return c;
 }
 
 // Brute-force descriptor matches of the usable keypoints to `points`
@@ -145,8 +150,8 @@ DescriptorMatches match_descriptors(const PreparedFrame& frame, const std::vecto
 
 // PnP RANSAC from T_cam_world_init; nullopt when it fails or keeps fewer
 // than kRelocalisationMinMatches inliers (indices into the pairs).
-std::optional<SE3> pnp_pose(const DescriptorMatches& pairs, const StereoCamera& camera, const SE3& T_cam_world_init,
-                            std::vector<int>& inliers) {
+std::optional<SE3> pnp_pose(const DescriptorMatches& pairs, const StereoCamera& camera,
+                            const SE3& T_cam_world_init, std::vector<int>& inliers) {
   const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
   cv::Mat rvec, tvec;
   const Eigen::Matrix3d R0 = T_cam_world_init.rotation_matrix();
@@ -156,8 +161,8 @@ std::optional<SE3> pnp_pose(const DescriptorMatches& pairs, const StereoCamera& 
   cv::Rodrigues(R0_cv, rvec);
   tvec = (cv::Mat_<double>(3, 1) << T_cam_world_init.translation().x(), T_cam_world_init.translation().y(),
           T_cam_world_init.translation().z());
-  if (!cv::solvePnPRansac(pairs.object_points, pairs.image_points, K, cv::noArray(), rvec, tvec, true, 200, 4.0,
-                          0.99, inliers, cv::SOLVEPNP_ITERATIVE) ||
+  if (!cv::solvePnPRansac(pairs.object_points, pairs.image_points, K, cv::noArray(), rvec, tvec, true, 200,
+                          4.0, 0.99, inliers, cv::SOLVEPNP_ITERATIVE) ||
       static_cast<int>(inliers.size()) < kRelocalisationMinMatches) {
     return std::nullopt;
   }
@@ -171,8 +176,8 @@ std::optional<SE3> pnp_pose(const DescriptorMatches& pairs, const StereoCamera& 
 
 }  // namespace
 
-Tracker::Tracker(const StereoCamera& camera, const config::SiteposeConfig& config,
-                 map::SharedMap& map, MapperLink mapper)
+Tracker::Tracker(const StereoCamera& camera, const config::SiteposeConfig& config, map::SharedMap& map,
+                 MapperLink mapper)
     : camera_(camera),
       config_(config),
       map_(map),
@@ -317,21 +322,21 @@ bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<s
 
 bool Tracker::relocalise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                          PassResult& result) const {
-  // Per candidate keyframe: brute-force descriptor matching, then PnP
-  // RANSAC, then motion-only BA.
-  const std::vector<RelocalisationCandidate> candidates = map_.read(
-      [&](const map::MapData& map) { return relocalisation_candidates(map, reference_keyframe_); });
-  for (const RelocalisationCandidate& c : candidates) {
-    const DescriptorMatches pairs = match_descriptors(frame, usable, c.points);
-    if (static_cast<int>(pairs.object_points.size()) < kRelocalisationMinMatches) continue;
-    std::vector<int> inliers;
-    const std::optional<SE3> pose = pnp_pose(pairs, camera_, c.T_cam_world, inliers);
-    if (!pose) continue;
-    std::vector<int> inlier_match(frame.size(), -1);
-    for (int i : inliers) inlier_match[pairs.keypoint_of_pair[i]] = pairs.match[pairs.keypoint_of_pair[i]];
-    result.T_cam_world = *pose;
-    optimise_pose(frame, c.points, inlier_match, result);
-    if (result.n_inliers >= kMinInliersMotionModel) {
+  // Candidates from the whole map, ranked by place recognition; per
+  // candidate: brute-force descriptor matching, PnP RANSAC, motion-only BA,
+  // then a projection search over its neighbourhood and BA again. The
+  // caller tracks the local map next, and commit() keeps the state
+  // RECOVERING until the pose has held for a few frames.
+  const PlaceIndex index = map_.read([](const map::MapData& map) { return make_place_index(map); });
+  const std::vector<PlaceCandidate> places = rank_places(index, frame.features.descriptors, usable);
+  for (const PlaceCandidate& place : places) {
+    const std::optional<RelocalisationCandidate> c =
+        map_.read([&](const map::MapData& map) -> std::optional<RelocalisationCandidate> {
+          const map::KeyFrame* kf = map.keyframe(place.keyframe);
+          if (kf == nullptr || kf->bad) return std::nullopt;
+          return relocalisation_candidate(map, *kf);
+        });
+    if (c && relocalise_against(frame, usable, *c, result)) {
       result.relocalised = true;
       return true;
     }
@@ -339,8 +344,37 @@ bool Tracker::relocalise(const PreparedFrame& frame, const std::vector<std::uint
   return false;
 }
 
-std::vector<PointView> Tracker::local_points(const PreparedFrame& frame, const std::vector<map::PointId>& tracked,
-                                             bool keep_tracked, std::vector<int>& match) const {
+bool Tracker::relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                                 const RelocalisationCandidate& c, PassResult& result) const {
+  const DescriptorMatches pairs = match_descriptors(frame, usable, c.points);
+  if (static_cast<int>(pairs.object_points.size()) < kRelocalisationMinMatches) return false;
+  std::vector<int> inliers;
+  const std::optional<SE3> pose = pnp_pose(pairs, camera_, c.T_cam_world, inliers);
+  if (!pose) return false;
+  std::vector<int> inlier_match(frame.size(), -1);
+  for (int i : inliers) inlier_match[pairs.keypoint_of_pair[i]] = pairs.match[pairs.keypoint_of_pair[i]];
+  result.T_cam_world = *pose;
+  optimise_pose(frame, c.points, inlier_match, result);
+  if (result.n_inliers < kMinInliersMotionModel) return false;
+  if (result.n_inliers < kRelocalisationGoodInliers) {
+    // Few inliers: look for more among the neighbourhood's points from the
+    // pose found, keeping the inliers (the points list starts with c.points).
+    std::vector<int> match(frame.size(), -1);
+    for (int k = 0; k < frame.size(); ++k) {
+      if (result.point_of_keypoint[k] != map::kNoPoint) match[k] = inlier_match[k];
+    }
+    SearchParams params;
+    params.radius_px = kRelocalisationRadiusPx;
+    search_by_projection(frame, camera_, pyramid_, result.T_cam_world, c.neighbourhood_points, usable, params,
+                         match, nullptr);
+    optimise_pose(frame, c.neighbourhood_points, match, result);
+  }
+  return result.n_inliers >= config_.tracking.min_inliers_ok;
+}
+
+std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
+                                             const std::vector<map::PointId>& tracked, bool keep_tracked,
+                                             std::vector<int>& match) const {
   // Local keyframes: those sharing the tracked points, plus their best
   // covisible ones; local points: all their points.
   std::vector<PointView> points;
@@ -354,6 +388,7 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame, const s
     }
     if (votes.empty() && map.keyframe(reference_keyframe_) != nullptr) votes[reference_keyframe_] = 1;
     std::vector<std::pair<int, map::KeyFrameId>> ranked;
+    ranked.reserve(votes.size());
     for (const auto& [kf, n] : votes) ranked.emplace_back(n, kf);
     std::sort(ranked.begin(), ranked.end(), std::greater<>());
     std::set<map::KeyFrameId> local;
@@ -391,8 +426,8 @@ std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
                                                     const PassResult& anchor, double radius_px) const {
   std::vector<int> match;
   const std::vector<PointView> points = local_points(frame, anchor.point_of_keypoint, true, match);
-  search_by_projection(frame, camera_, pyramid_, anchor.T_cam_world, points, usable, local_map_search(radius_px),
-                       match, nullptr);
+  search_by_projection(frame, camera_, pyramid_, anchor.T_cam_world, points, usable,
+                       local_map_search(radius_px), match, nullptr);
   std::vector<map::PointId> out(frame.size(), map::kNoPoint);
   for (int k = 0; k < frame.size(); ++k) {
     if (match[k] >= 0 && usable[k]) out[k] = points[match[k]].id;
@@ -400,10 +435,9 @@ std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
   return out;
 }
 
-std::vector<std::optional<Eigen::Vector3d>> Tracker::matched_map_points(const PreparedFrame& frame,
-                                                                        const std::vector<std::uint8_t>& usable,
-                                                                        const PassResult& anchor,
-                                                                        double radius_px) const {
+std::vector<std::optional<Eigen::Vector3d>> Tracker::matched_map_points(
+    const PreparedFrame& frame, const std::vector<std::uint8_t>& usable, const PassResult& anchor,
+    double radius_px) const {
   const std::vector<map::PointId> point_of_keypoint = search_local_map(frame, usable, anchor, radius_px);
   std::vector<std::optional<Eigen::Vector3d>> out(frame.size());
   map_.read([&](const map::MapData& map) {
@@ -418,9 +452,9 @@ void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std:
                               const PassResult* anchor, PassResult& result) const {
   const auto start = SteadyClock::now();
   std::vector<int> match;
-  const std::vector<PointView> points =
-      anchor != nullptr ? local_points(frame, anchor->point_of_keypoint, false, match)
-                        : local_points(frame, result.point_of_keypoint, true, match);
+  const std::vector<PointView> points = anchor != nullptr
+                                            ? local_points(frame, anchor->point_of_keypoint, false, match)
+                                            : local_points(frame, result.point_of_keypoint, true, match);
   std::vector<int> visible;
   search_by_projection(frame, camera_, pyramid_, result.T_cam_world, points, usable,
                        local_map_search(kLocalMapRadiusPx), match, &visible);
@@ -450,6 +484,7 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     // given to the optimisation (that was worse on average);
     // carry_over_matches() adds them to the committed frame.
     result.T_cam_world = anchor->T_cam_world;
+    result.relocalised = anchor->relocalised;
     tracked = true;
   } else if (has_last_ && state_ != TrackingState::kLost) {
     const SE3 predicted = has_velocity_ ? velocity_ * last_T_cam_world_ : last_T_cam_world_;
@@ -485,7 +520,8 @@ bool Tracker::within_reprojection_gate(const PreparedFrame& frame, int k, const 
          r.squaredNorm() <= config_.tracking.chi2_mono;
 }
 
-int Tracker::carry_over_matches(const PreparedFrame& frame, const PassResult& anchor, PassResult& result) const {
+int Tracker::carry_over_matches(const PreparedFrame& frame, const PassResult& anchor,
+                                PassResult& result) const {
   const auto n = static_cast<std::size_t>(frame.size());
   // estimate() sizes both to the frame, even when it fails; a PassResult made
   // otherwise (default-constructed, another frame's) has nothing to give or take.
@@ -495,15 +531,43 @@ int Tracker::carry_over_matches(const PreparedFrame& frame, const PassResult& an
   map_.read([&](const map::MapData& map) {
     for (int k = 0; k < frame.size(); ++k) {
       const map::PointId id = anchor.point_of_keypoint[k];
-      if (id == map::kNoPoint || result.point_of_keypoint[k] != map::kNoPoint || matched.count(id) != 0) continue;
+      if (id == map::kNoPoint || result.point_of_keypoint[k] != map::kNoPoint || matched.count(id) != 0)
+        continue;
       const map::MapPoint* point = map.good_point(id);
-      if (point == nullptr || !within_reprojection_gate(frame, k, point->p_world, result.T_cam_world)) continue;
+      if (point == nullptr || !within_reprojection_gate(frame, k, point->p_world, result.T_cam_world))
+        continue;
       result.point_of_keypoint[k] = id;
       matched.insert(id);
       ++carried;
     }
   });
   return carried;
+}
+
+bool Tracker::update_state(const PassResult& result) {
+  // After a relocalisation the last pose is stale (the machine drove on
+  // while tracking was lost): no velocity from it, and no OK until the new
+  // pose has held for relocalisation_hold_frames frames with enough inliers.
+  const bool relocalised = result.relocalised || state_ == TrackingState::kLost;
+  if (relocalised) {
+    ++counters_.relocalisations;
+    held_frames_ = 0;
+    recovering_from_loss_ = true;
+  }
+  const bool enough_inliers = result.n_inliers >= config_.tracking.min_inliers_ok;
+  if (recovering_from_loss_) {
+    held_frames_ = enough_inliers ? held_frames_ + 1 : 0;
+    if (held_frames_ >= config_.tracking.relocalisation_hold_frames) recovering_from_loss_ = false;
+  }
+  state_ = enough_inliers && !recovering_from_loss_ ? TrackingState::kOk : TrackingState::kRecovering;
+  return relocalised;
+}
+
+std::string Tracker::state_reason(const PassResult& result) const {
+  if (state_ != TrackingState::kRecovering) return "";
+  if (!recovering_from_loss_) return "only " + std::to_string(result.n_inliers) + " inliers";
+  return "relocalised, held " + std::to_string(held_frames_) + " of " +
+         std::to_string(config_.tracking.relocalisation_hold_frames) + " frames";
 }
 
 PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& result,
@@ -550,13 +614,9 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
     return pose;
   }
 
-  if (result.relocalised) ++counters_.relocalisations;
-  state_ = result.n_inliers >= config_.tracking.min_inliers_ok ? TrackingState::kOk
-                                                               : TrackingState::kRecovering;
-  if (has_last_) {
-    velocity_ = result.T_cam_world * last_T_cam_world_.inverse();
-    has_velocity_ = true;
-  }
+  const bool relocalised = update_state(result);
+  has_velocity_ = has_last_ && !relocalised;
+  if (has_velocity_) velocity_ = result.T_cam_world * last_T_cam_world_.inverse();
   last_T_cam_world_ = result.T_cam_world;
   has_last_ = true;
   last_matches_.clear();
@@ -573,12 +633,12 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_found;
     }
   });
-  if (need_keyframe(frame, result, usable)) create_keyframe(frame, result, usable);
+  // A pose that has not held yet adds nothing to the map: if it is wrong,
+  // its points would be wrong where the map is right.
+  if (!recovering_from_loss_ && need_keyframe(frame, result, usable)) create_keyframe(frame, result, usable);
 
   pose.state = state_;
-  if (state_ == TrackingState::kRecovering) {
-    pose.state_reason = "only " + std::to_string(result.n_inliers) + " inliers";
-  }
+  pose.state_reason = state_reason(result);
   pose.T_world_cam = result.T_cam_world.inverse();
   pose.covariance = result.covariance_world_cam.value_or(Matrix6d::Identity() * 1e6);
   pose.counters.features_used = result.n_inliers;

@@ -26,40 +26,41 @@ struct CameraConfig {
 
 // ORB extraction (METHOD.md "Core tracker"; ORB-SLAM2 defaults).
 struct OrbConfig {
-  int n_features = 1500;          // per image, spread over the pyramid
-  double scale_factor = 1.2;      // between pyramid levels
+  int n_features = 1500;      // per image, spread over the pyramid
+  double scale_factor = 1.2;  // between pyramid levels
   int n_levels = 8;
-  int ini_fast_threshold = 20;    // FAST threshold tried first per cell
-  int min_fast_threshold = 7;     // fallback when a cell yields nothing
-  int grid_cell_px = 35;          // cell size of the candidate grid
+  int ini_fast_threshold = 20;  // FAST threshold tried first per cell
+  int min_fast_threshold = 7;   // fallback when a cell yields nothing
+  int grid_cell_px = 35;        // cell size of the candidate grid
 
   bool operator==(const OrbConfig&) const = default;
 };
 
 // Stereo matching on rectified pairs.
 struct StereoMatchConfig {
-  double min_disparity_px = 0.5;   // ~ 1400 m at fx 700, b 1 m
-  double max_disparity_px = 250.0; // ~ 2.8 m at fx 700, b 1 m
+  double min_disparity_px = 0.5;     // ~ 1400 m at fx 700, b 1 m
+  double max_disparity_px = 250.0;   // ~ 2.8 m at fx 700, b 1 m
   int max_descriptor_distance = 75;  // of 256 bits (ORB-SLAM2 TH_HIGH 100, tightened)
-  int sad_half_window_px = 5;       // 11x11 SAD patch for sub-pixel refinement
-  int row_band_px = 2;              // search +- rows around the epipolar row, scaled by level
+  int sad_half_window_px = 5;        // 11x11 SAD patch for sub-pixel refinement
+  int row_band_px = 2;               // search +- rows around the epipolar row, scaled by level
 
   bool operator==(const StereoMatchConfig&) const = default;
 };
 
 // Tracking: motion model, local map, motion-only BA, keyframes.
 struct TrackingConfig {
-  double close_depth_baselines = 40.0;  // points nearer than 40 b have reliable depth
-  int motion_ba_rounds = 4;             // optimise -> reclassify outliers, 4 times
-  int motion_ba_iterations = 10;        // per round
-  double chi2_mono = 5.991;             // 2 dof, 95 %
-  double chi2_stereo = 7.815;           // 3 dof, 95 %
-  int min_inliers_ok = 30;              // fewer inliers -> RECOVERING
-  int min_inliers_recovering = 12;      // fewer -> LOST
-  int keyframe_max_interval_frames = 0; // 0 = one second of frames
-  double keyframe_tracked_ratio = 0.75; // new keyframe if tracked/ref < ratio (all, or background alone)
-  int keyframe_min_close_points = 100;  // need close points: add when fewer tracked
-  int keyframe_new_close_points = 70;   // ... and more than this many could be created
+  double close_depth_baselines = 40.0;   // points nearer than 40 b have reliable depth
+  int motion_ba_rounds = 4;              // optimise -> reclassify outliers, 4 times
+  int motion_ba_iterations = 10;         // per round
+  double chi2_mono = 5.991;              // 2 dof, 95 %
+  double chi2_stereo = 7.815;            // 3 dof, 95 %
+  int min_inliers_ok = 30;               // fewer inliers -> RECOVERING
+  int min_inliers_recovering = 12;       // fewer -> LOST
+  int relocalisation_hold_frames = 3;    // RECOVERING -> OK after this many good frames
+  int keyframe_max_interval_frames = 0;  // 0 = one second of frames
+  double keyframe_tracked_ratio = 0.75;  // new keyframe if tracked/ref < ratio (all, or background alone)
+  int keyframe_min_close_points = 100;   // need close points: add when fewer tracked
+  int keyframe_new_close_points = 70;    // ... and more than this many could be created
 
   bool operator==(const TrackingConfig&) const = default;
 };
@@ -67,10 +68,10 @@ struct TrackingConfig {
 // Local mapping thread.
 struct MappingConfig {
   bool enabled = true;
-  int local_ba_keyframes = 10;        // covisible keyframes optimised
+  int local_ba_keyframes = 10;  // covisible keyframes optimised
   int local_ba_iterations = 10;
-  double keyframe_redundancy = 0.9;   // cull a keyframe when >= 90 % of its points are seen by 3 others
-  int min_point_observations = 3;     // a new point seen by fewer keyframes after 3 KFs is culled
+  double keyframe_redundancy = 0.9;  // cull a keyframe when >= 90 % of its points are seen by 3 others
+  int min_point_observations = 3;    // a new point seen by fewer keyframes after 3 KFs is culled
 
   bool operator==(const MappingConfig&) const = default;
 };
@@ -81,25 +82,25 @@ enum class ClassifierMode { kPaper, kSitepose };
 // Dynamic layer: Algorithm 1 (masking) and Algorithm 2 (motion states).
 struct DynamicConfig {
   MaskingMode mode = MaskingMode::kFull;
-  double tau_mar = 0.5;                  // pixel masks when mar >= tau_mar
+  double tau_mar = 0.5;  // pixel masks when mar >= tau_mar
   ClassifierMode classifier = ClassifierMode::kSitepose;
-  double sigma_bkg_m = 0.12;             // paper: std of static point errors
-  double static_inlier_fraction = 0.7;   // static if > 70 % of points agree
-  int reference_offset_frames = 0;       // paper mode N; 0 = fps / 2.5 rounded
+  double sigma_bkg_m = 0.12;               // paper: std of static point errors
+  double static_inlier_fraction = 0.7;     // static if > 70 % of points agree
+  int reference_offset_frames = 0;         // paper mode N; 0 = fps / 2.5 rounded
   double min_reference_parallax_m = 0.15;  // sitepose mode: reference by parallax
-  double chi2_static_3dof = 7.815;       // sitepose mode: Mahalanobis gate
-  int hysteresis_frames = 2;             // sitepose mode: frames to flip a state
-  int min_object_points = 8;             // fewer -> unknown (stays masked)
+  double chi2_static_3dof = 7.815;         // sitepose mode: Mahalanobis gate
+  int hysteresis_frames = 2;               // sitepose mode: frames to flip a state
+  int min_object_points = 8;               // fewer -> unknown (stays masked)
   std::vector<std::string> dynamic_classes{"truck", "roller", "excavator", "dozer",
-                                           "car", "person", "machine"};
+                                           "car",   "person", "machine"};
 
   bool operator==(const DynamicConfig&) const = default;
 };
 
 struct DetectorConfig {
-  std::string name = "labels";      // labels | stereo-geometric | opencv-dnn | path to a plugin .so
-  std::string model_config;         // opencv-dnn: model description file
-  std::string model_weights;        // opencv-dnn: weights file
+  std::string name = "labels";  // labels | stereo-geometric | opencv-dnn | path to a plugin .so
+  std::string model_config;     // opencv-dnn: model description file
+  std::string model_weights;    // opencv-dnn: weights file
   double score_threshold = 0.3;
   // labels: simulated detector latency and noise for robustness tests
   // (deterministic per seed, frame and instance).
@@ -108,10 +109,10 @@ struct DetectorConfig {
   double labels_jitter_px = 0.0;         // std dev of each box edge's shift
   int labels_seed = 1;
   // stereo-geometric (weight-free): what counts as an object.
-  double geometric_max_range_m = 16.0;   // farther pixels are background
-  double geometric_min_height_m = 0.4;   // height above the fitted ground plane
+  double geometric_max_range_m = 16.0;  // farther pixels are background
+  double geometric_min_height_m = 0.4;  // height above the fitted ground plane
   // opencv-dnn (YOLO-style output): class names and network input size.
-  std::string dnn_classes_file;          // one name per line; empty = class0, class1, ...
+  std::string dnn_classes_file;  // one name per line; empty = class0, class1, ...
   int dnn_input_width_px = 416;
   int dnn_input_height_px = 416;
 

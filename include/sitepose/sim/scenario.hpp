@@ -18,16 +18,16 @@ struct CameraSpec {
   int height = 540;
   double fx = 700.0;  // cx, cy = width / 2, height / 2
   double fy = 700.0;
-  double baseline_m = 1.0;   // right camera at +x of the left one
-  double height_m = 2.0;     // optical centre above the ground
+  double baseline_m = 1.0;  // right camera at +x of the left one
+  double height_m = 2.0;    // optical centre above the ground
   double pitch_down_deg = 10.0;
   std::string side = "right";  // looks to the right (-y) or left (+y) of +x travel
 };
 
 struct VibrationSpec {
-  double amplitude_m = 0.002;    // vertical, while driving (25 % when stopped)
-  double amplitude_deg = 0.05;   // roll and pitch
-  double frequency_hz = 31.0;    // drum vibration; a second component at 1.37x
+  double amplitude_m = 0.002;   // vertical, while driving (25 % when stopped)
+  double amplitude_deg = 0.05;  // roll and pitch
+  double frequency_hz = 31.0;   // drum vibration; a second component at 1.37x
 };
 
 struct EgoSegment {
@@ -47,6 +47,15 @@ struct DistortionSpec {  // OpenCV plumb-bob, both cameras
   double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0;
 };
 
+// Dirt or a hand over the camera housing: both lenses pass only
+// `transmission` of the light for the interval (near-black frames while the
+// scene, the ego and the ground truth go on).
+struct LensCoverSpec {
+  double at_s = 0.0;
+  double duration_s = 0.0;
+  double transmission = 0.03;
+};
+
 struct RealismSpec {
   double exposure_variation = 0.06;  // relative gain, smooth random per frame
   double noise_sigma = 1.5;          // gray levels, Gaussian, per pixel
@@ -54,9 +63,10 @@ struct RealismSpec {
   double brightness = 1.0;           // overall gain
   int motion_blur_samples = 1;       // odd; > 1: average renders over the exposure
   double exposure_time_s = 0.01;
-  double right_gain = 1.0;           // right camera gain relative to the left
-  bool distorted = false;            // write unrectified images with `distortion`
+  double right_gain = 1.0;  // right camera gain relative to the left
+  bool distorted = false;   // write unrectified images with `distortion`
   DistortionSpec distortion;
+  std::vector<LensCoverSpec> lens_covered;  // in time order, not overlapping
 };
 
 struct WorldSpec {
@@ -73,7 +83,7 @@ struct StopSpec {
 struct MachineSpec {
   std::string class_name;  // roller | truck | excavator
   std::string paint = "yellow";
-  std::string label;       // painted text; empty = model default
+  std::string label;  // painted text; empty = model default
   // Without a path: parked at (x, y) with yaw. With a path: starts at its
   // first waypoint, facing along it (reverse: backwards).
   double x_m = 0.0, y_m = 0.0, yaw_deg = 0.0;

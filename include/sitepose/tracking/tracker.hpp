@@ -31,6 +31,8 @@
 
 namespace sitepose::tracking {
 
+struct RelocalisationCandidate;  // tracker.cpp
+
 // How the tracker talks to the local mapper without depending on it.
 struct MapperLink {
   std::function<void(map::KeyFrameId)> enqueue;  // hand a new keyframe over
@@ -48,13 +50,13 @@ struct EstimateTimings {
 
 // One pass's answer. Keypoint indices refer to the PreparedFrame.
 struct PassResult {
-  bool valid = false;        // a pose was estimated
+  bool valid = false;                 // a pose was estimated
   bool needs_initialisation = false;  // the map is empty
   SE3 T_cam_world;
   std::optional<Matrix6d> covariance_world_cam;  // Hessian covariance (unit pixel noise model)
-  double variance_factor = 1.0;  // a-posteriori, see optim::MotionBaResult
-  std::vector<map::PointId> point_of_keypoint;  // inlier matches, kNoPoint otherwise
-  std::vector<map::PointId> visible_points;     // in the frustum of the local map
+  double variance_factor = 1.0;                  // a-posteriori, see optim::MotionBaResult
+  std::vector<map::PointId> point_of_keypoint;   // inlier matches, kNoPoint otherwise
+  std::vector<map::PointId> visible_points;      // in the frustum of the local map
   int n_inliers = 0;
   int n_usable_keypoints = 0;
   bool relocalised = false;
@@ -109,14 +111,16 @@ class Tracker {
   // Matches the usable keypoints to the local map of `anchor` (its matched
   // points' keyframes) seen from anchor's pose, searching radius_px; no
   // pose is estimated. Per keypoint the point id, or kNoPoint.
-  std::vector<map::PointId> search_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+  std::vector<map::PointId> search_local_map(const PreparedFrame& frame,
+                                             const std::vector<std::uint8_t>& usable,
                                              const PassResult& anchor, double radius_px) const;
 
   // search_local_map(), then per keypoint the world position of the point it
   // matched (nullopt where none, or the point is no longer good).
   std::vector<std::optional<Eigen::Vector3d>> matched_map_points(const PreparedFrame& frame,
                                                                  const std::vector<std::uint8_t>& usable,
-                                                                 const PassResult& anchor, double radius_px) const;
+                                                                 const PassResult& anchor,
+                                                                 double radius_px) const;
 
   // prepare + estimate(all keypoints) + commit: plain stereo SLAM (mode none).
   Expected<PoseEstimate> track(const StereoFrame& frame);
@@ -136,6 +140,8 @@ class Tracker {
                           const SE3& predicted, PassResult& result) const;
   bool relocalise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                   PassResult& result) const;
+  bool relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                          const RelocalisationCandidate& candidate, PassResult& result) const;
   // Without anchor: the local map of result's own matches, which stay.
   // With anchor: the anchor's local map, every keypoint matched afresh.
   void track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -154,6 +160,10 @@ class Tracker {
   void optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
                      const std::vector<int>& match_of_keypoint, PassResult& result) const;
 
+  // The state after a valid `result`: RECOVERING after a relocalisation
+  // until the pose has held (see commit()); returns whether it relocalised.
+  bool update_state(const PassResult& result);
+  std::string state_reason(const PassResult& result) const;  // empty when OK
   bool initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable);
   bool need_keyframe(const PreparedFrame& frame, const PassResult& result,
                      const std::vector<std::uint8_t>& usable) const;
@@ -176,6 +186,9 @@ class Tracker {
   SE3 last_T_cam_world_;
   SE3 velocity_;  // T_cam_current_cam_last of the last step
   bool has_velocity_ = false;
+  // Since the last relocalisation: frames in a row with min_inliers_ok.
+  bool recovering_from_loss_ = false;
+  int held_frames_ = 0;
   std::vector<std::pair<map::PointId, int>> last_matches_;  // point, octave
   map::KeyFrameId reference_keyframe_ = map::kNoKeyFrame;
   std::int64_t last_keyframe_seq_ = -1;

@@ -67,15 +67,41 @@ TEST(Scenario, BadFilesNameTheKeyValueAndExpectation) {
   expect_error("name: t\nduration_s: 3\n", {"description"});
   expect_error("name: t\ndescription: d\nduration_s: 2\nmachines:\n  - {class: bulldozer}\n",
                {"machines[0].class", "bulldozer", "roller"});
-  expect_error("name: t\ndescription: d\nduration_s: 2\nmachines:\n  - {class: truck, waypoints: [[1, 2, 3], [4, 5]]}\n",
-               {"machines[0].waypoints", "[x, y]"});
-  expect_error("name: t\ndescription: d\nduration_s: 2\nego:\n  segments:\n    - {speed_mps: 9, duration_s: 1}\n",
-               {"ego.segments[0].speed_mps", "9"});
+  expect_error(
+      "name: t\ndescription: d\nduration_s: 2\nmachines:\n  - {class: truck, waypoints: [[1, 2, 3], [4, "
+      "5]]}\n",
+      {"machines[0].waypoints", "[x, y]"});
+  expect_error(
+      "name: t\ndescription: d\nduration_s: 2\nego:\n  segments:\n    - {speed_mps: 9, duration_s: 1}\n",
+      {"ego.segments[0].speed_mps", "9"});
   expect_error("name: t\ndescription: d\nduration_s: 2\ncamera: {side: up}\n", {"camera.side", "up"});
   expect_error("name: t\ndescription: d\nduration_s: 2\nrealism: {motion_blur_samples: 2}\n",
                {"realism.motion_blur_samples", "must be odd"});
-  expect_error("name: t\ndescription: d\nduration_s: 2\nmachines:\n  - {class: truck, stops: [{at_s: 1, duration_s: 2}]}\n",
-               {"machines[0]", "need waypoints"});
+  expect_error(
+      "name: t\ndescription: d\nduration_s: 2\nmachines:\n  - {class: truck, stops: [{at_s: 1, duration_s: "
+      "2}]}\n",
+      {"machines[0]", "need waypoints"});
+  expect_error(
+      "name: t\ndescription: d\nduration_s: 9\nrealism:\n  lens_covered:\n"
+      "    - {at_s: 2, duration_s: 3}\n    - {at_s: 4, duration_s: 1}\n",
+      {"realism.lens_covered[1].at_s", "time order"});
+  expect_error(
+      "name: t\ndescription: d\nduration_s: 9\nrealism: {lens_covered: [{at_s: 2, duration_s: 1, "
+      "transmission: 2}]}\n",
+      {"realism.lens_covered[0].transmission", "2"});
+}
+
+TEST(Scenario, BlackoutCoversTheLensForTenFramesWhileTheEgoDrives) {
+  auto s = load_scenario("blackout", kDir);
+  ASSERT_TRUE(s) << s.error().message;
+  ASSERT_EQ(s->realism.lens_covered.size(), 1u);
+  const LensCoverSpec& c = s->realism.lens_covered[0];
+  int covered = 0;
+  for (int k = 0; k < s->frame_count(); ++k)
+    covered += k / s->fps >= c.at_s && k / s->fps < c.at_s + c.duration_s;
+  EXPECT_EQ(covered, 10);
+  EXPECT_LT(c.transmission, 0.1);
+  EXPECT_GT(s->ego.segments.at(0).speed_mps, 0.5);
 }
 
 TEST(Scenario, UnknownNameListsTheKnownOnes) {

@@ -163,6 +163,23 @@ TEST_F(SimulatorTest, StereoPairIsConsistentWithTheDepth) {
   EXPECT_GT(wins, tried * 0.85) << wins << " of " << tried;
 }
 
+TEST(Simulator, ACoveredLensGivesNearBlackFramesWhileTheTruthGoesOn) {
+  Scenario s = small_scenario();
+  s.realism.lens_covered = {LensCoverSpec{1.0, 1.0, 0.03}};  // frames 6-11 of 18
+  auto covered = Simulator::create(s, small_options());
+  auto open = Simulator::create(small_scenario(), small_options());
+  ASSERT_TRUE(covered && open);
+  for (int k : {5, 6, 11, 12}) {
+    const SimFrame fc = covered->render(k), fo = open->render(k);
+    const bool dark = k >= 6 && k <= 11;
+    EXPECT_EQ(cv::mean(fc.left)[0] < 10.0 && cv::mean(fc.right)[0] < 10.0, dark) << "frame " << k;
+    if (!dark) {
+      EXPECT_EQ(cv::norm(fc.left, fo.left, cv::NORM_INF), 0.0) << "frame " << k;
+    }
+    EXPECT_TRUE(fc.T_world_cam.translation().isApprox(fo.T_world_cam.translation())) << "frame " << k;
+  }
+}
+
 TEST(Simulator, DistortedOutputMovesPixelsOutwardButKeepsTheCentre) {
   Scenario s = small_scenario();
   s.realism.distorted = true;

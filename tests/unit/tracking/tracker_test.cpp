@@ -46,11 +46,51 @@ TEST(Tracker, TracksASmallStaticSite) {
     ASSERT_TRUE(pose.has_value()) << pose.error().message;
     EXPECT_EQ(pose->state, TrackingState::kOk) << "frame " << i << ": " << pose->state_reason;
     // World = first camera in both, so no alignment is needed.
-    max_error_m = std::max(max_error_m, (pose->T_world_cam.translation() - truth.T_world_cam.translation()).norm());
+    max_error_m =
+        std::max(max_error_m, (pose->T_world_cam.translation() - truth.T_world_cam.translation()).norm());
     EXPECT_GT(pose->counters.features_used, 50);
   }
   EXPECT_LT(max_error_m, 0.03);
   EXPECT_GE(tracker.counters().keyframes_created, 1);
+}
+
+// The blackout scenario covers the lens for frames 24-33 while the roller
+// drives 1.3 m. The tracker must come back by relocalisation, stay
+// RECOVERING until the new pose has held, and never call a wrong pose OK.
+// Disabled: open defect (issue 19). At 480x270 without a local mapper the
+// relocalisation lands 0.81 m off with enough inliers and the wrong pose is
+// tracked consistently, so it is OK from frame 36 on (0.81-0.83 m off); the
+// hold rule does not catch a wrong place. The full-size regression test
+// (Blackout.*) passes. Enable when relocalisation verifies the place.
+TEST(Tracker, DISABLED_AfterABlindSpellRelocalisesAndHoldsBeforeOk) {
+  constexpr int kFrames = 46;
+  constexpr int kFirstCovered = 24;
+  constexpr int kFirstVisible = 34;
+  const SmallSite site = SmallSite::make("blackout", kFrames);
+  map::SharedMap map;
+  const config::SiteposeConfig config = small_config();
+  Tracker tracker(site.simulator.camera(), config, map);
+  std::vector<TrackingState> states;
+  for (int i = 0; i < kFrames; ++i) {
+    sim::SimFrame truth;
+    auto pose = tracker.track(site.frame(i, &truth));
+    ASSERT_TRUE(pose.has_value()) << pose.error().message;
+    states.push_back(pose->state);
+    if (pose->state != TrackingState::kOk) continue;
+    const double error_m = (pose->T_world_cam.translation() - truth.T_world_cam.translation()).norm();
+    EXPECT_LT(error_m, 0.05) << "frame " << i << " reported OK " << error_m << " m off";
+  }
+  for (int i = kFirstCovered; i < kFirstVisible; ++i)
+    EXPECT_EQ(states[i], TrackingState::kLost) << "frame " << i;
+  int first_back = kFirstVisible;
+  while (first_back < kFrames && states[first_back] == TrackingState::kLost) ++first_back;
+  ASSERT_LT(first_back - kFirstVisible, 5) << "no relocalisation within 5 frames of the view's return";
+  const int hold = config.tracking.relocalisation_hold_frames;
+  for (int i = first_back; i < first_back + hold - 1; ++i) {
+    EXPECT_EQ(states[i], TrackingState::kRecovering) << "frame " << i << " is OK before the pose held";
+  }
+  EXPECT_EQ(states[first_back + hold - 1], TrackingState::kOk);
+  EXPECT_GE(tracker.counters().relocalisations, 1);
 }
 
 // A tracker that has tracked frames 0-9 of the static scenario, and frame 10
@@ -129,7 +169,8 @@ TEST_F(TrackerAtFrame10, CarryOverAddsPassOneMatchesThatPassTwoDidNotRefind) {
   // leaves a fifth of pass 1's matches.
   const PassResult pass2 = tracker.estimate(prepared, even, &pass1);
   ASSERT_TRUE(pass2.valid);
-  const std::set<map::PointId> claimed_by_pass2(pass2.point_of_keypoint.begin(), pass2.point_of_keypoint.end());
+  const std::set<map::PointId> claimed_by_pass2(pass2.point_of_keypoint.begin(),
+                                                pass2.point_of_keypoint.end());
   int unclaimed = 0;  // pass 1's matches on keypoints pass 2 left free, to points pass 2 did not match
   for (int k = 1; k < prepared.size(); k += 2) {
     const map::PointId id = pass1.point_of_keypoint[k];
@@ -160,8 +201,9 @@ TEST_F(TrackerAtFrame10, CarryOverAddsPassOneMatchesThatPassTwoDidNotRefind) {
 
   PassResult turned = pass2;  // every point 20 px off
   const double yaw = 20.0 / site.simulator.camera().fx;
-  turned.T_cam_world = SE3(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero()) *
-                       pass2.T_cam_world;
+  turned.T_cam_world =
+      SE3(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero()) *
+      pass2.T_cam_world;
   EXPECT_EQ(tracker.carry_over_matches(prepared, pass1, turned), 0);
 }
 
@@ -196,15 +238,17 @@ TEST_F(TrackerAtFrame10, SearchLocalMapMatchesOnlyTheUsableKeypoints) {
   // Turned by 8 px (yaw): the local map's radius loses most matches.
   PassResult turned = anchor;
   const double yaw = 8.0 / site.simulator.camera().fx;
-  turned.T_cam_world = SE3(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero()) *
-                       anchor.T_cam_world;
+  turned.T_cam_world =
+      SE3(Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero()) *
+      anchor.T_cam_world;
   const auto count = [](const std::vector<map::PointId>& ids) {
     return std::count_if(ids.begin(), ids.end(), [](map::PointId id) { return id != map::kNoPoint; });
   };
   const auto wide = count(tracker.search_local_map(prepared, odd, turned, 7.0));
   const auto narrow = count(tracker.search_local_map(prepared, odd, turned, 1.0));
   EXPECT_GE(wide, matched * 8 / 10);
-  EXPECT_LT(narrow, wide / 2) << "wide " << wide << ", narrow " << narrow << ", matched " << matched << ", same " << same_as_full;
+  EXPECT_LT(narrow, wide / 2) << "wide " << wide << ", narrow " << narrow << ", matched " << matched
+                              << ", same " << same_as_full;
 }
 
 // The dynamic layer's pass 1 tracks on the background (instance 0) alone.
