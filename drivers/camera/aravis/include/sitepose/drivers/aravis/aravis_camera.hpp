@@ -1,0 +1,32 @@
+#pragma once
+// CameraDevice on Aravis 0.8 (GigE Vision and USB3 Vision cameras, and
+// Aravis's in-process fake camera for tests). The only file that includes
+// <arv.h> is its implementation.
+// Device ids are Aravis's ("Vendor-Model-Serial", or an IP address);
+// "Fake_<serial>" selects Aravis's in-process fake interface, which is
+// enabled on first use.
+// Frame times: the buffer's timestamp is the camera's clock (GigE: the
+// device's tick counter in ns); the arrival time is the buffer's system
+// timestamp (CLOCK_REALTIME when the last packet came in). The stereo
+// source maps one onto the other (clock_mapper.hpp).
+// A camera is gone when Aravis reports its control channel lost (GigE
+// heartbeat) or the stream thread fails; poll() then returns kIoError.
+
+#include <functional>
+
+#include "sitepose/drivers/aravis/camera_device.hpp"
+
+// Aravis's opaque type, declared as <arv.h> does.
+typedef struct _ArvCamera ArvCamera;
+
+namespace sitepose::drivers::aravis {
+
+struct AravisOpenerOptions {
+  // Called with each camera after it is configured and before it streams:
+  // tests install the fake camera's fill callback here.
+  std::function<void(ArvCamera*, const CameraSettings&)> on_open;
+};
+
+CameraOpener aravis_camera_opener(AravisOpenerOptions options = {});
+
+}  // namespace sitepose::drivers::aravis
