@@ -232,12 +232,14 @@ Status AravisCamera::trigger() {
 
 Expected<std::unique_ptr<CameraDevice>> open_aravis_camera(const CameraSettings& settings,
                                                            const AravisOpenerOptions& options) {
-  if (settings.device_id.rfind("Fake_", 0) == 0) {
+  std::string arv_id = settings.device_id;
+  if (arv_id.rfind("Fake_", 0) == 0) {
     static std::once_flag fake_enabled;
     std::call_once(fake_enabled, [] { arv_enable_interface("Fake"); });
+    arv_id = "Fake_1";  // the fake interface's only id; each open is a new camera
   }
   GError* error = nullptr;
-  ArvCamera* camera = arv_camera_new(settings.device_id.c_str(), &error);
+  ArvCamera* camera = arv_camera_new(arv_id.c_str(), &error);
   if (camera == nullptr) {
     return Unexpected{
         take_error(error, ErrorCode::kNotFound, "camera " + settings.device_id + ": not found")};

@@ -3,8 +3,9 @@
 // Aravis's in-process fake camera for tests). The only file that includes
 // <arv.h> is its implementation.
 // Device ids are Aravis's ("Vendor-Model-Serial", or an IP address);
-// "Fake_<serial>" selects Aravis's in-process fake interface, which is
-// enabled on first use.
+// "Fake_<name>" opens a new camera on Aravis's in-process fake interface
+// (enabled on first use; Aravis knows it as "Fake_1" and makes an
+// independent camera on each open, so "Fake_L" and "Fake_R" are a pair).
 // Frame times: the buffer's timestamp is the camera's clock (GigE: the
 // device's tick counter in ns); the arrival time is the buffer's system
 // timestamp (CLOCK_REALTIME when the last packet came in). The stereo
