@@ -10,6 +10,7 @@
 #include "sitepose/config/config.hpp"
 #include "sitepose/core/build_info.hpp"
 #include "sitepose/core/log.hpp"
+#include "sitepose/drivers/aravis/aravis_camera.hpp"
 #include "sitepose/geo/nmea.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
 #include "sitepose/pipeline/replay_source.hpp"
@@ -24,23 +25,37 @@ drivers::socketcan::SocketCanSinkOptions socketcan_sink_options(const CanOutputC
   o.queue_frames = static_cast<std::size_t>(can.socketcan.queue_frames);
   o.node.name = can.socketcan.name;
   o.node.preferred_address = can.frames.source_address;
-  o.node.heartbeat_interval_ns = static_cast<std::int64_t>(std::llround(can.socketcan.heartbeat_interval_s * 1e9));
+  o.node.heartbeat_interval_ns =
+      static_cast<std::int64_t>(std::llround(can.socketcan.heartbeat_interval_s * 1e9));
   o.node.transmitted_pgns = output::transmitted_pgns(can.frames);
   o.node.product.software_version = version_string();
   o.node.product.serial_code = std::to_string(can.socketcan.name.identity_number);
   return o;
 }
 
+Expected<std::unique_ptr<pipeline::FrameSource>> open_source(const DaemonConfig& config) {
+  if (config.source_type == "aravis") {
+    drivers::aravis::AravisSourceOptions options = config.aravis;
+    options.wait_for_camera_s = config.wait_for_camera_s;
+    auto source = drivers::aravis::AravisSource::open(options, drivers::aravis::aravis_camera_opener());
+    if (!source) return make_error(source.error().code, "source.aravis." + source.error().message);
+    return std::unique_ptr<pipeline::FrameSource>(std::move(*source));
+  }
+  SITEPOSE_TRY(auto replay, pipeline::ReplaySource::open(config.replay));
+  return std::unique_ptr<pipeline::FrameSource>(std::move(replay));
+}
+
 Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
                                                  std::unique_ptr<pipeline::FrameSource> source) {
   std::unique_ptr<Daemon> d(new Daemon(config));
   if (!source) {
-    SITEPOSE_TRY(source, pipeline::ReplaySource::open(config.replay));
+    SITEPOSE_TRY(source, open_source(config));
   }
   spdlog::info("source: {}", source->describe());
   StereoCamera camera = source->camera();
   if (config.sitepose.camera.stereo) camera = *config.sitepose.camera.stereo;
-  SITEPOSE_TRY(auto tracker, pipeline::SlamPoseTracker::create(camera, config.sitepose, source->frame_rate_hz()));
+  SITEPOSE_TRY(auto tracker,
+               pipeline::SlamPoseTracker::create(camera, config.sitepose, source->frame_rate_hz()));
   d->tracker_ = tracker.get();
   detect::DetectorContext context;
   if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
@@ -80,8 +95,9 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
       drivers::socketcan::RawSocketOptions raw;
       raw.interface = config.can.interface;
       raw.error_frames = config.can.socketcan.error_frames;
-      SITEPOSE_TRY(auto socketcan, drivers::socketcan::SocketCanSink::open(
-                                       socketcan_sink_options(config.can), drivers::socketcan::raw_can_socket_ops(raw)));
+      SITEPOSE_TRY(auto socketcan,
+                   drivers::socketcan::SocketCanSink::open(socketcan_sink_options(config.can),
+                                                           drivers::socketcan::raw_can_socket_ops(raw)));
       spdlog::info("CAN: SocketCAN {}, claiming J1939 address {} with NAME {:#018x}", config.can.interface,
                    config.can.frames.source_address, output::pack_j1939_name(config.can.socketcan.name));
       d->socketcan_ = socketcan.get();
@@ -95,9 +111,9 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
     SITEPOSE_TRY(auto trajectory, TrajectoryOutput::open(config.trajectory.path, config.trajectory.append));
     outputs.push_back(std::move(trajectory));
   }
-  SITEPOSE_TRY(d->pipeline_, pipeline::Pipeline::create(config.pipeline, std::move(source),
-                                                        std::move(detect_hook),
-                                                        std::move(tracker), std::move(outputs)));
+  SITEPOSE_TRY(d->pipeline_,
+               pipeline::Pipeline::create(config.pipeline, std::move(source), std::move(detect_hook),
+                                          std::move(tracker), std::move(outputs)));
   return d;
 }
 
@@ -125,12 +141,14 @@ void Daemon::log_health(const pipeline::PipelineHealth& h) const {
   std::string fallbacks;
   if (tracker_ != nullptr && config_.sitepose.dynamic.mode != config::MaskingMode::kNone) {
     const pipeline::TrackerFallbackCounters f = tracker_->fallback_counters();
-    fallbacks = fmt::format(" dynamic[detect_errors={} reused_boxes={} unmasked={} box_for_pixel_mask={}]",
-                            h.detect_errors, f.reused_detections, f.tracked_unmasked, f.box_mask_for_pixel_mask);
+    fallbacks =
+        fmt::format(" dynamic[detect_errors={} reused_boxes={} unmasked={} box_for_pixel_mask={}]",
+                    h.detect_errors, f.reused_detections, f.tracked_unmasked, f.box_mask_for_pixel_mask);
   }
   std::string can_bus;
   if (socketcan_ != nullptr) {
-    can_bus = " can_bus[" + drivers::socketcan::format_stats(config_.can.interface, socketcan_->stats()) + "]";
+    can_bus =
+        " can_bus[" + drivers::socketcan::format_stats(config_.can.interface, socketcan_->stats()) + "]";
   }
   spdlog::info("health: {} captured={} stalls={} track_errors={} |{} |{}{}{}{}", pipeline::format_status(h),
                h.frames_captured, h.stalls, h.track_errors, stages, outputs, anchor, fallbacks, can_bus);

@@ -230,9 +230,10 @@ Status AravisCamera::trigger() {
   return check(error, "TriggerSoftware", ErrorCode::kIoError);
 }
 
-Expected<std::unique_ptr<CameraDevice>> open_aravis_camera(const CameraSettings& settings,
+Expected<std::unique_ptr<CameraDevice>> open_aravis_camera(const std::string& id,
+                                                           const CameraSettings& settings,
                                                            const AravisOpenerOptions& options) {
-  std::string arv_id = settings.device_id;
+  std::string arv_id = id;
   if (arv_id.rfind("Fake_", 0) == 0) {
     static std::once_flag fake_enabled;
     std::call_once(fake_enabled, [] { arv_enable_interface("Fake"); });
@@ -241,12 +242,11 @@ Expected<std::unique_ptr<CameraDevice>> open_aravis_camera(const CameraSettings&
   GError* error = nullptr;
   ArvCamera* camera = arv_camera_new(arv_id.c_str(), &error);
   if (camera == nullptr) {
-    return Unexpected{
-        take_error(error, ErrorCode::kNotFound, "camera " + settings.device_id + ": not found")};
+    return Unexpected{take_error(error, ErrorCode::kNotFound, "camera " + id + ": not found")};
   }
-  auto device = std::make_unique<AravisCamera>(camera, settings.device_id);
+  auto device = std::make_unique<AravisCamera>(camera, id);
   SITEPOSE_TRY_STATUS(device->configure(settings));
-  if (options.on_open) options.on_open(camera, settings);
+  if (options.on_open) options.on_open(camera, id);
   SITEPOSE_TRY_STATUS(device->start(settings.buffer_count));
   return std::unique_ptr<CameraDevice>(std::move(device));
 }
@@ -254,8 +254,8 @@ Expected<std::unique_ptr<CameraDevice>> open_aravis_camera(const CameraSettings&
 }  // namespace
 
 CameraOpener aravis_camera_opener(AravisOpenerOptions options) {
-  return [options = std::move(options)](const CameraSettings& settings) {
-    return open_aravis_camera(settings, options);
+  return [options = std::move(options)](const std::string& id, const CameraSettings& settings) {
+    return open_aravis_camera(id, settings, options);
   };
 }
 

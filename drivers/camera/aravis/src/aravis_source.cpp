@@ -31,16 +31,15 @@ void wait_until(std::stop_token stop, Clock::time_point until) {
 
 // Opens one camera, retrying absent ones (kNotFound) with back-off until
 // `wait_s` has passed.
-Expected<std::unique_ptr<CameraDevice>> open_waiting(const CameraOpener& opener, CameraSettings settings,
+Expected<std::unique_ptr<CameraDevice>> open_waiting(const CameraOpener& opener, const std::string& id,
                                                      Side side, const AravisSourceOptions& o,
                                                      std::stop_token stop) {
   const Clock::time_point give_up = Clock::now() + seconds(o.wait_for_camera_s);
   double backoff_s = o.reconnect_min_s;
   for (;;) {
-    auto device = opener(settings);
+    auto device = opener(id, o.camera);
     if (device) return device;
-    const std::string what = std::string(side_name(side)) + " camera (" + side_name(side) + "_id \"" +
-                             settings.device_id + "\"): " + device.error().message;
+    const std::string what = std::string(side_name(side)) + "_id = \"" + id + "\": " + device.error().message;
     if (device.error().code != ErrorCode::kNotFound || Clock::now() >= give_up || stop.stop_requested()) {
       const std::string waited = o.wait_for_camera_s > 0.0 && device.error().code == ErrorCode::kNotFound
                                      ? " (waited " + std::to_string(o.wait_for_camera_s) + " s)"
@@ -87,19 +86,20 @@ Expected<std::unique_ptr<AravisSource>> AravisSource::open(const AravisSourceOpt
   SITEPOSE_TRY_STATUS(check_aravis_source_options(options));
   std::array<std::unique_ptr<CameraDevice>, 2> devices;
   for (const Side side : {Side::kLeft, Side::kRight}) {
-    CameraSettings settings = options.camera;
-    settings.device_id = side == Side::kLeft ? options.left_id : options.right_id;
-    SITEPOSE_TRY(devices[static_cast<int>(side)], open_waiting(opener, settings, side, options, stop));
+    const std::string& id = side == Side::kLeft ? options.left_id : options.right_id;
+    SITEPOSE_TRY(devices[static_cast<int>(side)], open_waiting(opener, id, side, options, stop));
   }
   const CameraDevice& left = *devices[0];
   const CameraDevice& right = *devices[1];
   if (left.width() != right.width() || left.height() != right.height()) {
-    return make_error(ErrorCode::kInvalidArgument, "left camera " + left.describe() + " and right camera " +
-                                                       right.describe() + ": image sizes differ");
+    return make_error(ErrorCode::kInvalidArgument, "right_id: the right camera (" + right.describe() +
+                                                       ") delivers another image size than the left one (" +
+                                                       left.describe() + ")");
   }
-  SITEPOSE_TRY(Rectifier rectifier, Rectifier::load(options.calibration, left.width(), left.height()));
+  auto rectifier = Rectifier::load(options.calibration, left.width(), left.height());
+  if (!rectifier) return make_error(rectifier.error().code, "calibration: " + rectifier.error().message);
   return std::unique_ptr<AravisSource>(
-      new AravisSource(options, std::move(opener), std::move(rectifier), std::move(devices)));
+      new AravisSource(options, std::move(opener), std::move(*rectifier), std::move(devices)));
 }
 
 AravisSource::AravisSource(const AravisSourceOptions& options, CameraOpener opener, Rectifier rectifier,
@@ -149,9 +149,7 @@ void AravisSource::lose(Camera& camera, const std::string& why) {
 
 Status AravisSource::try_reconnect(Camera& camera, Clock::time_point now) {
   if (now < camera.next_attempt) return ok_status();
-  CameraSettings settings = options_.camera;
-  settings.device_id = camera.id;
-  auto device = opener_(settings);
+  auto device = opener_(camera.id, options_.camera);
   if (!device) {
     spdlog::debug("aravis: {} camera {}: {}", side_name(camera.side), camera.id, device.error().message);
     camera.next_attempt = Clock::now() + seconds(camera.backoff_s);

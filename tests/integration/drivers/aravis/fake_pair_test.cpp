@@ -129,7 +129,7 @@ TEST(AravisFakePair, AbsentDeviceIsNotFound) {
   auto source = AravisSource::open(o, aravis_camera_opener());
   ASSERT_FALSE(source);
   EXPECT_EQ(source.error().code, ErrorCode::kNotFound);
-  EXPECT_NE(source.error().message.find("right_id \"No-Such-Camera-0\""), std::string::npos)
+  EXPECT_NE(source.error().message.find("right_id = \"No-Such-Camera-0\""), std::string::npos)
       << source.error().message;
 }
 

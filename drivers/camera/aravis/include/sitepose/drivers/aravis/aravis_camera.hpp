@@ -14,6 +14,7 @@
 // heartbeat) or the stream thread fails; poll() then returns kIoError.
 
 #include <functional>
+#include <string>
 
 #include "sitepose/drivers/aravis/camera_device.hpp"
 
@@ -25,7 +26,7 @@ namespace sitepose::drivers::aravis {
 struct AravisOpenerOptions {
   // Called with each camera after it is configured and before it streams:
   // tests install the fake camera's fill callback here.
-  std::function<void(ArvCamera*, const CameraSettings&)> on_open;
+  std::function<void(ArvCamera*, const std::string& device_id)> on_open;
 };
 
 CameraOpener aravis_camera_opener(AravisOpenerOptions options = {});

@@ -32,7 +32,7 @@ namespace sitepose::drivers::aravis {
 struct AravisSourceOptions {
   std::string left_id;
   std::string right_id;
-  CameraSettings camera;    // both cameras; device_id is set per side
+  CameraSettings camera;    // both cameras
   std::string calibration;  // OpenCV stereo calibration YAML or KITTI calib.txt
   double pair_tolerance_ms = 5.0;
   PairClock pair_clock = PairClock::kHost;
@@ -59,8 +59,9 @@ struct AravisSourceStats {
 class AravisSource final : public pipeline::FrameSource {
  public:
   // Opens both cameras (waiting up to wait_for_camera_s for absent ones) and
-  // loads the calibration. Errors: kNotFound naming the side and device id,
-  // kInvalidArgument for a setting the camera refuses or cameras of
+  // loads the calibration. Errors start with the option they are about
+  // ("right_id = \"X\": ...", "calibration: ..."): kNotFound for an absent
+  // camera, kInvalidArgument for a setting the camera refuses or cameras of
   // different image sizes, the calibration's errors.
   static Expected<std::unique_ptr<AravisSource>> open(const AravisSourceOptions& options, CameraOpener opener,
                                                       std::stop_token stop = {});

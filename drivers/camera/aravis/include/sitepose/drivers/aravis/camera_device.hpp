@@ -33,7 +33,6 @@ struct Roi {
 
 // What the source asks of each camera of the pair.
 struct CameraSettings {
-  std::string device_id;  // Aravis device id: "Vendor-Model-Serial", "Fake_1", ...
   PixelFormat pixel_format = PixelFormat::kMono8;
   bool exposure_auto = true;
   double exposure_us = 10000.0;  // when not auto
@@ -71,9 +70,11 @@ class CameraDevice {
   virtual std::uint64_t failed_buffers() const = 0;
 };
 
-// Opens, configures and starts streaming one camera. kNotFound when no
-// device has the id; kInvalidArgument when the camera refuses a setting (the
-// message names it).
-using CameraOpener = std::function<Expected<std::unique_ptr<CameraDevice>>(const CameraSettings&)>;
+// Opens, configures and starts streaming one camera (device_id: Aravis's
+// "Vendor-Model-Serial", an IP address, ...). kNotFound when no device has
+// the id; kInvalidArgument when the camera refuses a setting (the message
+// names it).
+using CameraOpener = std::function<Expected<std::unique_ptr<CameraDevice>>(const std::string& device_id,
+                                                                           const CameraSettings&)>;
 
 }  // namespace sitepose::drivers::aravis
