@@ -287,5 +287,20 @@ TEST(AravisDaemon, LostCameraPublishesLostThenTrackingResumes) {
   EXPECT_GT(replug_ns, unplug_ns);
 }
 
+TEST(AravisDaemon, AbsentCameraIsABadInputNamingTheKey) {
+  arv_disable_interface("GigEVision");
+  arv_disable_interface("USB3Vision");
+  TempDir dir("aravis-absent");
+  const Rendered& r = rendered(36);
+  auto config = daemon::load_daemon_config_from_string(config_text(dir, r, ""), "aravis.yaml", "");
+  ASSERT_TRUE(config) << config.error().message;
+  config->aravis.right_id = "No-Such-Camera-7";
+  const auto source = daemon::open_source(*config);
+  ASSERT_FALSE(source);
+  EXPECT_EQ(source.error().exit_status(), 2);
+  EXPECT_NE(source.error().message.find("source.aravis.right_id = \"No-Such-Camera-7\""), std::string::npos)
+      << source.error().message;
+}
+
 }  // namespace
 }  // namespace sitepose::drivers::aravis
