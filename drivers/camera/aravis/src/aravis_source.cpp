@@ -1,5 +1,6 @@
 #include "sitepose/drivers/aravis/aravis_source.hpp"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -124,15 +125,12 @@ AravisSource::AravisSource(const AravisSourceOptions& options, CameraOpener open
 AravisSource::~AravisSource() = default;
 
 std::string AravisSource::describe() const {
-  const char* trigger = options_.camera.trigger == TriggerMode::kSoftware ? "software trigger" : "free-run";
-  std::string d = "aravis stereo pair: left ";
-  d += cameras_[0].device ? cameras_[0].device->describe() : cameras_[0].id + " (lost)";
-  d += ", right ";
-  d += cameras_[1].device ? cameras_[1].device->describe() : cameras_[1].id + " (lost)";
-  d += ", " + std::string(trigger) + " at " + std::to_string(options_.camera.frame_rate_hz) +
-       " Hz, pairing within " + std::to_string(options_.pair_tolerance_ms) + " ms, " +
-       (rectifier_.remaps() ? "rectified from " : "already rectified per ") + options_.calibration;
-  return d;
+  auto side = [](const Camera& c) { return c.device ? c.device->describe() : c.id + " (lost)"; };
+  return fmt::format("aravis stereo pair: left {}, right {}, {} at {:g} Hz, pairing within {:g} ms, {} {}",
+                     side(cameras_[0]), side(cameras_[1]),
+                     options_.camera.trigger == TriggerMode::kSoftware ? "software trigger" : "free-run",
+                     options_.camera.frame_rate_hz, options_.pair_tolerance_ms,
+                     rectifier_.remaps() ? "rectified from" : "already rectified per", options_.calibration);
 }
 
 void AravisSource::lose(Camera& camera, const std::string& why) {
@@ -216,6 +214,13 @@ Expected<SourceEvent> AravisSource::next(std::stop_token stop, pipeline::SteadyT
   // Short polls, alternating between the cameras, keep a frame's wait for
   // its partner and the answer to a stop request within milliseconds.
   constexpr std::chrono::microseconds kPoll{1000};
+  if (!started_) {
+    // Silence before the first call (the daemon still starting) is not a
+    // lost camera, and the first software trigger is due now.
+    started_ = true;
+    for (Camera& c : cameras_) c.last_frame = Clock::now();
+    next_trigger_ = Clock::now();
+  }
   for (;;) {
     if (stop.stop_requested()) return SourceEvent{SourceEventKind::kEnd, {}};
     const Clock::time_point now = Clock::now();

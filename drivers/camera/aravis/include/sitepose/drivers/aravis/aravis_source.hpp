@@ -107,6 +107,7 @@ class AravisSource final : public pipeline::FrameSource {
   std::array<Camera, 2> cameras_;
   StereoPairer pairer_;
   Clock::time_point next_trigger_{};
+  bool started_ = false;  // next() called once
   std::int64_t next_seq_ = 0;
   std::int64_t last_t_ns_ = 0;
   std::uint64_t disconnects_ = 0;
