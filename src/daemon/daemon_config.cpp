@@ -42,7 +42,9 @@ auto three_numbers() {
 Section<pipeline::ReplayOptions> replay_section() {
   using R = pipeline::ReplayOptions;
   Section<R> s;
-  s.key("sequence", &R::sequence_dir, non_empty())
+  // Required, and not empty, with source.type replay (source_group's check):
+  // the written settings of another source type hold it empty.
+  s.key("sequence", &R::sequence_dir)
       .parsed(
           "rate", &R::rate, [](const std::string& t) { return pipeline::parse_replay_rate(t); },
           [](pipeline::ReplayRate r) { return pipeline::to_string(r); })
@@ -109,7 +111,10 @@ Section<DaemonConfig> source_group() {
       .section("replay", &DaemonConfig::replay, replay_section())
       .section("aravis", &DaemonConfig::aravis, aravis_section())
       .check([](const ReadKeys& keys, const DaemonConfig& c) {
-        if (c.source_type == "replay") keys.map().map("replay").require("sequence");
+        if (c.source_type == "replay") {
+          const config::YamlMap replay = keys.map().map("replay");
+          if (replay.require("sequence")) replay.check("sequence", c.replay.sequence_dir, non_empty());
+        }
         if (c.source_type != "aravis") return;
         const config::YamlMap aravis = keys.map().map("aravis");
         for (const char* key : {"left_id", "right_id", "calibration"}) aravis.require(key);
