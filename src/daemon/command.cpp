@@ -37,19 +37,24 @@ int run_siteposed(const Invocation& invocation) {
 
   auto config = load_daemon_config(invocation.config_path);
   if (!config) return fail(config.error().message, 2);
-  const std::string level = invocation.log_level.empty() ? config->sitepose.logging.level : invocation.log_level;
+  const std::string level =
+      invocation.log_level.empty() ? config->sitepose.logging.level : invocation.log_level;
   if (auto st = set_log_level(level); !st) return fail("--log-level: " + st.error().message, 2);
 
   const std::string resolved = to_yaml(*config);
   if (invocation.check_config) {
-    // The sequence is part of the input: check that it opens too.
-    auto source = pipeline::ReplaySource::open(config->replay);
-    if (!source) return fail("source.replay.sequence: " + source.error().message, 2);
+    // A sequence is part of the input: check that it opens too. Cameras are
+    // not opened (they may be off while the unit is being set up).
+    if (config->source_type == "replay") {
+      auto source = pipeline::ReplaySource::open(config->replay);
+      if (!source) return fail("source.replay.sequence: " + source.error().message, 2);
+    }
     std::printf("%s", resolved.c_str());
     std::fprintf(stderr, "siteposed: %s: configuration ok\n", invocation.config_path.c_str());
     return 0;
   }
-  spdlog::info("siteposed {} ({}) starting with {}", version_string(), git_revision(), invocation.config_path);
+  spdlog::info("siteposed {} ({}) starting with {}", version_string(), git_revision(),
+               invocation.config_path);
   spdlog::info("resolved configuration:\n{}", resolved);
 
   auto daemon = Daemon::create(*config);

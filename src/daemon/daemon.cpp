@@ -10,6 +10,7 @@
 #include "sitepose/config/config.hpp"
 #include "sitepose/core/build_info.hpp"
 #include "sitepose/core/log.hpp"
+#include "sitepose/drivers/aravis/aravis_camera.hpp"
 #include "sitepose/geo/nmea.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
 #include "sitepose/pipeline/replay_source.hpp"
@@ -32,11 +33,23 @@ drivers::socketcan::SocketCanSinkOptions socketcan_sink_options(const CanOutputC
   return o;
 }
 
+Expected<std::unique_ptr<pipeline::FrameSource>> open_source(const DaemonConfig& config) {
+  if (config.source_type == "aravis") {
+    drivers::aravis::AravisSourceOptions options = config.aravis;
+    options.wait_for_camera_s = config.wait_for_camera_s;
+    auto source = drivers::aravis::AravisSource::open(options, drivers::aravis::aravis_camera_opener());
+    if (!source) return make_error(source.error().code, "source.aravis." + source.error().message);
+    return std::unique_ptr<pipeline::FrameSource>(std::move(*source));
+  }
+  SITEPOSE_TRY(auto replay, pipeline::ReplaySource::open(config.replay));
+  return std::unique_ptr<pipeline::FrameSource>(std::move(replay));
+}
+
 Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
                                                  std::unique_ptr<pipeline::FrameSource> source) {
   std::unique_ptr<Daemon> d(new Daemon(config));
   if (!source) {
-    SITEPOSE_TRY(source, pipeline::ReplaySource::open(config.replay));
+    SITEPOSE_TRY(source, open_source(config));
   }
   spdlog::info("source: {}", source->describe());
   StereoCamera camera = source->camera();

@@ -10,18 +10,19 @@
 #include "sitepose/config/config.hpp"
 #include "sitepose/config/yaml_reader.hpp"
 #include "sitepose/detect/create_detector.hpp"
+#include "sitepose/drivers/aravis/aravis_source.hpp"
 
 namespace sitepose::daemon {
 namespace {
 
 namespace fs = std::filesystem;
 using config::Choice;
-using config::ReadKeys;
-using config::Section;
 using config::in_range;
 using config::make_rule;
 using config::non_empty;
 using config::non_negative;
+using config::ReadKeys;
+using config::Section;
 
 std::string resolve(const std::string& base_dir, const std::string& path) {
   if (path.empty() || fs::path(path).is_absolute() || base_dir.empty()) return path;
@@ -41,27 +42,94 @@ auto three_numbers() {
 Section<pipeline::ReplayOptions> replay_section() {
   using R = pipeline::ReplayOptions;
   Section<R> s;
-  // The only source type is replay, which needs its sequence.
-  s.required("sequence", &R::sequence_dir, non_empty())
-      .parsed("rate", &R::rate, [](const std::string& t) { return pipeline::parse_replay_rate(t); },
-              [](pipeline::ReplayRate r) { return pipeline::to_string(r); })
+  // Required, and not empty, with source.type replay (source_group's check):
+  // the written settings of another source type hold it empty.
+  s.key("sequence", &R::sequence_dir)
+      .parsed(
+          "rate", &R::rate, [](const std::string& t) { return pipeline::parse_replay_rate(t); },
+          [](pipeline::ReplayRate r) { return pipeline::to_string(r); })
       .key("loop", &R::loop)
       .key("max_frames", &R::max_frames, non_negative());
   return s;
 }
 
+Section<drivers::aravis::Roi> roi_section() {
+  using R = drivers::aravis::Roi;
+  Section<R> s;
+  s.key("x", &R::x, in_range(0, 65535))
+      .key("y", &R::y, in_range(0, 65535))
+      .key("width", &R::width, in_range(0, 65535))
+      .key("height", &R::height, in_range(0, 65535));
+  return s;
+}
+
+Section<drivers::aravis::CameraSettings> camera_settings_section() {
+  namespace a = drivers::aravis;
+  using C = a::CameraSettings;
+  Section<C> s;
+  s.parsed(
+       "pixel_format", &C::pixel_format, [](const std::string& t) { return a::parse_pixel_format(t); },
+       [](a::PixelFormat f) { return a::to_string(f); })
+      .key("exposure_auto", &C::exposure_auto)
+      .key("exposure_us", &C::exposure_us, in_range(1.0, 1e7))
+      .key("gain_auto", &C::gain_auto)
+      .key("gain_db", &C::gain_db, in_range(-20.0, 60.0))
+      .section("roi", &C::roi, roi_section())
+      .choice("trigger", &C::trigger,
+              {Choice<a::TriggerMode>{a::TriggerMode::kFreeRun, "free_run"},
+               Choice<a::TriggerMode>{a::TriggerMode::kSoftware, "software"}})
+      .key("frame_rate_hz", &C::frame_rate_hz, in_range(0.1, 1000.0))
+      .key("packet_size_bytes", &C::packet_size_bytes, in_range(0, 16384))
+      .key("packet_delay_ns", &C::packet_delay_ns, in_range(0, 100'000'000))
+      .key("buffer_count", &C::buffer_count, in_range(2, 256));
+  return s;
+}
+
+Section<drivers::aravis::AravisSourceOptions> aravis_section() {
+  namespace a = drivers::aravis;
+  using A = a::AravisSourceOptions;
+  Section<A> s;
+  s.key("left_id", &A::left_id)
+      .key("right_id", &A::right_id)
+      .key("calibration", &A::calibration)
+      .embed(&A::camera, camera_settings_section())
+      .key("pair_tolerance_ms", &A::pair_tolerance_ms, in_range(0.001, 1000.0))
+      .choice("pair_clock", &A::pair_clock,
+              {Choice<a::PairClock>{a::PairClock::kHost, "host"},
+               Choice<a::PairClock>{a::PairClock::kCamera, "camera"}})
+      .key("max_pending", &A::max_pending, in_range(1, 64))
+      .key("lost_timeout_s", &A::lost_timeout_s, in_range(0.01, 60.0))
+      .key("reconnect_min_s", &A::reconnect_min_s, in_range(0.01, 60.0))
+      .key("reconnect_max_s", &A::reconnect_max_s, in_range(0.01, 3600.0));
+  return s;
+}
+
 Section<DaemonConfig> source_group() {
   Section<DaemonConfig> s;
-  s.key("type", &DaemonConfig::source_type, config::one_of({"replay"}))
-      .section("replay", &DaemonConfig::replay, replay_section());
+  s.key("type", &DaemonConfig::source_type, config::one_of({"replay", "aravis"}))
+      .key("wait_for_camera_s", &DaemonConfig::wait_for_camera_s, in_range(0.0, 86400.0))
+      .section("replay", &DaemonConfig::replay, replay_section())
+      .section("aravis", &DaemonConfig::aravis, aravis_section())
+      .check([](const ReadKeys& keys, const DaemonConfig& c) {
+        if (c.source_type == "replay") {
+          const config::YamlMap replay = keys.map().map("replay");
+          if (replay.require("sequence")) replay.check("sequence", c.replay.sequence_dir, non_empty());
+        }
+        if (c.source_type != "aravis") return;
+        const config::YamlMap aravis = keys.map().map("aravis");
+        for (const char* key : {"left_id", "right_id", "calibration"}) aravis.require(key);
+        if (!aravis.has("left_id") || !aravis.has("right_id") || !aravis.has("calibration")) return;
+        if (auto st = drivers::aravis::check_aravis_source_options(c.aravis); !st) {
+          aravis.report_here(st.error().message);
+        }
+      });
   return s;
 }
 
 Section<pipeline::PipelineOptions> pipeline_section() {
   using P = pipeline::PipelineOptions;
-  const auto power_of_two =
-      make_rule([](int v) { return v >= 2 && v <= (1 << 20) && (v & (v - 1)) == 0; },
-                "must be a power of two in [2, 1048576]");
+  const auto power_of_two = make_rule([](int v) { return v >= 2 && v <= (1 << 20) && (v & (v - 1)) == 0; },
+                                      "must be a power of two in [2, 1048576]");
   Section<P> s;
   s.key_as<int>("capture_ring_capacity", &P::capture_ring_capacity, power_of_two)
       .key_as<int>("detect_ring_capacity", &P::detect_ring_capacity, power_of_two)
@@ -106,8 +174,7 @@ Section<output::CanOutputOptions> can_frames_section() {
       .key("n2k_vessel_heading", &O::n2k_vessel_heading)
       .key("sitepose_pose_quality", &O::sitepose_pose_quality);
   Section<O> s;
-  s.key_as<int>("source_address", &O::source_address, in_range(0, 253))
-      .group("frames", std::move(frames));
+  s.key_as<int>("source_address", &O::source_address, in_range(0, 253)).group("frames", std::move(frames));
   return s;
 }
 
@@ -149,9 +216,7 @@ Section<CanOutputConfig> can_section() {
       .key("path", &C::path)
       .key("interface", &C::interface,
            make_rule(
-               [](const std::string& v) {
-                 return !v.empty() && v.find_first_of(" \t") == std::string::npos;
-               },
+               [](const std::string& v) { return !v.empty() && v.find_first_of(" \t") == std::string::npos; },
                "must be a non-empty name without blanks"))
       .embed(&C::frames, can_frames_section())
       .section("socketcan", &C::socketcan, socketcan_section())
@@ -226,8 +291,7 @@ Section<SE3> site_slam_section() {
   Section<SE3> s;
   s.computed(
        "translation_m", [](const SE3& T) { return as_list(T.translation()); },
-       [](SE3& T, const std::vector<double>& t) { T = SE3(T.rotation(), as_vector3(t)); },
-       three_numbers())
+       [](SE3& T, const std::vector<double>& t) { T = SE3(T.rotation(), as_vector3(t)); }, three_numbers())
       .computed(
           "rotation_wxyz",
           [](const SE3& T) {
@@ -246,8 +310,7 @@ Section<geo::SiteAnchorOptions> anchor_section() {
   Section<A> s;
   s.computed(
        "p_cam_antenna_m", [](const A& a) { return as_list(a.p_cam_antenna_m); },
-       [](A& a, const std::vector<double>& p) { a.p_cam_antenna_m = as_vector3(p); },
-       three_numbers())
+       [](A& a, const std::vector<double>& p) { a.p_cam_antenna_m = as_vector3(p); }, three_numbers())
       .computed(
           "gnss_clock_offset_s",
           [](const A& a) { return static_cast<double>(a.gnss_clock_offset_ns) * 1e-9; },
@@ -265,8 +328,7 @@ Section<geo::SiteAnchorOptions> anchor_section() {
 Section<GeoConfig> online_group() {
   Section<GeoConfig> s;
   s.choice("gnss_input", &GeoConfig::gnss_input,
-           {Choice<GnssInput>{GnssInput::kLcm, "lcm"},
-            Choice<GnssInput>{GnssInput::kNmeaFile, "nmea_file"}})
+           {Choice<GnssInput>{GnssInput::kLcm, "lcm"}, Choice<GnssInput>{GnssInput::kNmeaFile, "nmea_file"}})
       .key("nmea_file", &GeoConfig::nmea_file)
       .embed(&GeoConfig::anchor, anchor_section())
       .check([](const ReadKeys& keys, const GeoConfig& g) {
@@ -283,9 +345,10 @@ Section<GeoConfig> geo_section() {
            {Choice<GeoMode>{GeoMode::kNone, "none"}, Choice<GeoMode>{GeoMode::kFixed, "fixed"},
             Choice<GeoMode>{GeoMode::kOnline, "online"}})
       .section("origin", &GeoConfig::origin, origin_section())
-      .parsed("forward_axis", &GeoConfig::forward_axis_cam,
-              [](const std::string& t) { return geo::parse_forward_axis(t); },
-              [](geo::ForwardAxis a) { return geo::to_string(a); })
+      .parsed(
+          "forward_axis", &GeoConfig::forward_axis_cam,
+          [](const std::string& t) { return geo::parse_forward_axis(t); },
+          [](geo::ForwardAxis a) { return geo::to_string(a); })
       .section("T_site_slam", &GeoConfig::T_site_slam, site_slam_section())
       .group("online", online_group())
       .check([](const ReadKeys& keys, const GeoConfig& g) {
@@ -314,10 +377,11 @@ Section<DaemonConfig> make_daemon_sections() {
           keys.map().map("outputs").map("can").report(
               "enabled", "CAN frames carry WGS84 positions: needs geo.mode fixed or online");
         }
-        if (c.sitepose.dynamic.mode != config::MaskingMode::kNone &&
-            c.sitepose.detector.name == "labels" && c.source_type != "replay") {
-          keys.map().map("detector").report(
-              "name", "\"labels\" reads a recorded sequence's labels: needs source.type replay");
+        if (c.sitepose.dynamic.mode != config::MaskingMode::kNone && c.sitepose.detector.name == "labels" &&
+            c.source_type != "replay") {
+          keys.map()
+              .map("detector")
+              .report("name", "\"labels\" reads a recorded sequence's labels: needs source.type replay");
         }
       });
   return s;
@@ -330,14 +394,14 @@ const Section<DaemonConfig>& daemon_sections() {
   return sections;
 }
 
-Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text,
-                                                      const std::string& source_name,
+Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text, const std::string& source_name,
                                                       const std::string& base_dir) {
   SITEPOSE_TRY(config::YamlReader reader, config::YamlReader::from_string(text, source_name));
   DaemonConfig c;
   daemon_sections().read(reader.root(), c);
   SITEPOSE_TRY_STATUS(reader.finish());
-  for (std::string* path : {&c.replay.sequence_dir, &c.trajectory.path, &c.can.path, &c.geo.nmea_file}) {
+  for (std::string* path :
+       {&c.replay.sequence_dir, &c.aravis.calibration, &c.trajectory.path, &c.can.path, &c.geo.nmea_file}) {
     *path = resolve(base_dir, *path);
   }
   c.geo.anchor = anchor_options(c.geo);
@@ -357,8 +421,6 @@ Expected<DaemonConfig> load_daemon_config(const std::string& path) {
   return load_daemon_config_from_string(text, path, base);
 }
 
-std::string to_yaml(const DaemonConfig& config) {
-  return config::write_yaml(daemon_sections(), config);
-}
+std::string to_yaml(const DaemonConfig& config) { return config::write_yaml(daemon_sections(), config); }
 
 }  // namespace sitepose::daemon

@@ -15,7 +15,8 @@ constexpr const char* kDescription =
     "siteposed: real-time stereo visual positioning daemon.\n"
     "Pipeline: capture -> detect -> track -> publish, one thread each, joined by lock-free rings "
     "(full ring: oldest frame dropped and counted; a replay at rate 'max' is lossless instead).\n"
-    "Source: replay of a recorded sequence (camera drivers are not in this build).\n"
+    "Source: replay of a recorded sequence, or two GigE Vision / USB3 Vision cameras through Aravis "
+    "(source.type aravis: paired by timestamp, rectified, reconnected with back-off when lost).\n"
     "Detect stage: the configured detector plugin (detector.name) when dynamic.mode is not none; "
     "the track stage then runs the dynamic layer in that mode (full = two-pass tracking).\n"
     "Outputs: LCM pose_t/health_t, CAN frames (J1939/NMEA 2000/sitepose PGN) to a candump log, "
@@ -33,8 +34,10 @@ int main(int argc, char** argv) {
   app.add_option("--config", invocation.config_path, "Daemon settings YAML (see config/siteposed.yaml)")
       ->required()
       ->check(CLI::ExistingFile);
-  app.add_flag("--check-config", invocation.check_config,
-               "Validate the settings (and open the replay sequence), print the resolved settings, exit");
+  app.add_flag(
+      "--check-config", invocation.check_config,
+      "Validate the settings (and open a replay sequence; cameras are not opened), print the resolved "
+      "settings, exit");
   app.add_option("--log-level", invocation.log_level,
                  "Override logging.level (trace, debug, info, warn, error, off)");
   app.set_version_flag("--version", std::string("siteposed ") + sitepose::version_string() + " (" +

@@ -27,6 +27,10 @@ namespace sitepose::daemon {
 // The SocketCAN sink's options from the daemon's CAN settings (sink socketcan).
 drivers::socketcan::SocketCanSinkOptions socketcan_sink_options(const CanOutputConfig& can);
 
+// The source the config names (source.type replay or aravis); errors name
+// the key ("source.aravis.right_id = ...").
+Expected<std::unique_ptr<pipeline::FrameSource>> open_source(const DaemonConfig& config);
+
 class Daemon {
  public:
   // Opens everything the config names; errors name the key or file
@@ -48,13 +52,13 @@ class Daemon {
 
   DaemonConfig config_;
   pipeline::SystemdNotifier notifier_;
-  std::unique_ptr<Anchoring> anchoring_;             // outlives the outputs
+  std::unique_ptr<Anchoring> anchoring_;  // outlives the outputs
   std::shared_ptr<lcm::LCM> lcm_;
-  std::unique_ptr<output::LcmGnssSubscriber> gnss_;  // used by gnss_thread_ only
-  std::unique_ptr<pipeline::Pipeline> pipeline_;     // owns source, tracker, outputs
-  const pipeline::SlamPoseTracker* tracker_ = nullptr;  // owned by pipeline_ (counters only)
+  std::unique_ptr<output::LcmGnssSubscriber> gnss_;               // used by gnss_thread_ only
+  std::unique_ptr<pipeline::Pipeline> pipeline_;                  // owns source, tracker, outputs
+  const pipeline::SlamPoseTracker* tracker_ = nullptr;            // owned by pipeline_ (counters only)
   const drivers::socketcan::SocketCanSink* socketcan_ = nullptr;  // owned by pipeline_ (stats only)
-  std::jthread gnss_thread_;                         // joined first (declared last)
+  std::jthread gnss_thread_;                                      // joined first (declared last)
 };
 
 }  // namespace sitepose::daemon

@@ -22,6 +22,7 @@
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
 #include "sitepose/core/se3.hpp"
+#include "sitepose/drivers/aravis/aravis_source.hpp"
 #include "sitepose/geo/site_anchor.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/j1939_network.hpp"
@@ -86,8 +87,12 @@ struct GeoConfig {
 };
 
 struct DaemonConfig {
-  std::string source_type = "replay";
+  std::string source_type = "replay";  // replay | aravis
+  // A camera source: how long to wait at start for an absent camera (0:
+  // fail at once). Lost cameras later are reconnected whatever this says.
+  double wait_for_camera_s = 0.0;
   pipeline::ReplayOptions replay;
+  drivers::aravis::AravisSourceOptions aravis;
   pipeline::PipelineOptions pipeline;
   pipeline::SupervisorOptions supervisor;
   TrajectoryOutputConfig trajectory;
@@ -101,8 +106,7 @@ struct DaemonConfig {
 const config::Section<DaemonConfig>& daemon_sections();
 
 Expected<DaemonConfig> load_daemon_config(const std::string& path);
-Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text,
-                                                      const std::string& source_name,
+Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text, const std::string& source_name,
                                                       const std::string& base_dir);
 
 // The resolved settings as YAML that load_daemon_config reads back to the

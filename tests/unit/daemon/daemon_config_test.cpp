@@ -38,13 +38,12 @@ bool contains(const std::string& haystack, const std::string& needle) {
 // (each comment there states the default); the sitepose sections are
 // documented in config/sitepose.yaml.
 TEST(DaemonConfig, DocumentedFileAgreesWithTheTable) {
-  config::DocumentedFile file{kShippedFile,
-                              {"source.replay.sequence", "outputs.trajectory.path",
-                               "outputs.can.path", "outputs.lcm.url", "geo.mode",
-                               "geo.origin.latitude_deg", "geo.origin.longitude_deg",
-                               "geo.origin.height_m", "geo.T_site_slam.translation_m",
-                               "geo.T_site_slam.rotation_wxyz", "dynamic.mode"},
-                              {}};
+  config::DocumentedFile file{
+      kShippedFile,
+      {"source.replay.sequence", "outputs.trajectory.path", "outputs.can.path", "outputs.lcm.url", "geo.mode",
+       "geo.origin.latitude_deg", "geo.origin.longitude_deg", "geo.origin.height_m",
+       "geo.T_site_slam.translation_m", "geo.T_site_slam.rotation_wxyz", "dynamic.mode"},
+      {}};
   for (const auto& entry : config::entries(config::sitepose_sections(), config::SiteposeConfig{}, false)) {
     if (entry.depth == 0) file.documented_elsewhere.push_back(entry.key);
   }
@@ -98,12 +97,14 @@ TEST(DaemonConfig, BadValuesAreNamedWithFileLineKeyAndRule) {
       "outputs:\n  lcm: {urll: x}\n  can: {enabled: true, path: can.log}\n"
       "dynamic: {mode: fullest}\n");
   EXPECT_TRUE(contains(message, "d.yaml:2: source.replay.rate = \"fastest\"")) << message;
-  EXPECT_TRUE(contains(message, "d.yaml:3: pipeline.capture_ring_capacity = 6: must be a power of "
-                                "two in [2, 1048576]"))
+  EXPECT_TRUE(contains(message,
+                       "d.yaml:3: pipeline.capture_ring_capacity = 6: must be a power of "
+                       "two in [2, 1048576]"))
       << message;
   EXPECT_TRUE(contains(message, "d.yaml:5: outputs.lcm.urll: unknown key")) << message;
-  EXPECT_TRUE(contains(message, "d.yaml:6: outputs.can.enabled = true: CAN frames carry WGS84 "
-                                "positions: needs geo.mode fixed or online"))
+  EXPECT_TRUE(contains(message,
+                       "d.yaml:6: outputs.can.enabled = true: CAN frames carry WGS84 "
+                       "positions: needs geo.mode fixed or online"))
       << message;
   EXPECT_TRUE(contains(message, "d.yaml:7: dynamic.mode = \"fullest\": unknown masking mode")) << message;
   EXPECT_TRUE(contains(message, "outputs.trajectory.path: missing (required key)")) << message;
@@ -150,6 +151,66 @@ TEST(DaemonConfig, DirectoryOrMissingFileIsAnError) {
   ASSERT_FALSE(missing.has_value());
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
   EXPECT_TRUE(contains(missing.error().message, "/nonexistent/nope.yaml"));
+}
+
+}  // namespace
+}  // namespace sitepose::daemon
+
+namespace sitepose::daemon {
+namespace {
+
+const std::string kAravisBase =
+    "outputs:\n  can: {enabled: false}\n  trajectory: {path: t.tum}\n"
+    "dynamic: {mode: none}\nsource:\n  type: aravis\n";
+
+TEST(DaemonConfig, AravisSourceReadsItsKeysAndResolvesTheCalibration) {
+  const auto config = load_daemon_config_from_string(
+      kAravisBase +
+          "  wait_for_camera_s: 5\n"
+          "  aravis: {left_id: Cam-A, right_id: Cam-B, calibration: rig/stereo.yaml, pixel_format: "
+          "BayerRG8,\n"
+          "           trigger: software, frame_rate_hz: 15, roi: {x: 8, width: 1280, height: 720},\n"
+          "           pair_clock: camera, exposure_auto: false, exposure_us: 2500}\n",
+      "d.yaml", "/etc/sitepose");
+  ASSERT_TRUE(config) << config.error().message;
+  EXPECT_EQ(config->source_type, "aravis");
+  EXPECT_EQ(config->wait_for_camera_s, 5.0);
+  const drivers::aravis::AravisSourceOptions& a = config->aravis;
+  EXPECT_EQ(a.right_id, "Cam-B");
+  EXPECT_EQ(a.calibration, "/etc/sitepose/rig/stereo.yaml");
+  EXPECT_EQ(a.camera.pixel_format, drivers::aravis::PixelFormat::kBayerRG8);
+  EXPECT_EQ(a.camera.trigger, drivers::aravis::TriggerMode::kSoftware);
+  EXPECT_EQ(a.camera.roi.x, 8);
+  EXPECT_EQ(a.camera.roi.height, 720);
+  EXPECT_EQ(a.pair_clock, drivers::aravis::PairClock::kCamera);
+  EXPECT_FALSE(a.camera.exposure_auto);
+  // Written and read back the same.
+  const auto again = load_daemon_config_from_string(to_yaml(*config), "resolved.yaml", "");
+  ASSERT_TRUE(again) << again.error().message;
+  EXPECT_EQ(again->aravis.calibration, a.calibration);
+  EXPECT_EQ(again->aravis.camera.frame_rate_hz, 15.0);
+}
+
+TEST(DaemonConfig, AravisSourceErrorsNameTheKeys) {
+  const std::string missing = load_error(kAravisBase + "  aravis: {left_id: Cam-A}\n");
+  EXPECT_TRUE(contains(missing, "source.aravis.right_id")) << missing;
+  EXPECT_TRUE(contains(missing, "source.aravis.calibration")) << missing;
+  const std::string format = load_error(
+      kAravisBase + "  aravis: {left_id: A, right_id: B, calibration: c.yaml, pixel_format: RGB8}\n");
+  EXPECT_TRUE(contains(format, "source.aravis.pixel_format")) << format;
+  EXPECT_TRUE(contains(format, "Mono8, Mono16, BayerRG8")) << format;
+  const std::string relations =
+      load_error(kAravisBase +
+                 "  aravis: {left_id: A, right_id: A, calibration: c.yaml, frame_rate_hz: 30,\n"
+                 "           pair_tolerance_ms: 20}\n");
+  EXPECT_TRUE(contains(relations, "right_id: must differ from left_id")) << relations;
+  EXPECT_TRUE(contains(relations, "pair_tolerance_ms = 20")) << relations;
+  const std::string trigger = load_error(
+      kAravisBase + "  aravis: {left_id: A, right_id: B, calibration: c.yaml, trigger: hardware}\n");
+  EXPECT_TRUE(contains(trigger, "source.aravis.trigger")) << trigger;
+  // A replay source still needs its sequence.
+  const std::string replay = load_error("source: {type: replay}\n");
+  EXPECT_TRUE(contains(replay, "source.replay.sequence")) << replay;
 }
 
 }  // namespace

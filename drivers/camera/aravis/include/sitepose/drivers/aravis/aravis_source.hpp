@@ -1,0 +1,117 @@
+#pragma once
+// FrameSource over a stereo pair of cameras (GigE Vision / USB3 Vision via
+// Aravis, or any CameraOpener): both cameras configured alike, frames
+// converted to 8-bit gray, paired by timestamp (stereo_pairer.hpp), mapped
+// to the host clock (clock_mapper.hpp) and rectified with maps computed once
+// (rectifier.hpp).
+// Timing: free-run (each camera at frame_rate_hz; pair_tolerance must cover
+// the phase between the two), or software trigger (the source triggers both
+// cameras every 1 / frame_rate_hz; they expose within the trigger latency).
+// Hardware trigger and PTP with scheduled action commands are set up in the
+// cameras' feature files (firmware-config/), not here.
+// A lost camera (Aravis reports it, or it sends nothing for lost_timeout_s)
+// is closed and reopened with exponential back-off from reconnect_min_s to
+// reconnect_max_s; meanwhile next() returns kTimeout at its deadline, so the
+// pipeline reports a stall (LOST poses) and the daemon stays up. Waiting
+// frames are dropped (counted) and pairing starts afresh when it is back.
+// Threads: next() and the accessors from the capture thread only.
+
+#include <array>
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "sitepose/drivers/aravis/camera_device.hpp"
+#include "sitepose/drivers/aravis/clock_mapper.hpp"
+#include "sitepose/drivers/aravis/rectifier.hpp"
+#include "sitepose/drivers/aravis/stereo_pairer.hpp"
+#include "sitepose/pipeline/frame_source.hpp"
+
+namespace sitepose::drivers::aravis {
+
+struct AravisSourceOptions {
+  std::string left_id;
+  std::string right_id;
+  CameraSettings camera;    // both cameras
+  std::string calibration;  // OpenCV stereo calibration YAML or KITTI calib.txt
+  double pair_tolerance_ms = 5.0;
+  PairClock pair_clock = PairClock::kHost;
+  int max_pending = 4;
+  double lost_timeout_s = 1.0;
+  double reconnect_min_s = 0.25;
+  double reconnect_max_s = 8.0;
+  // At start: how long to wait for an absent camera (0: fail at once).
+  double wait_for_camera_s = 0.0;
+};
+
+// Checks values and their relations; messages name the field.
+Status check_aravis_source_options(const AravisSourceOptions& options);
+
+struct AravisSourceStats {
+  PairerCounts pairing;
+  std::uint64_t failed_buffers = 0;  // both cameras, current connections
+  std::uint64_t disconnects = 0;
+  std::uint64_t reconnects = 0;
+  std::int64_t clock_offset_left_ns = 0;  // host - camera (clock_mapper.hpp)
+  std::int64_t clock_offset_right_ns = 0;
+};
+
+class AravisSource final : public pipeline::FrameSource {
+ public:
+  // Opens both cameras (waiting up to wait_for_camera_s for absent ones) and
+  // loads the calibration. Errors start with the option they are about
+  // ("right_id = \"X\": ...", "calibration: ..."): kNotFound for an absent
+  // camera, kInvalidArgument for a setting the camera refuses or cameras of
+  // different image sizes, the calibration's errors.
+  static Expected<std::unique_ptr<AravisSource>> open(const AravisSourceOptions& options, CameraOpener opener,
+                                                      std::stop_token stop = {});
+  ~AravisSource() override;
+
+  const StereoCamera& camera() const override { return rectifier_.camera(); }
+  std::string describe() const override;
+  bool live() const override { return true; }
+  double frame_rate_hz() const override { return options_.camera.frame_rate_hz; }
+  Expected<pipeline::SourceEvent> next(std::stop_token stop, pipeline::SteadyTime deadline) override;
+
+  AravisSourceStats stats() const;
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  struct Camera {
+    Side side = Side::kLeft;
+    std::string id;
+    std::unique_ptr<CameraDevice> device;  // null while lost
+    ClockMapper clock;
+    Clock::time_point last_frame{};
+    Clock::time_point next_attempt{};
+    double backoff_s = 0.0;
+    std::uint64_t failed_before = 0;  // failed buffers of earlier connections
+  };
+
+  AravisSource(const AravisSourceOptions& options, CameraOpener opener, Rectifier rectifier,
+               std::array<std::unique_ptr<CameraDevice>, 2> devices);
+  void lose(Camera& camera, const std::string& why);
+  Status try_reconnect(Camera& camera, Clock::time_point now);
+  Status poll_camera(Camera& camera, std::chrono::microseconds timeout);
+  void trigger_if_due(Clock::time_point now);
+  // A triggered camera whose partner is lost gets no triggers: no frames
+  // are due then, and silence is not a fault.
+  bool expecting_frames() const {
+    return options_.camera.trigger != TriggerMode::kSoftware || (cameras_[0].device && cameras_[1].device);
+  }
+  Expected<StereoFrame> make_frame(FramePair pair);
+
+  AravisSourceOptions options_;
+  CameraOpener opener_;
+  Rectifier rectifier_;
+  std::array<Camera, 2> cameras_;
+  StereoPairer pairer_;
+  Clock::time_point next_trigger_{};
+  bool started_ = false;  // next() called once
+  std::int64_t next_seq_ = 0;
+  std::int64_t last_t_ns_ = 0;
+  std::uint64_t disconnects_ = 0;
+  std::uint64_t reconnects_ = 0;
+};
+
+}  // namespace sitepose::drivers::aravis

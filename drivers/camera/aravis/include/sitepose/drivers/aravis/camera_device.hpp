@@ -1,0 +1,80 @@
+#pragma once
+// The seam between the stereo source and a camera library: one opened,
+// configured, streaming camera (CameraDevice) and a way to open one
+// (CameraOpener). aravis_camera.hpp implements it on Aravis; tests wrap or
+// replace it to unplug a camera or to feed frames without one.
+// Threads: a device is used by one thread (the capture thread).
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "sitepose/core/expected.hpp"
+#include "sitepose/drivers/aravis/pixel_convert.hpp"
+#include "sitepose/drivers/aravis/stereo_pairer.hpp"
+
+namespace sitepose::drivers::aravis {
+
+enum class TriggerMode {
+  kFreeRun,   // each camera runs at frame_rate_hz on its own clock
+  kSoftware,  // the source triggers both cameras at frame_rate_hz
+};
+
+// Region of interest; width/height 0 = the sensor's full size.
+struct Roi {
+  int x = 0;
+  int y = 0;
+  int width = 0;
+  int height = 0;
+};
+
+// What the source asks of each camera of the pair.
+struct CameraSettings {
+  PixelFormat pixel_format = PixelFormat::kMono8;
+  bool exposure_auto = true;
+  double exposure_us = 10000.0;  // when not auto
+  bool gain_auto = true;
+  double gain_db = 0.0;  // when not auto
+  Roi roi;
+  TriggerMode trigger = TriggerMode::kFreeRun;
+  double frame_rate_hz = 20.0;
+  int packet_size_bytes = 0;  // GigE: 0 = negotiate the largest that passes
+  int packet_delay_ns = 0;    // GigE inter-packet delay (two cameras on one link)
+  int buffer_count = 8;       // stream buffer pool
+};
+
+enum class PollKind { kFrame, kNothing };
+
+struct Poll {
+  PollKind kind = PollKind::kNothing;
+  CameraFrame frame;  // kFrame: gray8, camera_t_ns and host arrival (host_t_ns, unmapped)
+};
+
+class CameraDevice {
+ public:
+  virtual ~CameraDevice() = default;
+  // Image size after the region of interest.
+  virtual int width() const = 0;
+  virtual int height() const = 0;
+  virtual std::string describe() const = 0;
+  // Waits up to `timeout` for a completed buffer. kNothing on timeout or on
+  // an incomplete buffer (counted by the device); an error when the camera
+  // is gone (control lost, stream failed).
+  virtual Expected<Poll> poll(std::chrono::microseconds timeout) = 0;
+  // One software trigger (TriggerMode::kSoftware).
+  virtual Status trigger() = 0;
+  // Buffers that arrived incomplete or failed.
+  virtual std::uint64_t failed_buffers() const = 0;
+};
+
+// Opens, configures and starts streaming one camera (device_id: Aravis's
+// "Vendor-Model-Serial", an IP address, ...). kNotFound when no device has
+// the id; kInvalidArgument when the camera refuses a setting (the message
+// names it).
+using CameraOpener = std::function<Expected<std::unique_ptr<CameraDevice>>(const std::string& device_id,
+                                                                           const CameraSettings&)>;
+
+}  // namespace sitepose::drivers::aravis

@@ -1,0 +1,262 @@
+#include "sitepose/drivers/aravis/aravis_source.hpp"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+namespace sitepose::drivers::aravis {
+namespace {
+
+using pipeline::SourceEvent;
+using pipeline::SourceEventKind;
+using Clock = std::chrono::steady_clock;
+
+const char* side_name(Side side) { return side == Side::kLeft ? "left" : "right"; }
+
+Clock::duration seconds(double s) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+}
+
+// Sleeps until `until` or a stop request, whichever comes first.
+void wait_until(std::stop_token stop, Clock::time_point until) {
+  std::mutex mutex;
+  std::condition_variable_any cv;
+  std::unique_lock lock(mutex);
+  cv.wait_until(lock, stop, until, [] { return false; });
+}
+
+// Opens one camera, retrying absent ones (kNotFound) with back-off until
+// `wait_s` has passed.
+Expected<std::unique_ptr<CameraDevice>> open_waiting(const CameraOpener& opener, const std::string& id,
+                                                     Side side, const AravisSourceOptions& o,
+                                                     std::stop_token stop) {
+  const Clock::time_point give_up = Clock::now() + seconds(o.wait_for_camera_s);
+  double backoff_s = o.reconnect_min_s;
+  for (;;) {
+    auto device = opener(id, o.camera);
+    if (device) return device;
+    const std::string what = std::string(side_name(side)) + "_id = \"" + id + "\": " + device.error().message;
+    if (device.error().code != ErrorCode::kNotFound || Clock::now() >= give_up || stop.stop_requested()) {
+      const std::string waited = o.wait_for_camera_s > 0.0 && device.error().code == ErrorCode::kNotFound
+                                     ? " (waited " + std::to_string(o.wait_for_camera_s) + " s)"
+                                     : "";
+      return make_error(device.error().code, what + waited);
+    }
+    spdlog::info("aravis: {}; retrying in {:.2f} s", what, backoff_s);
+    wait_until(stop, std::min(give_up, Clock::now() + seconds(backoff_s)));
+    backoff_s = std::min(2.0 * backoff_s, o.reconnect_max_s);
+  }
+}
+
+}  // namespace
+
+Status check_aravis_source_options(const AravisSourceOptions& o) {
+  std::string bad;
+  auto add = [&bad](const std::string& what) { bad += (bad.empty() ? "" : "; ") + what; };
+  if (o.left_id.empty()) add("left_id: must not be empty");
+  if (o.right_id.empty()) add("right_id: must not be empty");
+  if (!o.left_id.empty() && o.left_id == o.right_id)
+    add("right_id: must differ from left_id \"" + o.left_id + "\"");
+  if (o.calibration.empty()) add("calibration: must name a calibration file");
+  if (!(o.camera.frame_rate_hz > 0.0 && o.camera.frame_rate_hz <= 1000.0))
+    add("frame_rate_hz: must be in (0, 1000]");
+  const double half_period_ms = 500.0 / std::max(o.camera.frame_rate_hz, 1e-3);
+  if (!(o.pair_tolerance_ms > 0.0 && o.pair_tolerance_ms < half_period_ms)) {
+    add("pair_tolerance_ms = " + std::to_string(o.pair_tolerance_ms) + ": must be in (0, " +
+        std::to_string(half_period_ms) +
+        ") (below half a frame period, or frames pair with their neighbours)");
+  }
+  if (o.max_pending < 1) add("max_pending: must be >= 1");
+  if (o.camera.buffer_count < 2) add("buffer_count: must be >= 2");
+  if (!(o.lost_timeout_s > 0.0)) add("lost_timeout_s: must be > 0");
+  if (!(o.reconnect_min_s > 0.0 && o.reconnect_min_s <= o.reconnect_max_s)) {
+    add("reconnect_min_s: must be > 0 and <= reconnect_max_s");
+  }
+  if (!(o.wait_for_camera_s >= 0.0)) add("wait_for_camera_s: must be >= 0");
+  if (bad.empty()) return ok_status();
+  return make_error(ErrorCode::kInvalidArgument, bad);
+}
+
+Expected<std::unique_ptr<AravisSource>> AravisSource::open(const AravisSourceOptions& options,
+                                                           CameraOpener opener, std::stop_token stop) {
+  SITEPOSE_TRY_STATUS(check_aravis_source_options(options));
+  std::array<std::unique_ptr<CameraDevice>, 2> devices;
+  for (const Side side : {Side::kLeft, Side::kRight}) {
+    const std::string& id = side == Side::kLeft ? options.left_id : options.right_id;
+    SITEPOSE_TRY(devices[static_cast<int>(side)], open_waiting(opener, id, side, options, stop));
+  }
+  const CameraDevice& left = *devices[0];
+  const CameraDevice& right = *devices[1];
+  if (left.width() != right.width() || left.height() != right.height()) {
+    return make_error(ErrorCode::kInvalidArgument, "right_id: the right camera (" + right.describe() +
+                                                       ") delivers another image size than the left one (" +
+                                                       left.describe() + ")");
+  }
+  auto rectifier = Rectifier::load(options.calibration, left.width(), left.height());
+  if (!rectifier) return make_error(rectifier.error().code, "calibration: " + rectifier.error().message);
+  return std::unique_ptr<AravisSource>(
+      new AravisSource(options, std::move(opener), std::move(*rectifier), std::move(devices)));
+}
+
+AravisSource::AravisSource(const AravisSourceOptions& options, CameraOpener opener, Rectifier rectifier,
+                           std::array<std::unique_ptr<CameraDevice>, 2> devices)
+    : options_(options),
+      opener_(std::move(opener)),
+      rectifier_(std::move(rectifier)),
+      pairer_(PairerOptions{static_cast<std::int64_t>(std::llround(options.pair_tolerance_ms * 1e6)),
+                            static_cast<std::size_t>(options.max_pending), options.pair_clock}) {
+  const Clock::time_point now = Clock::now();
+  for (int i = 0; i < 2; ++i) {
+    Camera& c = cameras_[i];
+    c.side = i == 0 ? Side::kLeft : Side::kRight;
+    c.id = i == 0 ? options.left_id : options.right_id;
+    c.device = std::move(devices[i]);
+    c.last_frame = now;
+    c.backoff_s = options.reconnect_min_s;
+  }
+  next_trigger_ = now;
+}
+
+AravisSource::~AravisSource() = default;
+
+std::string AravisSource::describe() const {
+  auto side = [](const Camera& c) { return c.device ? c.device->describe() : c.id + " (lost)"; };
+  return fmt::format("aravis stereo pair: left {}, right {}, {} at {:g} Hz, pairing within {:g} ms, {} {}",
+                     side(cameras_[0]), side(cameras_[1]),
+                     options_.camera.trigger == TriggerMode::kSoftware ? "software trigger" : "free-run",
+                     options_.camera.frame_rate_hz, options_.pair_tolerance_ms,
+                     rectifier_.remaps() ? "rectified from" : "already rectified per", options_.calibration);
+}
+
+void AravisSource::lose(Camera& camera, const std::string& why) {
+  spdlog::warn("aravis: {} camera {} lost ({}); reconnecting with back-off from {:.2f} s",
+               side_name(camera.side), camera.id, why, options_.reconnect_min_s);
+  camera.failed_before += camera.device->failed_buffers();
+  camera.device.reset();
+  camera.clock.reset();
+  camera.backoff_s = options_.reconnect_min_s;
+  camera.next_attempt = Clock::now();
+  pairer_.reset();
+  ++disconnects_;
+}
+
+Status AravisSource::try_reconnect(Camera& camera, Clock::time_point now) {
+  if (now < camera.next_attempt) return ok_status();
+  auto device = opener_(camera.id, options_.camera);
+  if (!device) {
+    spdlog::debug("aravis: {} camera {}: {}", side_name(camera.side), camera.id, device.error().message);
+    camera.next_attempt = Clock::now() + seconds(camera.backoff_s);
+    camera.backoff_s = std::min(2.0 * camera.backoff_s, options_.reconnect_max_s);
+    return ok_status();
+  }
+  if ((*device)->width() != rectifier_.camera().width || (*device)->height() != rectifier_.camera().height) {
+    return make_error(ErrorCode::kIoError, std::string(side_name(camera.side)) + " camera " + camera.id +
+                                               " came back as " + (*device)->describe() +
+                                               ", not the calibrated image size");
+  }
+  spdlog::info("aravis: {} camera {} is back: {}", side_name(camera.side), camera.id, (*device)->describe());
+  camera.device = std::move(*device);
+  for (Camera& c : cameras_) c.last_frame = Clock::now();  // a triggered partner starts again too
+  ++reconnects_;
+  return ok_status();
+}
+
+Status AravisSource::poll_camera(Camera& camera, std::chrono::microseconds timeout) {
+  auto polled = camera.device->poll(timeout);
+  if (!polled) {
+    lose(camera, polled.error().message);
+    return ok_status();
+  }
+  const Clock::time_point now = Clock::now();
+  if (polled->kind == PollKind::kFrame) {
+    CameraFrame& f = polled->frame;
+    f.host_t_ns = camera.clock.map(f.camera_t_ns, f.host_t_ns);
+    camera.last_frame = now;
+    pairer_.push(camera.side, std::move(f));
+  } else if (expecting_frames() && now - camera.last_frame > seconds(options_.lost_timeout_s)) {
+    lose(camera, "no frame for " + std::to_string(options_.lost_timeout_s) + " s");
+  }
+  return ok_status();
+}
+
+void AravisSource::trigger_if_due(Clock::time_point now) {
+  if (options_.camera.trigger != TriggerMode::kSoftware || now < next_trigger_) return;
+  if (!cameras_[0].device || !cameras_[1].device) return;
+  for (Camera& c : cameras_) {
+    if (auto st = c.device->trigger(); !st) lose(c, st.error().message);
+    if (!cameras_[0].device || !cameras_[1].device) return;
+  }
+  const Clock::duration period = seconds(1.0 / options_.camera.frame_rate_hz);
+  next_trigger_ += period;
+  if (next_trigger_ < now) next_trigger_ = now + period;  // fell behind: no burst
+}
+
+Expected<StereoFrame> AravisSource::make_frame(FramePair pair) {
+  SITEPOSE_TRY(auto rectified, rectifier_.rectify(pair.left.gray, pair.right.gray));
+  StereoFrame frame;
+  frame.seq = next_seq_++;
+  // Strictly increasing, whatever the clock mapping did across a reconnect.
+  frame.t_left_ns = std::max(pair.left.host_t_ns, last_t_ns_ + 1);
+  frame.t_right_ns = pair.right.host_t_ns + (frame.t_left_ns - pair.left.host_t_ns);
+  last_t_ns_ = frame.t_left_ns;
+  frame.left = std::move(rectified.first);
+  frame.right = std::move(rectified.second);
+  frame.source_id = cameras_[0].id + "+" + cameras_[1].id;
+  return frame;
+}
+
+Expected<SourceEvent> AravisSource::next(std::stop_token stop, pipeline::SteadyTime deadline) {
+  // Short polls, alternating between the cameras, keep a frame's wait for
+  // its partner and the answer to a stop request within milliseconds.
+  constexpr std::chrono::microseconds kPoll{1000};
+  if (!started_) {
+    // Silence before the first call (the daemon still starting) is not a
+    // lost camera, and the first software trigger is due now.
+    started_ = true;
+    for (Camera& c : cameras_) c.last_frame = Clock::now();
+    next_trigger_ = Clock::now();
+  }
+  for (;;) {
+    if (stop.stop_requested()) return SourceEvent{SourceEventKind::kEnd, {}};
+    const Clock::time_point now = Clock::now();
+    for (Camera& c : cameras_) {
+      if (!c.device) SITEPOSE_TRY_STATUS(try_reconnect(c, now));
+    }
+    trigger_if_due(now);
+    bool any = false;
+    for (Camera& c : cameras_) {
+      if (!c.device) continue;
+      any = true;
+      SITEPOSE_TRY_STATUS(poll_camera(c, kPoll));
+    }
+    if (auto pair = pairer_.pop()) {
+      SITEPOSE_TRY(StereoFrame frame, make_frame(std::move(*pair)));
+      return SourceEvent{SourceEventKind::kFrame, std::move(frame)};
+    }
+    if (Clock::now() >= deadline) return SourceEvent{SourceEventKind::kTimeout, {}};
+    if (!any) {
+      // Both cameras lost: sleep to the next reconnect attempt.
+      const Clock::time_point attempt = std::min(cameras_[0].next_attempt, cameras_[1].next_attempt);
+      wait_until(stop, std::min(deadline, std::max(attempt, Clock::now() + kPoll)));
+    }
+  }
+}
+
+AravisSourceStats AravisSource::stats() const {
+  AravisSourceStats s;
+  s.pairing = pairer_.counts();
+  for (const Camera& c : cameras_)
+    s.failed_buffers += c.failed_before + (c.device ? c.device->failed_buffers() : 0);
+  s.disconnects = disconnects_;
+  s.reconnects = reconnects_;
+  s.clock_offset_left_ns = cameras_[0].clock.offset_ns();
+  s.clock_offset_right_ns = cameras_[1].clock.offset_ns();
+  return s;
+}
+
+}  // namespace sitepose::drivers::aravis
