@@ -230,7 +230,9 @@ TEST(AravisDaemon, FullModeOnTwoFakeCamerasTracksTheParallelScenario) {
       static_cast<unsigned long long>(stats.pairing.pairs),
       static_cast<unsigned long long>(stats.pairing.skipped_at_start));
   EXPECT_GE(static_cast<int>(est.size()), kFrames * 9 / 10);
-  EXPECT_LE(result->ate_m.rmse, 0.02);
+  // Live capture and the mapper thread make runs differ; the bound leaves
+  // room above the worst run measured (see the commit that set it).
+  EXPECT_LE(result->ate_m.rmse, 0.025);
 }
 
 TEST(AravisDaemon, LostCameraPublishesLostThenTrackingResumes) {
