@@ -24,7 +24,7 @@ using config::YamlMap;
 // 4 km/h is the paper's range; 11 km/h its maximum.
 constexpr double kMaxSpeedMps = 11.0 / 3.6;
 
-void read_camera(YamlMap m, CameraSpec& c) {
+void read_camera(const YamlMap& m, CameraSpec& c) {
   m.read("width", c.width, in_range(16, 8192));
   m.read("height", c.height, in_range(16, 8192));
   m.read("fx", c.fx, positive());
@@ -35,11 +35,11 @@ void read_camera(YamlMap m, CameraSpec& c) {
   m.read("side", c.side, one_of({"right", "left"}));
 }
 
-void read_ego(YamlMap m, EgoSpec& e) {
+void read_ego(const YamlMap& m, EgoSpec& e) {
   m.read("start_x_m", e.start_x_m);
   m.read("start_y_m", e.start_y_m);
   m.read("accel_mps2", e.accel_mps2, positive(), at_most(3.0));
-  for (YamlMap s : m.maps("segments")) {
+  for (const YamlMap& s : m.maps("segments")) {
     EgoSegment seg;
     s.read_required("speed_mps", seg.speed_mps, in_range(-kMaxSpeedMps, kMaxSpeedMps));
     s.read_required("duration_s", seg.duration_s, positive());
@@ -51,7 +51,7 @@ void read_ego(YamlMap m, EgoSpec& e) {
   v.read("frequency_hz", e.vibration.frequency_hz, positive(), at_most(200.0));
 }
 
-void read_realism(YamlMap m, RealismSpec& r) {
+void read_realism(const YamlMap& m, RealismSpec& r) {
   m.read("exposure_variation", r.exposure_variation, in_range(0.0, 0.5));
   m.read("noise_sigma", r.noise_sigma, in_range(0.0, 30.0));
   m.read("contrast", r.contrast, in_range(0.1, 2.0));
@@ -68,7 +68,7 @@ void read_realism(YamlMap m, RealismSpec& r) {
   d.read("p1", r.distortion.p1, in_range(-0.05, 0.05));
   d.read("p2", r.distortion.p2, in_range(-0.05, 0.05));
   double last_end_s = -1.0;
-  for (YamlMap c : m.maps("lens_covered")) {
+  for (const YamlMap& c : m.maps("lens_covered")) {
     LensCoverSpec cover;
     c.read_required("at_s", cover.at_s, at_least(0.0));
     c.read_required("duration_s", cover.duration_s, positive());
@@ -79,7 +79,7 @@ void read_realism(YamlMap m, RealismSpec& r) {
   }
 }
 
-void read_world(YamlMap m, WorldSpec& w) {
+void read_world(const YamlMap& m, WorldSpec& w) {
   m.read("structures_min_m", w.structures_min_m, in_range(8.0, 100.0));
   m.read("structures_max_m", w.structures_max_m, in_range(10.0, 300.0));
   m.read("tyre_tracks", w.tyre_tracks);
@@ -88,7 +88,7 @@ void read_world(YamlMap m, WorldSpec& w) {
   }
 }
 
-void read_machine(YamlMap m, MachineSpec& s) {
+void read_machine(const YamlMap& m, MachineSpec& s) {
   m.read_required("class", s.class_name, one_of({"roller", "truck", "excavator"}));
   m.read("paint", s.paint, one_of(detail::paint_names()));
   m.read("label", s.label);
@@ -119,7 +119,7 @@ void read_machine(YamlMap m, MachineSpec& s) {
   m.read("accel_mps2", s.accel_mps2, positive(), at_most(3.0));
   m.read("reverse", s.reverse);
   double last = -1.0;
-  for (YamlMap st : m.maps("stops")) {
+  for (const YamlMap& st : m.maps("stops")) {
     StopSpec stop;
     st.read_required("at_s", stop.at_s, at_least(0.0));
     st.read_required("duration_s", stop.duration_s, positive());
@@ -155,12 +155,12 @@ Expected<Scenario> parse_scenario(const std::string& yaml_text, const std::strin
   read_ego(root.map("ego"), s.ego);
   read_realism(root.map("realism"), s.realism);
   read_world(root.map("world"), s.world);
-  for (YamlMap m : root.maps("machines")) {
+  for (const YamlMap& m : root.maps("machines")) {
     MachineSpec spec;
     read_machine(m, spec);
     s.machines.push_back(std::move(spec));
   }
-  for (YamlMap c : root.maps("cones")) {
+  for (const YamlMap& c : root.maps("cones")) {
     ConeSpec cone;
     c.read_required("x_m", cone.x_m);
     c.read_required("y_m", cone.y_m);
