@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <mutex>
 #include <thread>
+#include <utility>
 
 namespace sitepose::drivers::aravis {
 namespace {
@@ -27,14 +28,14 @@ void wait_until(std::stop_token stop, Clock::time_point until) {
   std::mutex mutex;
   std::condition_variable_any cv;
   std::unique_lock lock(mutex);
-  cv.wait_until(lock, stop, until, [] { return false; });
+  cv.wait_until(lock, std::move(stop), until, [] { return false; });
 }
 
 // Opens one camera, retrying absent ones (kNotFound) with back-off until
 // `wait_s` has passed.
 Expected<std::unique_ptr<CameraDevice>> open_waiting(const CameraOpener& opener, const std::string& id,
                                                      Side side, const AravisSourceOptions& o,
-                                                     std::stop_token stop) {
+                                                     const std::stop_token& stop) {
   const Clock::time_point give_up = Clock::now() + seconds(o.wait_for_camera_s);
   double backoff_s = o.reconnect_min_s;
   for (;;) {
@@ -83,7 +84,7 @@ Status check_aravis_source_options(const AravisSourceOptions& o) {
 }
 
 Expected<std::unique_ptr<AravisSource>> AravisSource::open(const AravisSourceOptions& options,
-                                                           CameraOpener opener, std::stop_token stop) {
+                                                           CameraOpener opener, const std::stop_token& stop) {
   SITEPOSE_TRY_STATUS(check_aravis_source_options(options));
   std::array<std::unique_ptr<CameraDevice>, 2> devices;
   for (const Side side : {Side::kLeft, Side::kRight}) {
@@ -196,7 +197,7 @@ void AravisSource::trigger_if_due(Clock::time_point now) {
   if (next_trigger_ < now) next_trigger_ = now + period;  // fell behind: no burst
 }
 
-Expected<StereoFrame> AravisSource::make_frame(FramePair pair) {
+Expected<StereoFrame> AravisSource::make_frame(const FramePair& pair) {
   SITEPOSE_TRY(auto rectified, rectifier_.rectify(pair.left.gray, pair.right.gray));
   StereoFrame frame;
   frame.seq = next_seq_++;
@@ -235,7 +236,7 @@ Expected<SourceEvent> AravisSource::next(std::stop_token stop, pipeline::SteadyT
       SITEPOSE_TRY_STATUS(poll_camera(c, kPoll));
     }
     if (auto pair = pairer_.pop()) {
-      SITEPOSE_TRY(StereoFrame frame, make_frame(std::move(*pair)));
+      SITEPOSE_TRY(StereoFrame frame, make_frame(*pair));
       return SourceEvent{SourceEventKind::kFrame, std::move(frame)};
     }
     if (Clock::now() >= deadline) return SourceEvent{SourceEventKind::kTimeout, {}};

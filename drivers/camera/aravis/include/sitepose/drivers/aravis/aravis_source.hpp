@@ -64,7 +64,7 @@ class AravisSource final : public pipeline::FrameSource {
   // camera, kInvalidArgument for a setting the camera refuses or cameras of
   // different image sizes, the calibration's errors.
   static Expected<std::unique_ptr<AravisSource>> open(const AravisSourceOptions& options, CameraOpener opener,
-                                                      std::stop_token stop = {});
+                                                      const std::stop_token& stop = {});
   ~AravisSource() override;
 
   const StereoCamera& camera() const override { return rectifier_.camera(); }
@@ -99,7 +99,7 @@ class AravisSource final : public pipeline::FrameSource {
   bool expecting_frames() const {
     return options_.camera.trigger != TriggerMode::kSoftware || (cameras_[0].device && cameras_[1].device);
   }
-  Expected<StereoFrame> make_frame(FramePair pair);
+  Expected<StereoFrame> make_frame(const FramePair& pair);
 
   AravisSourceOptions options_;
   CameraOpener opener_;
