@@ -27,6 +27,7 @@ namespace {
 using namespace std::chrono_literals;
 using testing::FakeStereoFeed;
 using testing::TempDir;
+using testing::write_calibration;
 
 constexpr int kW = 640, kH = 360;
 
@@ -55,17 +56,6 @@ const Rendered& rendered(int frames) {
     }
   }
   return cache.emplace(frames, std::move(out)).first->second;
-}
-
-std::string write_calibration(const TempDir& dir, const StereoCamera& c) {
-  const std::string path = dir / "stereo.yaml";
-  cv::FileStorage fs(path, cv::FileStorage::WRITE);
-  const cv::Mat K = (cv::Mat_<double>(3, 3) << c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1);
-  fs << "K1" << K << "D1" << cv::Mat::zeros(1, 5, CV_64F) << "K2" << K << "D2"
-     << cv::Mat::zeros(1, 5, CV_64F);
-  fs << "R" << cv::Mat::eye(3, 3, CV_64F) << "T" << (cv::Mat_<double>(3, 1) << -c.baseline_m, 0, 0);
-  fs << "image_width" << c.width << "image_height" << c.height;
-  return path;
 }
 
 std::string config_text(const TempDir& dir, const Rendered& r, const std::string& extra_source) {

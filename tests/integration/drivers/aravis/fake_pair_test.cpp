@@ -15,6 +15,7 @@ namespace {
 using pipeline::SourceEventKind;
 using testing::FakeStereoFeed;
 using testing::TempDir;
+using testing::write_calibration;
 using Clock = std::chrono::steady_clock;
 
 constexpr int kW = 320, kH = 180, kFrames = 8;
@@ -46,18 +47,6 @@ const Rendered& rendered() {
     return out;
   }();
   return r;
-}
-
-// The rig's calibration as `sitepose calibrate` writes it: an ideal pair.
-std::string write_calibration(const TempDir& dir, const StereoCamera& c) {
-  const std::string path = dir / "stereo.yaml";
-  cv::FileStorage fs(path, cv::FileStorage::WRITE);
-  const cv::Mat K = (cv::Mat_<double>(3, 3) << c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1);
-  fs << "K1" << K << "D1" << cv::Mat::zeros(1, 5, CV_64F) << "K2" << K << "D2"
-     << cv::Mat::zeros(1, 5, CV_64F);
-  fs << "R" << cv::Mat::eye(3, 3, CV_64F) << "T" << (cv::Mat_<double>(3, 1) << -c.baseline_m, 0, 0);
-  fs << "image_width" << c.width << "image_height" << c.height;
-  return path;
 }
 
 AravisSourceOptions fake_pair_options(const std::string& calibration, PixelFormat format) {
