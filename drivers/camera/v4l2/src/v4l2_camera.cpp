@@ -27,6 +27,15 @@ std::int64_t monotonic_now_ns() {
       .count();
 }
 
+// A capture buffer of the mmap streaming I/O, by index (DQBUF fills the index in).
+v4l2_buffer mmap_capture_buffer(std::uint32_t index) {
+  v4l2_buffer buf{};
+  buf.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  buf.memory = V4L2_MEMORY_MMAP;
+  buf.index = index;
+  return buf;
+}
+
 }  // namespace
 
 Status check_camera_options(const CameraOptions& o) {
@@ -162,10 +171,7 @@ Status V4l2Camera::map_buffers() {
                                                std::to_string(req.count) + " buffers, need 2");
   }
   for (std::uint32_t i = 0; i < req.count; ++i) {
-    v4l2_buffer buf{};
-    buf.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    buf.memory = V4L2_MEMORY_MMAP;
-    buf.index = i;
+    v4l2_buffer buf = mmap_capture_buffer(i);
     if (io_->ioctl(fd_, VIDIOC_QUERYBUF, &buf) != 0)
       return make_error(ErrorCode::kIoError, fail_text("VIDIOC_QUERYBUF", errno));
     void* start = io_->mmap(buf.length, fd_, static_cast<off_t>(buf.m.offset));
@@ -177,10 +183,7 @@ Status V4l2Camera::map_buffers() {
 
 Status V4l2Camera::start_streaming() {
   for (std::uint32_t i = 0; i < buffers_.size(); ++i) {
-    v4l2_buffer buf{};
-    buf.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    buf.memory = V4L2_MEMORY_MMAP;
-    buf.index = i;
+    v4l2_buffer buf = mmap_capture_buffer(i);
     if (io_->ioctl(fd_, VIDIOC_QBUF, &buf) != 0)
       return make_error(ErrorCode::kIoError, fail_text("VIDIOC_QBUF", errno));
   }
@@ -214,9 +217,7 @@ std::string V4l2Camera::describe() const {
 
 Expected<std::optional<RawFrame>> V4l2Camera::dequeue() {
   if (fd_ < 0) return make_error(ErrorCode::kIoError, "V4L2 " + options_.device + ": closed");
-  v4l2_buffer buf{};
-  buf.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-  buf.memory = V4L2_MEMORY_MMAP;
+  v4l2_buffer buf = mmap_capture_buffer(0);
   if (io_->ioctl(fd_, VIDIOC_DQBUF, &buf) != 0) {
     if (errno == EAGAIN) return std::optional<RawFrame>{};
     return make_error(ErrorCode::kIoError, fail_text("VIDIOC_DQBUF", errno));
