@@ -4,22 +4,11 @@
 #include <future>
 #include <set>
 
-#include <opencv2/calib3d.hpp>
-
 #include "sitepose/core/stopwatch.hpp"
-#include "sitepose/features/hamming.hpp"
 #include "sitepose/optim/reprojection_costs.hpp"
-#include "sitepose/tracking/place_recognition.hpp"
+#include "sitepose/tracking/pose_refinement.hpp"
 
 namespace sitepose::tracking {
-
-// A keyframe relocalisation tries: its pose, its good points and those of
-// its best covisible keyframes (the projection search after PnP).
-struct RelocalisationCandidate {
-  SE3 T_cam_world;
-  std::vector<PointView> points;
-  std::vector<PointView> neighbourhood_points;
-};
 
 namespace {
 
@@ -30,10 +19,6 @@ constexpr double kMotionModelRadiusPx = 7.0;  // stereo (ORB-SLAM2 TrackWithMoti
 constexpr double kLocalMapRadiusPx = 1.0;     // times 2.5 / 4 by viewing angle
 constexpr double kLocalMapRatio = 0.8;
 constexpr int kMaxLocalKeyframes = 80;
-constexpr int kRelocalisationMinMatches = 15;
-constexpr int kRelocalisationNeighbours = 5;      // covisible keyframes searched after PnP
-constexpr double kRelocalisationRadiusPx = 10.0;  // ORB-SLAM2 Relocalization's projection search
-constexpr int kRelocalisationGoodInliers = 50;    // fewer after PnP + BA: search by projection
 
 // ORB-SLAM2's local map search: ratio test, viewing angle and scale checks,
 // radius times 2.5 (head-on) or 4.
@@ -94,86 +79,6 @@ void tag_keypoints(const cv::Mat& instance_labels, PreparedFrame& out) {
   }
 }
 
-RelocalisationCandidate relocalisation_candidate(const map::MapData& map, const map::KeyFrame& kf) {
-  RelocalisationCandidate c;
-  c.T_cam_world = kf.T_cam_world();
-  std::set<map::PointId> seen;
-  for (map::PointId pid : kf.point_of_keypoint) {
-    if (const map::MapPoint* p = map.good_point(pid); p != nullptr && seen.insert(pid).second) {
-      c.points.push_back(make_point_view(*p));
-    }
-  }
-  c.neighbourhood_points = c.points;
-  for (map::KeyFrameId id : map.best_covisible(kf.id, kRelocalisationNeighbours)) {
-    const map::KeyFrame* neighbour = map.keyframe(id);
-    if (neighbour == nullptr) continue;
-    for (map::PointId pid : neighbour->point_of_keypoint) {
-      if (const map::MapPoint* p = map.good_point(pid); p != nullptr && seen.insert(pid).second) {
-        c.neighbourhood_points.push_back(make_point_view(*p));
-      }
-    }
-  }
-  return c;
-}
-
-// Brute-force descriptor matches of the usable keypoints to `points`
-// (ratio test 0.75): per keypoint the point index or -1, and the 3D-2D pairs
-// for PnP with the keypoint of each.
-struct DescriptorMatches {
-  std::vector<int> match;
-  std::vector<cv::Point3d> object_points;
-  std::vector<cv::Point2d> image_points;
-  std::vector<int> keypoint_of_pair;
-};
-
-DescriptorMatches match_descriptors(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                                    const std::vector<PointView>& points) {
-  DescriptorMatches out;
-  out.match.assign(frame.size(), -1);
-  const auto descriptor_of = [&](int i) { return points[i].descriptor.data(); };
-  for (int k = 0; k < frame.size(); ++k) {
-    if (!usable[k]) continue;
-    const features::NearestTwo nearest = features::nearest_two(
-        frame.features.descriptors.ptr<std::uint8_t>(k), static_cast<int>(points.size()), descriptor_of);
-    if (nearest.index < 0 || nearest.distance > kDescriptorDistanceLow ||
-        nearest.distance > 0.75 * nearest.second_distance) {
-      continue;
-    }
-    out.match[k] = nearest.index;
-    const Eigen::Vector3d& p = points[nearest.index].p_world;
-    out.object_points.emplace_back(p.x(), p.y(), p.z());
-    out.image_points.emplace_back(frame.uv_px[k].x(), frame.uv_px[k].y());
-    out.keypoint_of_pair.push_back(k);
-  }
-  return out;
-}
-
-// PnP RANSAC from T_cam_world_init; nullopt when it fails or keeps fewer
-// than kRelocalisationMinMatches inliers (indices into the pairs).
-std::optional<SE3> pnp_pose(const DescriptorMatches& pairs, const StereoCamera& camera,
-                            const SE3& T_cam_world_init, std::vector<int>& inliers) {
-  const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  cv::Mat rvec, tvec;
-  const Eigen::Matrix3d R0 = T_cam_world_init.rotation_matrix();
-  cv::Mat R0_cv(3, 3, CV_64F);
-  for (int r = 0; r < 3; ++r)
-    for (int col = 0; col < 3; ++col) R0_cv.at<double>(r, col) = R0(r, col);
-  cv::Rodrigues(R0_cv, rvec);
-  tvec = (cv::Mat_<double>(3, 1) << T_cam_world_init.translation().x(), T_cam_world_init.translation().y(),
-          T_cam_world_init.translation().z());
-  if (!cv::solvePnPRansac(pairs.object_points, pairs.image_points, K, cv::noArray(), rvec, tvec, true, 200,
-                          4.0, 0.99, inliers, cv::SOLVEPNP_ITERATIVE) ||
-      static_cast<int>(inliers.size()) < kRelocalisationMinMatches) {
-    return std::nullopt;
-  }
-  cv::Mat R_cv;
-  cv::Rodrigues(rvec, R_cv);
-  Eigen::Matrix3d R;
-  for (int r = 0; r < 3; ++r)
-    for (int col = 0; col < 3; ++col) R(r, col) = R_cv.at<double>(r, col);
-  return SE3(R, Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
-}
-
 }  // namespace
 
 Tracker::Tracker(const StereoCamera& camera, const config::SiteposeConfig& config, map::SharedMap& map,
@@ -187,7 +92,9 @@ Tracker::Tracker(const StereoCamera& camera, const config::SiteposeConfig& confi
       object_extractor_(object_orb_config(config.orb)),
       matcher_(config.stereo, camera.bf()),
       motion_ba_(camera, config.tracking),
-      pyramid_{config.orb.scale_factor, config.orb.n_levels} {}
+      pyramid_{config.orb.scale_factor, config.orb.n_levels},
+      relocaliser_(camera, config.tracking, pyramid_),
+      hold_(config.tracking.relocalisation_hold_frames) {}
 
 std::optional<SE3> Tracker::last_T_world_cam() const {
   if (!has_last_) return std::nullopt;
@@ -259,36 +166,7 @@ Expected<features::StereoFeatures> Tracker::extract(const StereoFrame& frame, co
 
 void Tracker::optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
                             const std::vector<int>& match_of_keypoint, PassResult& result) const {
-  const auto start = SteadyClock::now();
-  std::vector<optim::PoseObservation> observations;
-  std::vector<int> keypoint_of_observation;
-  for (int k = 0; k < frame.size(); ++k) {
-    if (match_of_keypoint[k] < 0) continue;
-    optim::PoseObservation obs;
-    obs.p_world = points[match_of_keypoint[k]].p_world;
-    obs.uv_left_px = frame.uv_px[k];
-    obs.u_right_px = frame.features.u_right[k];
-    obs.sigma2_px2 = pyramid_.scale(frame.octave[k]) * pyramid_.scale(frame.octave[k]);
-    observations.push_back(obs);
-    keypoint_of_observation.push_back(k);
-  }
-  result.point_of_keypoint.assign(frame.size(), map::kNoPoint);
-  result.n_inliers = 0;
-  auto solved = motion_ba_.solve(result.T_cam_world, observations);
-  result.timings.motion_ba_ms += ms_since(start);
-  if (!solved) {
-    result.failure = solved.error().message;
-    return;
-  }
-  result.T_cam_world = solved->T_cam_world;
-  result.covariance_world_cam = solved->covariance_world_cam;
-  result.variance_factor = solved->variance_factor;
-  for (std::size_t j = 0; j < observations.size(); ++j) {
-    if (!solved->inlier[j]) continue;
-    const int k = keypoint_of_observation[j];
-    result.point_of_keypoint[k] = points[match_of_keypoint[k]].id;
-    ++result.n_inliers;
-  }
+  tracking::optimise_pose(motion_ba_, pyramid_, frame, points, match_of_keypoint, result);
 }
 
 bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -318,58 +196,6 @@ bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<s
   result.T_cam_world = predicted;
   optimise_pose(frame, points, match, result);
   return result.n_inliers >= kMinInliersMotionModel;
-}
-
-bool Tracker::relocalise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                         PassResult& result) const {
-  // Candidates from the whole map, ranked by place recognition; per
-  // candidate: brute-force descriptor matching, PnP RANSAC, motion-only BA,
-  // then a projection search over its neighbourhood and BA again. The
-  // caller tracks the local map next, and commit() keeps the state
-  // RECOVERING until the pose has held for a few frames.
-  const PlaceIndex index = map_.read([](const map::MapData& map) { return make_place_index(map); });
-  const std::vector<PlaceCandidate> places = rank_places(index, frame.features.descriptors, usable);
-  for (const PlaceCandidate& place : places) {
-    const std::optional<RelocalisationCandidate> c =
-        map_.read([&](const map::MapData& map) -> std::optional<RelocalisationCandidate> {
-          const map::KeyFrame* kf = map.keyframe(place.keyframe);
-          if (kf == nullptr || kf->bad) return std::nullopt;
-          return relocalisation_candidate(map, *kf);
-        });
-    if (c && relocalise_against(frame, usable, *c, result)) {
-      result.relocalised = true;
-      return true;
-    }
-  }
-  return false;
-}
-
-bool Tracker::relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                                 const RelocalisationCandidate& c, PassResult& result) const {
-  const DescriptorMatches pairs = match_descriptors(frame, usable, c.points);
-  if (static_cast<int>(pairs.object_points.size()) < kRelocalisationMinMatches) return false;
-  std::vector<int> inliers;
-  const std::optional<SE3> pose = pnp_pose(pairs, camera_, c.T_cam_world, inliers);
-  if (!pose) return false;
-  std::vector<int> inlier_match(frame.size(), -1);
-  for (int i : inliers) inlier_match[pairs.keypoint_of_pair[i]] = pairs.match[pairs.keypoint_of_pair[i]];
-  result.T_cam_world = *pose;
-  optimise_pose(frame, c.points, inlier_match, result);
-  if (result.n_inliers < kMinInliersMotionModel) return false;
-  if (result.n_inliers < kRelocalisationGoodInliers) {
-    // Few inliers: look for more among the neighbourhood's points from the
-    // pose found, keeping the inliers (the points list starts with c.points).
-    std::vector<int> match(frame.size(), -1);
-    for (int k = 0; k < frame.size(); ++k) {
-      if (result.point_of_keypoint[k] != map::kNoPoint) match[k] = inlier_match[k];
-    }
-    SearchParams params;
-    params.radius_px = kRelocalisationRadiusPx;
-    search_by_projection(frame, camera_, pyramid_, result.T_cam_world, c.neighbourhood_points, usable, params,
-                         match, nullptr);
-    optimise_pose(frame, c.neighbourhood_points, match, result);
-  }
-  return result.n_inliers >= config_.tracking.min_inliers_ok;
 }
 
 std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
@@ -490,7 +316,7 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     const SE3 predicted = has_velocity_ ? velocity_ * last_T_cam_world_ : last_T_cam_world_;
     tracked = track_motion_model(frame, usable, predicted, result);
   }
-  if (!tracked) tracked = relocalise(frame, usable, result);
+  if (!tracked) tracked = relocaliser_.relocalise(map_, frame, usable, result);
   result.timings.motion_model_ms = ms_since(t_motion) - result.timings.motion_ba_ms;
   if (!tracked) {
     result.failure = "motion model and relocalisation found too few matches";
@@ -551,23 +377,19 @@ bool Tracker::update_state(const PassResult& result) {
   const bool relocalised = result.relocalised || state_ == TrackingState::kLost;
   if (relocalised) {
     ++counters_.relocalisations;
-    held_frames_ = 0;
-    recovering_from_loss_ = true;
+    hold_.restart();
   }
   const bool enough_inliers = result.n_inliers >= config_.tracking.min_inliers_ok;
-  if (recovering_from_loss_) {
-    held_frames_ = enough_inliers ? held_frames_ + 1 : 0;
-    if (held_frames_ >= config_.tracking.relocalisation_hold_frames) recovering_from_loss_ = false;
-  }
-  state_ = enough_inliers && !recovering_from_loss_ ? TrackingState::kOk : TrackingState::kRecovering;
+  hold_.update(enough_inliers);
+  state_ = enough_inliers && !hold_.holding() ? TrackingState::kOk : TrackingState::kRecovering;
   return relocalised;
 }
 
 std::string Tracker::state_reason(const PassResult& result) const {
   if (state_ != TrackingState::kRecovering) return "";
-  if (!recovering_from_loss_) return "only " + std::to_string(result.n_inliers) + " inliers";
-  return "relocalised, held " + std::to_string(held_frames_) + " of " +
-         std::to_string(config_.tracking.relocalisation_hold_frames) + " frames";
+  if (!hold_.holding()) return "only " + std::to_string(result.n_inliers) + " inliers";
+  return "relocalised, held " + std::to_string(hold_.held_frames()) + " of " +
+         std::to_string(hold_.hold_frames()) + " frames";
 }
 
 PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& result,
@@ -635,7 +457,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
   });
   // A pose that has not held yet adds nothing to the map: if it is wrong,
   // its points would be wrong where the map is right.
-  if (!recovering_from_loss_ && need_keyframe(frame, result, usable)) create_keyframe(frame, result, usable);
+  if (!hold_.holding() && need_keyframe(frame, result, usable)) create_keyframe(frame, result, usable);
 
   pose.state = state_;
   pose.state_reason = state_reason(result);

@@ -26,12 +26,12 @@
 #include "sitepose/features/stereo_extractor.hpp"
 #include "sitepose/map/shared_map.hpp"
 #include "sitepose/optim/motion_only_ba.hpp"
+#include "sitepose/tracking/pass_result.hpp"
 #include "sitepose/tracking/prepared_frame.hpp"
 #include "sitepose/tracking/projection_search.hpp"
+#include "sitepose/tracking/relocaliser.hpp"
 
 namespace sitepose::tracking {
-
-struct RelocalisationCandidate;  // tracker.cpp
 
 // How the tracker talks to the local mapper without depending on it.
 struct MapperLink {
@@ -39,29 +39,6 @@ struct MapperLink {
   std::function<int()> queue_size;               // keyframes not processed yet
   std::function<bool()> is_idle;                 // nothing queued or running
   std::function<void()> interrupt;               // abort a running local BA
-};
-
-struct EstimateTimings {
-  double motion_model_ms = 0.0;  // incl. relocalisation when it was needed
-  double local_map_ms = 0.0;     // projection search of the local map
-  double motion_ba_ms = 0.0;     // all motion-only BA solves of this estimate
-  double total_ms = 0.0;
-};
-
-// One pass's answer. Keypoint indices refer to the PreparedFrame.
-struct PassResult {
-  bool valid = false;                 // a pose was estimated
-  bool needs_initialisation = false;  // the map is empty
-  SE3 T_cam_world;
-  std::optional<Matrix6d> covariance_world_cam;  // Hessian covariance (unit pixel noise model)
-  double variance_factor = 1.0;                  // a-posteriori, see optim::MotionBaResult
-  std::vector<map::PointId> point_of_keypoint;   // inlier matches, kNoPoint otherwise
-  std::vector<map::PointId> visible_points;      // in the frustum of the local map
-  int n_inliers = 0;
-  int n_usable_keypoints = 0;
-  bool relocalised = false;
-  std::string failure;  // why valid == false or the state is degraded
-  EstimateTimings timings;
 };
 
 struct TrackerCounters {
@@ -135,13 +112,10 @@ class Tracker {
   // area with its own budget) and stereo matching.
   Expected<features::StereoFeatures> extract(const StereoFrame& frame, const cv::Mat& extraction_mask,
                                              PrepareTimings& timings);
-  // Motion model or relocalisation, then the local map; see estimate().
+  // The motion model (relocaliser_ when it fails), then the local map; see
+  // estimate().
   bool track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                           const SE3& predicted, PassResult& result) const;
-  bool relocalise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                  PassResult& result) const;
-  bool relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                          const RelocalisationCandidate& candidate, PassResult& result) const;
   // Without anchor: the local map of result's own matches, which stay.
   // With anchor: the anchor's local map, every keypoint matched afresh.
   void track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -186,9 +160,8 @@ class Tracker {
   SE3 last_T_cam_world_;
   SE3 velocity_;  // T_cam_current_cam_last of the last step
   bool has_velocity_ = false;
-  // Since the last relocalisation: frames in a row with min_inliers_ok.
-  bool recovering_from_loss_ = false;
-  int held_frames_ = 0;
+  Relocaliser relocaliser_;
+  RelocalisationHold hold_;                                 // since the last relocalisation
   std::vector<std::pair<map::PointId, int>> last_matches_;  // point, octave
   map::KeyFrameId reference_keyframe_ = map::kNoKeyFrame;
   std::int64_t last_keyframe_seq_ = -1;
