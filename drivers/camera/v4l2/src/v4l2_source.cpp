@@ -78,8 +78,8 @@ Expected<std::unique_ptr<V4l2Source>> V4l2Source::open(const V4l2SourceOptions& 
   if (!rectifier) {
     const bool size_hint =
         options.right_device.empty() && rectifier.error().code == ErrorCode::kInvalidArgument;
-    return make_error(rectifier.error().code,
-                      rectifier.error().message + (size_hint ? " (half of the side-by-side frame)" : ""));
+    return make_error(rectifier.error().code, "calibration: " + rectifier.error().message +
+                                                  (size_hint ? " (half of the side-by-side frame)" : ""));
   }
   std::unique_ptr<V4l2Source> source(new V4l2Source(options, std::move(io), std::move(*rectifier)));
   const auto give_up = Clock::now() + seconds(options.wait_for_camera_s);
@@ -119,7 +119,8 @@ Status V4l2Source::open_cameras() {
     if (!camera) {
       cameras_[0].reset();
       cameras_[1].reset();
-      return Unexpected{camera.error()};
+      return make_error(camera.error().code,
+                        std::string(i == 0 ? "left_device: " : "right_device: ") + camera.error().message);
     }
     cameras_[i] = std::move(*camera);
   }

@@ -70,6 +70,10 @@ struct V4l2SourceStats {
 
 class V4l2Source final : public pipeline::FrameSource {
  public:
+  // Errors start with the option they are about ("left_device: ...",
+  // "right_device: ...", "calibration: ..."): kNotFound for an absent device
+  // (after wait_for_camera_s), kInvalidArgument or kUnsupported for a size or
+  // format the device does not offer.
   static Expected<std::unique_ptr<V4l2Source>> open(const V4l2SourceOptions& options,
                                                     std::shared_ptr<V4l2Io> io = system_v4l2_io());
   ~V4l2Source() override;
