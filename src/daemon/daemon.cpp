@@ -33,12 +33,20 @@ drivers::socketcan::SocketCanSinkOptions socketcan_sink_options(const CanOutputC
   return o;
 }
 
-Expected<std::unique_ptr<pipeline::FrameSource>> open_source(const DaemonConfig& config) {
+Expected<std::unique_ptr<pipeline::FrameSource>> open_source(const DaemonConfig& config,
+                                                             const CameraAccess& access) {
   if (config.source_type == "aravis") {
     drivers::aravis::AravisSourceOptions options = config.aravis;
     options.wait_for_camera_s = config.wait_for_camera_s;
-    auto source = drivers::aravis::AravisSource::open(options, drivers::aravis::aravis_camera_opener());
+    auto source = drivers::aravis::AravisSource::open(
+        options, access.aravis ? access.aravis : drivers::aravis::aravis_camera_opener());
     if (!source) return make_error(source.error().code, "source.aravis." + source.error().message);
+    return std::unique_ptr<pipeline::FrameSource>(std::move(*source));
+  }
+  if (config.source_type == "v4l2") {
+    auto source = drivers::v4l2::V4l2Source::open(
+        v4l2_source_options(config), access.v4l2 ? access.v4l2 : drivers::v4l2::system_v4l2_io());
+    if (!source) return make_error(source.error().code, "source.v4l2." + source.error().message);
     return std::unique_ptr<pipeline::FrameSource>(std::move(*source));
   }
   SITEPOSE_TRY(auto replay, pipeline::ReplaySource::open(config.replay));

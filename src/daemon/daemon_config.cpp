@@ -11,6 +11,7 @@
 #include "sitepose/config/yaml_reader.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/drivers/aravis/aravis_source.hpp"
+#include "sitepose/drivers/v4l2/pixel_format.hpp"
 
 namespace sitepose::daemon {
 namespace {
@@ -104,17 +105,66 @@ Section<drivers::aravis::AravisSourceOptions> aravis_section() {
   return s;
 }
 
+Section<drivers::v4l2::V4l2SourceOptions> v4l2_options_section() {
+  using V = drivers::v4l2::V4l2SourceOptions;
+  const auto pixel_format =
+      make_rule([](const std::string& t) { return drivers::v4l2::parse_pixel_preference(t).has_value(); },
+                "expected one of: auto, GREY, YUYV, MJPG");
+  Section<V> s;
+  s.key("left_device", &V::left_device)
+      .key("right_device", &V::right_device)
+      .key("width", &V::width, in_range(0, 16384))
+      .key("height", &V::height, in_range(0, 16384))
+      .key("fps", &V::fps, in_range(0.0, 1000.0))
+      .key("pixel_format", &V::pixel_format, pixel_format)
+      .key("buffers", &V::buffers, in_range(2, 32))
+      .key("calibration", &V::calibration_file)
+      .key("reconnect_min_s", &V::reconnect_min_s, in_range(0.01, 60.0))
+      .key("reconnect_max_s", &V::reconnect_max_s, in_range(0.01, 3600.0));
+  return s;
+}
+
+Section<V4l2SourceConfig> v4l2_section() {
+  using V = V4l2SourceConfig;
+  Section<V> s;
+  s.key("side_by_side", &V::side_by_side)
+      .embed(&V::options, v4l2_options_section())
+      .key("pair_tolerance_ms", &V::pair_tolerance_ms, in_range(0.0, 1000.0));
+  return s;
+}
+
+// source.v4l2 with type v4l2: the devices, the size and the calibration are
+// required; right_device exactly when the frames are not side by side.
+void check_v4l2(const ReadKeys& keys, const DaemonConfig& c) {
+  const config::YamlMap v4l2 = keys.map().map("v4l2");
+  bool complete = true;
+  for (const char* key : {"left_device", "width", "height", "calibration"}) complete &= v4l2.require(key);
+  const bool has_right = !c.v4l2.options.right_device.empty();
+  if (c.v4l2.side_by_side && has_right) {
+    v4l2.report("right_device", "must be empty with side_by_side: true (one device sends both images)");
+    complete = false;
+  } else if (!c.v4l2.side_by_side && !v4l2.require("right_device")) {
+    complete = false;
+  }
+  if (!complete) return;
+  if (auto st = drivers::v4l2::check_v4l2_source_options(v4l2_source_options(c)); !st) {
+    v4l2.report_here(st.error().message);
+  }
+}
+
 Section<DaemonConfig> source_group() {
   Section<DaemonConfig> s;
-  s.key("type", &DaemonConfig::source_type, config::one_of({"replay", "aravis"}))
+  s.key("type", &DaemonConfig::source_type, config::one_of({"replay", "aravis", "v4l2"}))
       .key("wait_for_camera_s", &DaemonConfig::wait_for_camera_s, in_range(0.0, 86400.0))
       .section("replay", &DaemonConfig::replay, replay_section())
       .section("aravis", &DaemonConfig::aravis, aravis_section())
+      .section("v4l2", &DaemonConfig::v4l2, v4l2_section())
       .check([](const ReadKeys& keys, const DaemonConfig& c) {
         if (c.source_type == "replay") {
           const config::YamlMap replay = keys.map().map("replay");
           if (replay.require("sequence")) replay.check("sequence", c.replay.sequence_dir, non_empty());
         }
+        if (c.source_type == "v4l2") check_v4l2(keys, c);
         if (c.source_type != "aravis") return;
         const config::YamlMap aravis = keys.map().map("aravis");
         for (const char* key : {"left_id", "right_id", "calibration"}) aravis.require(key);
@@ -389,6 +439,14 @@ Section<DaemonConfig> make_daemon_sections() {
 
 }  // namespace
 
+drivers::v4l2::V4l2SourceOptions v4l2_source_options(const DaemonConfig& config) {
+  drivers::v4l2::V4l2SourceOptions o = config.v4l2.options;
+  if (config.v4l2.side_by_side) o.right_device.clear();
+  o.pair_tolerance_ns = std::llround(config.v4l2.pair_tolerance_ms * 1e6);
+  o.wait_for_camera_s = config.wait_for_camera_s;
+  return o;
+}
+
 const Section<DaemonConfig>& daemon_sections() {
   static const Section<DaemonConfig> sections = make_daemon_sections();
   return sections;
@@ -400,8 +458,8 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text, c
   DaemonConfig c;
   daemon_sections().read(reader.root(), c);
   SITEPOSE_TRY_STATUS(reader.finish());
-  for (std::string* path :
-       {&c.replay.sequence_dir, &c.aravis.calibration, &c.trajectory.path, &c.can.path, &c.geo.nmea_file}) {
+  for (std::string* path : {&c.replay.sequence_dir, &c.aravis.calibration, &c.v4l2.options.calibration_file,
+                            &c.trajectory.path, &c.can.path, &c.geo.nmea_file}) {
     *path = resolve(base_dir, *path);
   }
   c.geo.anchor = anchor_options(c.geo);

@@ -27,9 +27,18 @@ namespace sitepose::daemon {
 // The SocketCAN sink's options from the daemon's CAN settings (sink socketcan).
 drivers::socketcan::SocketCanSinkOptions socketcan_sink_options(const CanOutputConfig& can);
 
-// The source the config names (source.type replay or aravis); errors name
-// the key ("source.aravis.right_id = ...").
-Expected<std::unique_ptr<pipeline::FrameSource>> open_source(const DaemonConfig& config);
+// How the camera sources reach their cameras; an empty member means the
+// real ones (Aravis; the kernel's V4L2 ioctls). Tests put fakes here.
+struct CameraAccess {
+  drivers::aravis::CameraOpener aravis;
+  std::shared_ptr<drivers::v4l2::V4l2Io> v4l2;
+};
+
+// The source the config names (source.type replay, aravis or v4l2); errors
+// name the key ("source.aravis.right_id = ...", "source.v4l2.left_device:
+// ...").
+Expected<std::unique_ptr<pipeline::FrameSource>> open_source(const DaemonConfig& config,
+                                                             const CameraAccess& access = {});
 
 class Daemon {
  public:

@@ -23,6 +23,7 @@
 #include "sitepose/core/expected.hpp"
 #include "sitepose/core/se3.hpp"
 #include "sitepose/drivers/aravis/aravis_source.hpp"
+#include "sitepose/drivers/v4l2/v4l2_source.hpp"
 #include "sitepose/geo/site_anchor.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/j1939_network.hpp"
@@ -86,13 +87,23 @@ struct GeoConfig {
   geo::SiteAnchorOptions anchor;
 };
 
+// source.v4l2: the V4L2 source's options, and the two keys whose form
+// differs from V4l2SourceOptions (v4l2_source_options() applies them).
+struct V4l2SourceConfig {
+  // One device sending left | right in one frame (right_device stays empty).
+  bool side_by_side = false;
+  drivers::v4l2::V4l2SourceOptions options;  // pair_tolerance_ns, wait_for_camera_s: set from elsewhere
+  double pair_tolerance_ms = 5.0;
+};
+
 struct DaemonConfig {
-  std::string source_type = "replay";  // replay | aravis
+  std::string source_type = "replay";  // replay | aravis | v4l2
   // A camera source: how long to wait at start for an absent camera (0:
   // fail at once). Lost cameras later are reconnected whatever this says.
   double wait_for_camera_s = 0.0;
   pipeline::ReplayOptions replay;
   drivers::aravis::AravisSourceOptions aravis;
+  V4l2SourceConfig v4l2;
   pipeline::PipelineOptions pipeline;
   pipeline::SupervisorOptions supervisor;
   TrajectoryOutputConfig trajectory;
@@ -101,6 +112,9 @@ struct DaemonConfig {
   GeoConfig geo;
   config::SiteposeConfig sitepose;
 };
+
+// The V4L2 source's options from source.v4l2 and source.wait_for_camera_s.
+drivers::v4l2::V4l2SourceOptions v4l2_source_options(const DaemonConfig& config);
 
 // The table of the settings file; defaults are DaemonConfig's initialisers.
 const config::Section<DaemonConfig>& daemon_sections();

@@ -42,7 +42,7 @@ TEST(DaemonConfig, DocumentedFileAgreesWithTheTable) {
       kShippedFile,
       {"source.replay.sequence", "outputs.trajectory.path", "outputs.can.path", "outputs.lcm.url", "geo.mode",
        "geo.origin.latitude_deg", "geo.origin.longitude_deg", "geo.origin.height_m",
-       "geo.T_site_slam.translation_m", "geo.T_site_slam.rotation_wxyz", "dynamic.mode"},
+       "geo.T_site_slam.translation_m", "geo.T_site_slam.rotation_wxyz", "detector.name"},
       {}};
   for (const auto& entry : config::entries(config::sitepose_sections(), config::SiteposeConfig{}, false)) {
     if (entry.depth == 0) file.documented_elsewhere.push_back(entry.key);
@@ -57,7 +57,9 @@ TEST(DaemonConfig, ShippedFileLoadsAndWritesWhatReadsBackTheSame) {
   ASSERT_TRUE(shipped.has_value()) << shipped.error().message;
   EXPECT_EQ(shipped->replay.sequence_dir, "/var/lib/siteposed/replay");
   EXPECT_EQ(shipped->geo.mode, GeoMode::kFixed);
-  EXPECT_EQ(shipped->sitepose.dynamic.mode, config::MaskingMode::kNone);
+  // The paper's system, with a detector that works on live cameras.
+  EXPECT_EQ(shipped->sitepose.dynamic.mode, config::MaskingMode::kFull);
+  EXPECT_EQ(shipped->sitepose.detector.name, "stereo-geometric");
   const std::string text = to_yaml(*shipped);
   const auto again = load_daemon_config_from_string(text, "resolved.yaml", "");
   ASSERT_TRUE(again.has_value()) << again.error().message << "\n" << text;

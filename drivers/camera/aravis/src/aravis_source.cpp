@@ -17,7 +17,7 @@ using pipeline::SourceEvent;
 using pipeline::SourceEventKind;
 using Clock = std::chrono::steady_clock;
 
-const char* side_name(Side side) { return side == Side::kLeft ? "left" : "right"; }
+using camera::side_name;
 
 Clock::duration seconds(double s) {
   return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
@@ -98,19 +98,20 @@ Expected<std::unique_ptr<AravisSource>> AravisSource::open(const AravisSourceOpt
                                                        ") delivers another image size than the left one (" +
                                                        left.describe() + ")");
   }
-  auto rectifier = Rectifier::load(options.calibration, left.width(), left.height());
+  auto rectifier = calib::load_stereo_rectifier(options.calibration, cv::Size(left.width(), left.height()));
   if (!rectifier) return make_error(rectifier.error().code, "calibration: " + rectifier.error().message);
   return std::unique_ptr<AravisSource>(
       new AravisSource(options, std::move(opener), std::move(*rectifier), std::move(devices)));
 }
 
-AravisSource::AravisSource(const AravisSourceOptions& options, CameraOpener opener, Rectifier rectifier,
+AravisSource::AravisSource(const AravisSourceOptions& options, CameraOpener opener,
+                           calib::StereoRectifier rectifier,
                            std::array<std::unique_ptr<CameraDevice>, 2> devices)
     : options_(options),
       opener_(std::move(opener)),
       rectifier_(std::move(rectifier)),
-      pairer_(PairerOptions{static_cast<std::int64_t>(std::llround(options.pair_tolerance_ms * 1e6)),
-                            static_cast<std::size_t>(options.max_pending), options.pair_clock}) {
+      pairer_(static_cast<std::int64_t>(std::llround(options.pair_tolerance_ms * 1e6)),
+              static_cast<std::size_t>(options.max_pending)) {
   const Clock::time_point now = Clock::now();
   for (int i = 0; i < 2; ++i) {
     Camera& c = cameras_[i];
@@ -178,7 +179,8 @@ Status AravisSource::poll_camera(Camera& camera, std::chrono::microseconds timeo
     CameraFrame& f = polled->frame;
     f.host_t_ns = camera.clock.map(f.camera_t_ns, f.host_t_ns);
     camera.last_frame = now;
-    pairer_.push(camera.side, std::move(f));
+    const std::int64_t pair_t_ns = options_.pair_clock == PairClock::kCamera ? f.camera_t_ns : f.host_t_ns;
+    pairer_.push(camera.side, pair_t_ns, std::move(f));
   } else if (expecting_frames() && now - camera.last_frame > seconds(options_.lost_timeout_s)) {
     lose(camera, "no frame for " + std::to_string(options_.lost_timeout_s) + " s");
   }
@@ -197,16 +199,14 @@ void AravisSource::trigger_if_due(Clock::time_point now) {
   if (next_trigger_ < now) next_trigger_ = now + period;  // fell behind: no burst
 }
 
-Expected<StereoFrame> AravisSource::make_frame(const FramePair& pair) {
-  SITEPOSE_TRY(auto rectified, rectifier_.rectify(pair.left.gray, pair.right.gray));
+Expected<StereoFrame> AravisSource::make_frame(const camera::StereoPair<CameraFrame>& pair) {
   StereoFrame frame;
+  SITEPOSE_TRY_STATUS(rectifier_.rectify(pair.left.gray, pair.right.gray, frame.left, frame.right));
   frame.seq = next_seq_++;
   // Strictly increasing, whatever the clock mapping did across a reconnect.
   frame.t_left_ns = std::max(pair.left.host_t_ns, last_t_ns_ + 1);
   frame.t_right_ns = pair.right.host_t_ns + (frame.t_left_ns - pair.left.host_t_ns);
   last_t_ns_ = frame.t_left_ns;
-  frame.left = std::move(rectified.first);
-  frame.right = std::move(rectified.second);
   frame.source_id = cameras_[0].id + "+" + cameras_[1].id;
   return frame;
 }

@@ -73,19 +73,15 @@ V4l2Source::~V4l2Source() = default;
 Expected<std::unique_ptr<V4l2Source>> V4l2Source::open(const V4l2SourceOptions& options,
                                                        std::shared_ptr<V4l2Io> io) {
   SITEPOSE_TRY_STATUS(check_v4l2_source_options(options));
-  SITEPOSE_TRY(const calib::StereoCalibration calibration,
-               calib::read_stereo_calibration(options.calibration_file));
   const int camera_width = options.right_device.empty() ? options.width / 2 : options.width;
-  if (calibration.image_size != cv::Size(camera_width, options.height)) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "calibration " + options.calibration_file + " is for " +
-                          std::to_string(calibration.image_size.width) + "x" +
-                          std::to_string(calibration.image_size.height) + " images, the cameras give " +
-                          std::to_string(camera_width) + "x" + std::to_string(options.height) +
-                          (options.right_device.empty() ? " (half of the side-by-side frame)" : ""));
+  auto rectifier = calib::load_stereo_rectifier(options.calibration_file, {camera_width, options.height});
+  if (!rectifier) {
+    const bool size_hint =
+        options.right_device.empty() && rectifier.error().code == ErrorCode::kInvalidArgument;
+    return make_error(rectifier.error().code, "calibration: " + rectifier.error().message +
+                                                  (size_hint ? " (half of the side-by-side frame)" : ""));
   }
-  SITEPOSE_TRY(calib::StereoRectifier rectifier, calib::StereoRectifier::create(calibration));
-  std::unique_ptr<V4l2Source> source(new V4l2Source(options, std::move(io), std::move(rectifier)));
+  std::unique_ptr<V4l2Source> source(new V4l2Source(options, std::move(io), std::move(*rectifier)));
   const auto give_up = Clock::now() + seconds(options.wait_for_camera_s);
   double backoff_s = options.reconnect_min_s;
   for (;;) {
@@ -123,7 +119,8 @@ Status V4l2Source::open_cameras() {
     if (!camera) {
       cameras_[0].reset();
       cameras_[1].reset();
-      return Unexpected{camera.error()};
+      return make_error(camera.error().code,
+                        std::string(i == 0 ? "left_device: " : "right_device: ") + camera.error().message);
     }
     cameras_[i] = std::move(*camera);
   }
@@ -175,13 +172,13 @@ void V4l2Source::try_reconnect(Clock::time_point now) {
   stats_.last_error = st.error().message;
 }
 
-Expected<std::optional<std::pair<RawFrame, RawFrame>>> V4l2Source::poll_cameras(int wait_ms) {
+Expected<std::optional<camera::StereoPair<RawFrame>>> V4l2Source::poll_cameras(int wait_ms) {
   const int n = side_by_side() ? 1 : 2;
   pollfd fds[2] = {};
   for (int i = 0; i < n; ++i) fds[i] = {cameras_[i]->fd(), POLLIN, 0};
   if (io_->poll(fds, static_cast<nfds_t>(n), wait_ms) < 0) {
     lose("V4L2 poll: " + std::string(std::strerror(errno)));
-    return std::optional<std::pair<RawFrame, RawFrame>>{};
+    return std::optional<camera::StereoPair<RawFrame>>{};
   }
   for (int i = 0; i < n; ++i) {
     if (fds[i].revents == 0) continue;
@@ -190,7 +187,7 @@ Expected<std::optional<std::pair<RawFrame, RawFrame>>> V4l2Source::poll_cameras(
       auto frame = cameras_[i]->dequeue();
       if (!frame) {
         lose(frame.error().message);
-        return std::optional<std::pair<RawFrame, RawFrame>>{};
+        return std::optional<camera::StereoPair<RawFrame>>{};
       }
       if (!*frame) break;
       RawFrame raw = std::move(**frame);
@@ -199,20 +196,22 @@ Expected<std::optional<std::pair<RawFrame, RawFrame>>> V4l2Source::poll_cameras(
         RawFrame right = raw;
         right.gray = raw.gray(cv::Rect(half, 0, half, raw.gray.rows));
         raw.gray = raw.gray(cv::Rect(0, 0, half, raw.gray.rows));
-        pairer_.push(Side::kRight, std::move(right));
+        const std::int64_t right_t_ns = right.t_ns;
+        pairer_.push(Side::kRight, right_t_ns, std::move(right));
       }
-      pairer_.push(static_cast<Side>(i), std::move(raw));
+      const std::int64_t t_ns = raw.t_ns;
+      pairer_.push(static_cast<Side>(i), t_ns, std::move(raw));
     }
   }
   return pairer_.pop();
 }
 
-Expected<pipeline::SourceEvent> V4l2Source::deliver(const std::pair<RawFrame, RawFrame>& pair) {
+Expected<pipeline::SourceEvent> V4l2Source::deliver(const camera::StereoPair<RawFrame>& pair) {
   StereoFrame frame;
-  SITEPOSE_TRY_STATUS(rectifier_.rectify(pair.first.gray, pair.second.gray, frame.left, frame.right));
+  SITEPOSE_TRY_STATUS(rectifier_.rectify(pair.left.gray, pair.right.gray, frame.left, frame.right));
   frame.seq = seq_++;
-  frame.t_left_ns = pair.first.t_ns;
-  frame.t_right_ns = pair.second.t_ns;
+  frame.t_left_ns = pair.left.t_ns;
+  frame.t_right_ns = pair.right.t_ns;
   frame.source_id = "v4l2:" + options_.left_device;
   publish_stats();
   return pipeline::SourceEvent{pipeline::SourceEventKind::kFrame, std::move(frame)};
@@ -258,6 +257,7 @@ void V4l2Source::publish_stats() {
   stats_.pairs = pairer_.counts().pairs;
   stats_.unpaired_left = pairer_.counts().unpaired_left;
   stats_.unpaired_right = pairer_.counts().unpaired_right;
+  stats_.skipped_at_start = pairer_.counts().skipped_at_start;
   stats_.corrupt = c.corrupt;
   stats_.host_timestamps = c.host_timestamps;
   stats_.sequence_gaps = c.sequence_gaps;

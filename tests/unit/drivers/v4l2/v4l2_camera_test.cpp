@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 #include <linux/videodev2.h>
 
-#include "fake_v4l2.hpp"
+#include "sitepose/testing/fake_v4l2.hpp"
 #include "sitepose/testing/images.hpp"
 
 namespace sitepose::drivers::v4l2 {

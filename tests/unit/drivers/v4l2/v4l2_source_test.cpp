@@ -5,8 +5,8 @@
 
 #include <thread>
 
-#include "fake_v4l2.hpp"
 #include "sitepose/calib/calibration_file.hpp"
+#include "sitepose/testing/fake_v4l2.hpp"
 #include "sitepose/testing/files.hpp"
 #include "sitepose/testing/wait.hpp"
 

@@ -1,9 +1,9 @@
 #pragma once
 // FrameSource over a stereo pair of cameras (GigE Vision / USB3 Vision via
 // Aravis, or any CameraOpener): both cameras configured alike, frames
-// converted to 8-bit gray, paired by timestamp (stereo_pairer.hpp), mapped
-// to the host clock (clock_mapper.hpp) and rectified with maps computed once
-// (rectifier.hpp).
+// converted to 8-bit gray, paired by timestamp (drivers/camera/common's
+// stereo_pairer.hpp), mapped to the host clock (clock_mapper.hpp) and
+// rectified with maps computed once (calib/rectifier.hpp).
 // Timing: free-run (each camera at frame_rate_hz; pair_tolerance must cover
 // the phase between the two), or software trigger (the source triggers both
 // cameras every 1 / frame_rate_hz; they expose within the trigger latency).
@@ -21,22 +21,29 @@
 #include <memory>
 #include <string>
 
+#include "sitepose/calib/rectifier.hpp"
 #include "sitepose/drivers/aravis/camera_device.hpp"
 #include "sitepose/drivers/aravis/clock_mapper.hpp"
-#include "sitepose/drivers/aravis/rectifier.hpp"
-#include "sitepose/drivers/aravis/stereo_pairer.hpp"
+#include "sitepose/drivers/camera/stereo_pairer.hpp"
 #include "sitepose/pipeline/frame_source.hpp"
 
 namespace sitepose::drivers::aravis {
+
+using camera::PairerCounts;
+using camera::Side;
+
+// The clock frames pair on: the cameras' own when they share one (PTP, a
+// common trigger clock), else the host-mapped times.
+enum class PairClock { kCamera, kHost };
 
 struct AravisSourceOptions {
   std::string left_id;
   std::string right_id;
   CameraSettings camera;    // both cameras
-  std::string calibration;  // OpenCV stereo calibration YAML or KITTI calib.txt
+  std::string calibration;  // calib::load_stereo_rectifier: OpenCV stereo calibration YAML or KITTI calib.txt
   double pair_tolerance_ms = 5.0;
   PairClock pair_clock = PairClock::kHost;
-  int max_pending = 4;
+  int max_pending = 4;  // frames of one side waiting for the other side's
   double lost_timeout_s = 1.0;
   double reconnect_min_s = 0.25;
   double reconnect_max_s = 8.0;
@@ -88,7 +95,7 @@ class AravisSource final : public pipeline::FrameSource {
     std::uint64_t failed_before = 0;  // failed buffers of earlier connections
   };
 
-  AravisSource(const AravisSourceOptions& options, CameraOpener opener, Rectifier rectifier,
+  AravisSource(const AravisSourceOptions& options, CameraOpener opener, calib::StereoRectifier rectifier,
                std::array<std::unique_ptr<CameraDevice>, 2> devices);
   void lose(Camera& camera, const std::string& why);
   Status try_reconnect(Camera& camera, Clock::time_point now);
@@ -99,13 +106,13 @@ class AravisSource final : public pipeline::FrameSource {
   bool expecting_frames() const {
     return options_.camera.trigger != TriggerMode::kSoftware || (cameras_[0].device && cameras_[1].device);
   }
-  Expected<StereoFrame> make_frame(const FramePair& pair);
+  Expected<StereoFrame> make_frame(const camera::StereoPair<CameraFrame>& pair);
 
   AravisSourceOptions options_;
   CameraOpener opener_;
-  Rectifier rectifier_;
+  calib::StereoRectifier rectifier_;
   std::array<Camera, 2> cameras_;
-  StereoPairer pairer_;
+  camera::StereoPairer<CameraFrame> pairer_;
   Clock::time_point next_trigger_{};
   bool started_ = false;  // next() called once
   std::int64_t next_seq_ = 0;

@@ -9,14 +9,21 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 
 #include "sitepose/core/expected.hpp"
 #include "sitepose/drivers/aravis/pixel_convert.hpp"
-#include "sitepose/drivers/aravis/stereo_pairer.hpp"
 
 namespace sitepose::drivers::aravis {
+
+struct CameraFrame {
+  cv::Mat gray;                  // CV_8UC1, not yet rectified
+  std::int64_t camera_t_ns = 0;  // the camera's own clock
+  std::int64_t host_t_ns = 0;    // mapped to the host clock (clock_mapper.hpp)
+  std::uint64_t frame_id = 0;    // the camera's block id
+};
 
 enum class TriggerMode {
   kFreeRun,   // each camera runs at frame_rate_hz on its own clock

@@ -25,12 +25,14 @@
 #include <string>
 
 #include "sitepose/calib/rectifier.hpp"
-#include "sitepose/drivers/v4l2/timestamp_pairer.hpp"
+#include "sitepose/drivers/camera/stereo_pairer.hpp"
 #include "sitepose/drivers/v4l2/v4l2_camera.hpp"
 #include "sitepose/drivers/v4l2/v4l2_io.hpp"
 #include "sitepose/pipeline/frame_source.hpp"
 
 namespace sitepose::drivers::v4l2 {
+
+using camera::Side;
 
 struct V4l2SourceOptions {
   std::string left_device;   // "/dev/video0", or the side-by-side device
@@ -40,7 +42,8 @@ struct V4l2SourceOptions {
   double fps = 30.0;
   std::string pixel_format = "auto";  // auto | GREY | YUYV | MJPG
   int buffers = 4;
-  std::string calibration_file;  // sitepose calibrate's YAML
+  std::string
+      calibration_file;  // calib::load_stereo_rectifier: sitepose calibrate's YAML or a KITTI calib.txt
   std::int64_t pair_tolerance_ns = 5'000'000;
   double reconnect_min_s = 0.25;
   double reconnect_max_s = 8.0;
@@ -55,7 +58,8 @@ struct V4l2SourceStats {
   std::uint64_t pairs = 0;
   std::uint64_t unpaired_left = 0;
   std::uint64_t unpaired_right = 0;
-  std::uint64_t corrupt = 0;  // driver-flagged or undecodable, both devices
+  std::uint64_t skipped_at_start = 0;  // before the first pair (one device started later)
+  std::uint64_t corrupt = 0;           // driver-flagged or undecodable, both devices
   std::uint64_t host_timestamps = 0;
   std::uint64_t sequence_gaps = 0;  // frames the drivers dropped
   std::uint64_t disconnects = 0;
@@ -66,6 +70,10 @@ struct V4l2SourceStats {
 
 class V4l2Source final : public pipeline::FrameSource {
  public:
+  // Errors start with the option they are about ("left_device: ...",
+  // "right_device: ...", "calibration: ..."): kNotFound for an absent device
+  // (after wait_for_camera_s), kInvalidArgument or kUnsupported for a size or
+  // format the device does not offer.
   static Expected<std::unique_ptr<V4l2Source>> open(const V4l2SourceOptions& options,
                                                     std::shared_ptr<V4l2Io> io = system_v4l2_io());
   ~V4l2Source() override;
@@ -88,8 +96,8 @@ class V4l2Source final : public pipeline::FrameSource {
   void lose(const std::string& why);
   // Reads what the devices have ready (waits up to `wait_ms`); a pair when
   // one is complete.
-  Expected<std::optional<std::pair<RawFrame, RawFrame>>> poll_cameras(int wait_ms);
-  Expected<pipeline::SourceEvent> deliver(const std::pair<RawFrame, RawFrame>& pair);
+  Expected<std::optional<camera::StereoPair<RawFrame>>> poll_cameras(int wait_ms);
+  Expected<pipeline::SourceEvent> deliver(const camera::StereoPair<RawFrame>& pair);
   void publish_stats();
 
   V4l2SourceOptions options_;
@@ -97,7 +105,7 @@ class V4l2Source final : public pipeline::FrameSource {
   calib::StereoRectifier rectifier_;
   std::vector<PixelFormat> formats_;
   std::unique_ptr<V4l2Camera> cameras_[2];  // [1] unused when side by side
-  TimestampPairer pairer_;
+  camera::StereoPairer<RawFrame> pairer_;
   double fps_ = 0.0;
   std::int64_t seq_ = 0;
   CameraCounts retired_;  // counts of cameras closed since

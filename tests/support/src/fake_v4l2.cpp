@@ -1,4 +1,4 @@
-#include "fake_v4l2.hpp"
+#include "sitepose/testing/fake_v4l2.hpp"
 
 #include <linux/videodev2.h>
 #include <sys/mman.h>
