@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "sitepose/core/expected.hpp"
 #include "sitepose/features/hamming.hpp"
@@ -27,6 +28,97 @@ int ScalePyramid::predict_level(double distance_m, double max_distance_m) const 
   // The epsilon keeps an exact power of the factor on its own level.
   const int level = static_cast<int>(std::ceil(std::log(ratio) / std::log(scale_factor) - 1e-9));
   return std::clamp(level, 0, n_levels - 1);
+}
+
+namespace {
+
+std::string kf_name(KeyFrameId id) { return "keyframe " + std::to_string(id); }
+
+// Registers every observation of `points` on its keyframe's keypoint.
+Status link_observations(std::unordered_map<KeyFrameId, KeyFrame>& keyframes,
+                         const std::unordered_map<PointId, MapPoint>& points) {
+  for (const auto& [pid, p] : points) {
+    if (p.bad) return make_error(ErrorCode::kParseError, "point " + std::to_string(pid) + " is marked bad");
+    for (const auto& [kf_id, index] : p.observations) {
+      auto it = keyframes.find(kf_id);
+      if (it == keyframes.end()) {
+        return make_error(ErrorCode::kParseError, "point " + std::to_string(pid) + " is observed by " +
+                                                      kf_name(kf_id) + ", not in the map");
+      }
+      auto& owner = it->second.point_of_keypoint;
+      if (index < 0 || index >= static_cast<int>(owner.size())) {
+        return make_error(ErrorCode::kParseError, "point " + std::to_string(pid) + " names keypoint " +
+                                                      std::to_string(index) + " of " + kf_name(kf_id) +
+                                                      ", which has " + std::to_string(owner.size()));
+      }
+      if (owner[index] != kNoPoint) {
+        return make_error(ErrorCode::kParseError, "keypoint " + std::to_string(index) + " of " +
+                                                      kf_name(kf_id) + " is claimed by points " +
+                                                      std::to_string(owner[index]) + " and " +
+                                                      std::to_string(pid));
+      }
+      owner[index] = pid;
+    }
+  }
+  return ok_status();
+}
+
+// Children from parents; every parent and covisible keyframe must exist.
+Status link_keyframes(std::unordered_map<KeyFrameId, KeyFrame>& keyframes) {
+  for (auto& [id, kf] : keyframes) {
+    for (const auto& [other, weight] : kf.covisibility) {
+      if (keyframes.count(other) == 0) {
+        return make_error(ErrorCode::kParseError,
+                          kf_name(id) + " is covisible with " + kf_name(other) + ", not in the map");
+      }
+    }
+    if (kf.parent == kNoKeyFrame) continue;
+    auto parent = keyframes.find(kf.parent);
+    if (parent == keyframes.end() || kf.parent == id) {
+      return make_error(ErrorCode::kParseError,
+                        kf_name(id) + " has parent " + kf_name(kf.parent) + ", not in the map");
+    }
+    parent->second.children.insert(id);
+  }
+  return ok_status();
+}
+
+}  // namespace
+
+Expected<MapData> MapData::restore(ScalePyramid pyramid, std::vector<KeyFrame> keyframes,
+                                   std::vector<MapPoint> points, KeyFrameId first_keyframe,
+                                   KeyFrameId last_keyframe) {
+  MapData map(pyramid);
+  for (KeyFrame& kf : keyframes) {
+    const KeyFrameId id = kf.id;
+    if (id < 0 || kf.bad)
+      return make_error(ErrorCode::kParseError, kf_name(id) + ": invalid id or marked bad");
+    kf.point_of_keypoint.assign(kf.keypoints.size(), kNoPoint);
+    kf.children.clear();
+    if (!map.keyframes_.emplace(id, std::move(kf)).second) {
+      return make_error(ErrorCode::kParseError, kf_name(id) + " appears twice");
+    }
+    map.next_keyframe_id_ = std::max(map.next_keyframe_id_, id + 1);
+  }
+  for (MapPoint& p : points) {
+    const PointId id = p.id;
+    if (id < 0) return make_error(ErrorCode::kParseError, "point id " + std::to_string(id) + " is invalid");
+    if (!map.points_.emplace(id, std::move(p)).second) {
+      return make_error(ErrorCode::kParseError, "point " + std::to_string(id) + " appears twice");
+    }
+    map.next_point_id_ = std::max(map.next_point_id_, id + 1);
+  }
+  SITEPOSE_TRY_STATUS(link_observations(map.keyframes_, map.points_));
+  SITEPOSE_TRY_STATUS(link_keyframes(map.keyframes_));
+  for (const KeyFrameId end : {first_keyframe, last_keyframe}) {
+    if ((end == kNoKeyFrame) != map.keyframes_.empty() ||
+        (end != kNoKeyFrame && map.keyframes_.count(end) == 0)) {
+      return make_error(ErrorCode::kParseError, "first/last " + kf_name(end) + " is not in the map");
+    }
+  }
+  map.first_keyframe_ = first_keyframe;
+  map.last_keyframe_ = last_keyframe;
+  return map;
 }
 
 KeyFrameId MapData::add_keyframe(KeyFrame keyframe) {

@@ -1,5 +1,7 @@
 #include "sitepose/slam/slam_system.hpp"
 
+#include <cmath>
+
 #include "sitepose/core/stopwatch.hpp"
 #include "sitepose/features/orb_extractor.hpp"
 #include "sitepose/features/stereo_matcher.hpp"
@@ -81,6 +83,27 @@ Expected<FrameReport> SlamSystem::process(const StereoFrame& frame, const dynami
   SITEPOSE_TRY(FrameReport report, two_pass_->process(frame, objects));
   SITEPOSE_TRY_STATUS(run_inline_mapping(report));
   return report;
+}
+
+Status SlamSystem::load_map(map::MapData loaded) {
+  if (tracker_->counters().frames > 0) {
+    return make_error(ErrorCode::kInvalidArgument, "a map can be loaded only before the first frame");
+  }
+  const map::ScalePyramid expected{config_.orb.scale_factor, config_.orb.n_levels};
+  const map::ScalePyramid& got = loaded.pyramid();
+  if (got.n_levels != expected.n_levels || std::abs(got.scale_factor - expected.scale_factor) > 1e-9) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "the map was built with an ORB pyramid of " + std::to_string(got.n_levels) +
+                          " levels, factor " + std::to_string(got.scale_factor) +
+                          "; this configuration has " + std::to_string(expected.n_levels) +
+                          " levels, factor " + std::to_string(expected.scale_factor));
+  }
+  map_.write([&](map::MapData& map) { map = std::move(loaded); });
+  return ok_status();
+}
+
+map::MapData SlamSystem::copy_map() const {
+  return map_.read([](const map::MapData& map) { return map; });
 }
 
 std::size_t SlamSystem::keyframe_count() const {

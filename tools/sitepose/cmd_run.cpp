@@ -15,6 +15,7 @@
 #include "sitepose/dynamic/masking.hpp"
 #include "sitepose/io/output_path.hpp"
 #include "sitepose/io/sequence.hpp"
+#include "sitepose/mapfile/map_file.hpp"
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"
@@ -32,12 +33,53 @@ struct RunArgs {
   std::string states_out;
   std::string stats_out;
   std::string gt;
+  std::string map_in;
+  std::string map_out;
   int max_frames = 0;
+  int first_frame = 0;
   bool mapper_thread = false;
   bool quiet = false;
 };
 
 constexpr const char* kCommand = "run";
+
+double ms_between(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+// --map-in: the saved map the run starts in (a refused file is bad input).
+Status load_map_in(const std::string& path, slam::SlamSystem& system, bool quiet) {
+  const auto start = std::chrono::steady_clock::now();
+  auto loaded = mapfile::load_map(path);
+  if (!loaded) return Unexpected{loaded.error()};
+  const std::size_t keyframes = loaded->map.keyframe_count();
+  const std::size_t points = loaded->map.point_count();
+  if (auto st = system.load_map(std::move(loaded->map)); !st) {
+    return make_error(ErrorCode::kInvalidArgument, "--map-in " + path + ": " + st.error().message);
+  }
+  if (!quiet) {
+    std::fprintf(stderr, "sitepose run: map %s loaded: %zu keyframes, %zu points, %.1f ms\n", path.c_str(),
+                 keyframes, points, ms_between(start, std::chrono::steady_clock::now()));
+  }
+  return ok_status();
+}
+
+Status save_map_out(const std::string& path, const slam::SlamSystem& system, bool quiet) {
+  const auto start = std::chrono::steady_clock::now();
+  const map::MapData map = system.copy_map();
+  const auto copied = std::chrono::steady_clock::now();
+  if (auto st = mapfile::save_map(path, map, {}); !st) return st;
+  if (!quiet) {
+    std::error_code ec;
+    std::fprintf(
+        stderr,
+        "sitepose run: map %s saved: %zu keyframes, %zu points, %ju bytes, copy %.1f ms, write %.1f ms\n",
+        path.c_str(), map.keyframe_count(), map.point_count(),
+        static_cast<std::uintmax_t>(std::filesystem::file_size(path, ec)), ms_between(start, copied),
+        ms_between(copied, std::chrono::steady_clock::now()));
+  }
+  return ok_status();
+}
 
 int run(const RunArgs& args) {
   config::SiteposeConfig config;
@@ -67,8 +109,9 @@ int run(const RunArgs& args) {
   if (!args.detector.empty()) config.detector.name = args.detector;
   // Outputs are written after the whole run: a path that cannot be written
   // is bad usage now, not a failure then.
-  for (const auto& [option, path] : {std::pair{"--out", &args.out}, std::pair{"--states-out", &args.states_out},
-                                     std::pair{"--stats-out", &args.stats_out}}) {
+  for (const auto& [option, path] :
+       {std::pair{"--out", &args.out}, std::pair{"--states-out", &args.states_out},
+        std::pair{"--stats-out", &args.stats_out}, std::pair{"--map-out", &args.map_out}}) {
     if (path->empty()) continue;
     if (auto st = io::check_output_path(*path); !st) {
       return fail(kCommand, std::string(option) + ": " + st.error().message, 2);
@@ -120,14 +163,25 @@ int run(const RunArgs& args) {
   if (const double hz = io::mean_frame_rate_hz(**sequence); hz > 0.0) slam_options.fps = hz;
   auto system = slam::SlamSystem::create(camera, config, slam_options);
   if (!system) return fail(kCommand, system.error().message, 2);
+  if (!args.map_in.empty()) {
+    if (auto st = load_map_in(args.map_in, **system, args.quiet); !st)
+      return fail(kCommand, st.error().message, 2);
+  }
 
+  const std::size_t first = static_cast<std::size_t>(args.first_frame);
+  if (first >= (*sequence)->size()) {
+    return fail(kCommand,
+                "--first-frame " + std::to_string(first) + ": the sequence has " +
+                    std::to_string((*sequence)->size()) + " frames",
+                2);
+  }
   const std::size_t n_frames = args.max_frames > 0
-                                   ? std::min<std::size_t>(args.max_frames, (*sequence)->size())
+                                   ? std::min<std::size_t>(first + args.max_frames, (*sequence)->size())
                                    : (*sequence)->size();
   const bool tty = isatty(STDERR_FILENO) != 0;
   slam::RunRecorder recorder;
   int detector_failures = 0;
-  for (std::size_t i = 0; i < n_frames; ++i) {
+  for (std::size_t i = first; i < n_frames; ++i) {
     auto frame = (*sequence)->read_frame(i);
     if (!frame) return fail(kCommand, frame.error().message, 2);
     Expected<slam::FrameReport> report = make_error(ErrorCode::kRuntime, "not run");
@@ -162,6 +216,10 @@ int run(const RunArgs& args) {
   }
   (*system)->finish();
   if (!args.quiet && tty) std::fprintf(stderr, "\n");
+  if (!args.map_out.empty()) {
+    if (auto st = save_map_out(args.map_out, **system, args.quiet); !st)
+      return fail(kCommand, st.error().message, 1);
+  }
   if (auto st = recorder.write_tum(args.out); !st) return fail(kCommand, st.error().message, 1);
   if (!args.stats_out.empty()) {
     const auto& counters = (*system)->tracker_counters();
@@ -218,6 +276,15 @@ const CommandRegistrar kRun{{"", "run", "Track a recorded stereo sequence and wr
   sub.add_option("--gt", args->gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
   sub.add_option("--frames", args->max_frames, "Process at most N frames (default: all)")
       ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+  sub.add_option("--first-frame", args->first_frame, "Start at frame N (0-based; default 0)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+  sub.add_option("--map-in", args->map_in,
+                 "Start in this saved map (sitepose map file): the first frames relocalise in it and the "
+                 "trajectory continues in its frame")
+      ->check(CLI::ExistingFile);
+  sub.add_option(
+      "--map-out", args->map_out,
+      "Save the map here at the end (atomically: a failed save leaves an existing file as it was)");
   sub.add_flag("--mapper-thread", args->mapper_thread,
                "Run local mapping on its own thread (as the daemon does); default runs it "
                "inline after each keyframe so results are reproducible");

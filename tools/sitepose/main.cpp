@@ -30,7 +30,8 @@ int main(int argc, char** argv) {
   });
   const std::map<std::string, std::string> group_descriptions{
       {"bench", "Timings and ratios measured in one run (never pass/fail)"},
-      {"ablate", "Ablation studies of the paper, each writing CSV + PNG"}};
+      {"ablate", "Ablation studies of the paper, each writing CSV + PNG"},
+      {"map", "Saved site maps (sitepose run --map-out)"}};
   std::map<std::string, CLI::App*> groups;
   std::map<CLI::App*, cli::CommandAction> actions;
   for (const auto& spec : commands) {

@@ -12,6 +12,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "sitepose/core/expected.hpp"
 #include "sitepose/map/map_types.hpp"
 
 namespace sitepose::map {
@@ -34,6 +35,17 @@ class MapData {
   explicit MapData(ScalePyramid pyramid = {}) : pyramid_(pyramid) {}
 
   const ScalePyramid& pyramid() const { return pyramid_; }
+
+  // Rebuilds a saved map (map files): keyframes and points keep their ids,
+  // poses, covisibility, parents and point appearance as given; each
+  // keyframe's point_of_keypoint and children are derived from the points'
+  // observations and the parents, so the two sides cannot disagree. New ids
+  // continue after the largest. Names the first inconsistency (an
+  // observation of a missing keyframe or keypoint, a keypoint claimed by two
+  // points, a parent or covisible keyframe that is not in the map).
+  static Expected<MapData> restore(ScalePyramid pyramid, std::vector<KeyFrame> keyframes,
+                                   std::vector<MapPoint> points, KeyFrameId first_keyframe,
+                                   KeyFrameId last_keyframe);
 
   // Inserts a keyframe (its id is assigned and returned); its
   // point_of_keypoint entries must name existing points and are registered as

@@ -77,6 +77,15 @@ class SlamSystem {
   // Lets the mapper finish its queue (and stops its thread).
   void finish();
 
+  // Starts from a saved map (map files) instead of an empty one: the first
+  // frames relocalise in it and tracking continues in its frame. Only
+  // before the first frame; kInvalidArgument when the map was built with
+  // another scale pyramid (its points' scale ranges would not fit).
+  Status load_map(map::MapData map);
+  // A copy of the map, taken under its read lock (no more than the copy
+  // holds the tracker and the mapper back): what a save writes.
+  map::MapData copy_map() const;
+
   const tracking::TrackerCounters& tracker_counters() const { return tracker_->counters(); }
   mapping::MappingStats mapping_stats() const { return mapper_->stats(); }
   std::size_t keyframe_count() const;

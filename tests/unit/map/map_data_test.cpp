@@ -143,5 +143,46 @@ TEST(MapData, GeometryUpdateFollowsAMovedPointAndKeepsTheDescriptor) {
   EXPECT_EQ(p->descriptor, descriptor);
 }
 
+// restore() (map files) refuses a map whose two sides disagree.
+TEST(MapDataRestore, NamesTheFirstInconsistency) {
+  const auto keyframe = [](KeyFrameId id, int keypoints, KeyFrameId parent) {
+    KeyFrame kf;
+    kf.id = id;
+    kf.parent = parent;
+    kf.keypoints.resize(keypoints);
+    return kf;
+  };
+  const auto point = [](PointId id, std::map<KeyFrameId, int> observations) {
+    MapPoint p;
+    p.id = id;
+    p.observations = std::move(observations);
+    return p;
+  };
+  auto good = MapData::restore({}, {keyframe(0, 3, kNoKeyFrame), keyframe(4, 3, 0)},
+                               {point(7, {{0, 1}, {4, 2}})}, 0, 4);
+  ASSERT_TRUE(good) << good.error().message;
+  EXPECT_EQ(good->keyframe(4)->point_of_keypoint, (std::vector<PointId>{kNoPoint, kNoPoint, 7}));
+  EXPECT_EQ(good->keyframe(0)->children, (std::set<KeyFrameId>{4}));
+
+  const auto why = [](Expected<MapData> restored) {
+    return restored ? std::string("accepted") : restored.error().message;
+  };
+  EXPECT_NE(why(MapData::restore({}, {keyframe(0, 3, kNoKeyFrame)}, {point(7, {{0, 1}, {9, 0}})}, 0, 0))
+                .find("keyframe 9, not in the map"),
+            std::string::npos);
+  EXPECT_NE(why(MapData::restore({}, {keyframe(0, 3, kNoKeyFrame)}, {point(7, {{0, 3}})}, 0, 0))
+                .find("names keypoint 3"),
+            std::string::npos);
+  EXPECT_NE(
+      why(MapData::restore({}, {keyframe(0, 3, kNoKeyFrame)}, {point(7, {{0, 1}}), point(8, {{0, 1}})}, 0, 0))
+          .find("is claimed by points"),
+      std::string::npos);
+  EXPECT_NE(why(MapData::restore({}, {keyframe(0, 3, 5)}, {}, 0, 0)).find("parent keyframe 5"),
+            std::string::npos);
+  EXPECT_NE(
+      why(MapData::restore({}, {keyframe(0, 3, kNoKeyFrame)}, {}, 0, 2)).find("keyframe 2 is not in the map"),
+      std::string::npos);
+}
+
 }  // namespace
 }  // namespace sitepose::map

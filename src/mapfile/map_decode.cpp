@@ -1,0 +1,207 @@
+#include <cstdio>
+#include <map>
+#include <string>
+
+#include "byte_io.hpp"
+#include "sitepose/mapfile/crc32.hpp"
+#include "sitepose/mapfile/map_file.hpp"
+
+namespace sitepose::mapfile {
+namespace {
+
+Unexpected refuse(const std::string& why) {
+  return make_error(ErrorCode::kParseError, "map file refused: " + why);
+}
+
+std::string hex(std::uint32_t v) {
+  char text[16];
+  std::snprintf(text, sizeof(text), "%08x", v);
+  return text;
+}
+
+std::string tag_name(std::uint32_t tag) {
+  std::string name;
+  for (int i = 0; i < 4; ++i) {
+    const char c = static_cast<char>((tag >> (8 * i)) & 0xFFU);
+    name += (c >= 0x20 && c < 0x7f) ? c : '?';
+  }
+  return name;
+}
+
+// Header checks; returns the payload.
+Expected<std::span<const std::uint8_t>> check_header(std::span<const std::uint8_t> bytes,
+                                                     std::uint32_t& version) {
+  if (bytes.size() < kHeaderBytes) {
+    return refuse("truncated: " + std::to_string(bytes.size()) + " bytes, the header alone is " +
+                  std::to_string(kHeaderBytes));
+  }
+  if (!std::equal(kMagic.begin(), kMagic.end(), bytes.begin()))
+    return refuse("not a sitepose map file (bad magic)");
+  ByteReader header(bytes.subspan(kMagic.size(), kHeaderBytes - kMagic.size()));
+  version = header.u32();
+  header.u32();  // flags
+  const std::uint64_t payload_bytes = header.u64();
+  const std::uint32_t payload_crc = header.u32();
+  const std::uint32_t header_crc = header.u32();
+  if (crc32(bytes.first(kHeaderBytes - 4)) != header_crc)
+    return refuse("header checksum mismatch (corrupted header)");
+  if (version != kFormatVersion) {
+    return refuse("format version " + std::to_string(version) + ", this build reads version " +
+                  std::to_string(kFormatVersion));
+  }
+  const std::uint64_t have = bytes.size() - kHeaderBytes;
+  if (have < payload_bytes) {
+    return refuse("truncated: the header announces " + std::to_string(payload_bytes) +
+                  " payload bytes, the file has " + std::to_string(have));
+  }
+  if (have > payload_bytes) {
+    return refuse(std::to_string(have - payload_bytes) + " bytes after the announced end of the payload");
+  }
+  const auto payload = bytes.subspan(kHeaderBytes);
+  if (const std::uint32_t crc = crc32(payload); crc != payload_crc) {
+    return refuse("payload checksum mismatch (stored " + hex(payload_crc) + ", computed " + hex(crc) +
+                  "): the file is corrupted");
+  }
+  return payload;
+}
+
+Expected<std::map<std::uint32_t, std::span<const std::uint8_t>>> split_sections(
+    std::span<const std::uint8_t> payload) {
+  std::map<std::uint32_t, std::span<const std::uint8_t>> sections;
+  ByteReader in(payload);
+  while (in.remaining() > 0) {
+    const std::uint32_t tag = in.u32();
+    const std::uint64_t length = in.u64();
+    if (!in.ok() || length > in.remaining())
+      return refuse("section " + tag_name(tag) + " runs past the payload");
+    const auto body = in.raw(static_cast<std::size_t>(length));
+    if (!sections.emplace(tag, body).second) return refuse("section " + tag_name(tag) + " appears twice");
+  }
+  for (const std::uint32_t tag : {kMetaTag, kKeyFramesTag, kPointsTag, kCovisibilityTag}) {
+    if (sections.count(tag) == 0) return refuse("section " + tag_name(tag) + " is missing");
+  }
+  return sections;
+}
+
+struct Meta {
+  map::ScalePyramid pyramid;
+  MapFileMeta file;
+  map::KeyFrameId first = map::kNoKeyFrame;
+  map::KeyFrameId last = map::kNoKeyFrame;
+};
+
+Expected<Meta> read_meta(std::span<const std::uint8_t> body) {
+  ByteReader in(body);
+  Meta meta;
+  meta.pyramid.n_levels = static_cast<int>(in.u32());
+  meta.pyramid.scale_factor = in.f64();
+  meta.file.vocabulary_id = in.text();
+  const bool has_anchor = in.u8() != 0;
+  SiteAnchorRecord anchor;
+  anchor.latitude_deg = in.f64();
+  anchor.longitude_deg = in.f64();
+  anchor.height_m = in.f64();
+  anchor.T_site_slam = in.pose();
+  if (has_anchor) meta.file.anchor = anchor;
+  meta.first = in.i64();
+  meta.last = in.i64();
+  if (!in.ok()) return refuse("section META ends early");
+  if (meta.pyramid.n_levels < 1 || meta.pyramid.n_levels > 32 || !(meta.pyramid.scale_factor > 1.0)) {
+    return refuse("section META: scale pyramid " + std::to_string(meta.pyramid.n_levels) +
+                  " levels, factor " + std::to_string(meta.pyramid.scale_factor) + " is out of range");
+  }
+  return meta;
+}
+
+map::KeyPointData read_keypoint(ByteReader& in) {
+  map::KeyPointData kp;
+  kp.uv_px.x() = in.f64();
+  kp.uv_px.y() = in.f64();
+  kp.octave = in.u8();
+  kp.u_right_px = in.f64();
+  kp.depth_m = in.f64();
+  const auto d = in.raw(kp.descriptor.size());
+  if (in.ok()) std::copy(d.begin(), d.end(), kp.descriptor.begin());
+  kp.instance = in.u16();
+  return kp;
+}
+
+Expected<std::vector<map::KeyFrame>> read_keyframes(std::span<const std::uint8_t> body) {
+  ByteReader in(body);
+  std::vector<map::KeyFrame> keyframes(in.count(kKeyFrameBytes));
+  for (std::size_t i = 0; i < keyframes.size() && in.ok(); ++i) {
+    map::KeyFrame& kf = keyframes[i];
+    kf.id = in.i64();
+    kf.frame_seq = in.i64();
+    kf.t_ns = in.i64();
+    kf.T_world_cam = in.pose();
+    kf.parent = in.i64();
+    kf.keypoints.resize(in.count(kKeyPointBytes));
+    for (map::KeyPointData& kp : kf.keypoints) kp = read_keypoint(in);
+  }
+  if (!in.ok()) return refuse("section KFRM ends early or holds a broken keyframe");
+  return keyframes;
+}
+
+Expected<std::vector<map::MapPoint>> read_points(std::span<const std::uint8_t> body) {
+  ByteReader in(body);
+  std::vector<map::MapPoint> points(in.count(kPointBytes));
+  for (std::size_t i = 0; i < points.size() && in.ok(); ++i) {
+    map::MapPoint& p = points[i];
+    p.id = in.i64();
+    p.p_world = in.vec3();
+    const auto d = in.raw(p.descriptor.size());
+    if (in.ok()) std::copy(d.begin(), d.end(), p.descriptor.begin());
+    p.normal = in.vec3();
+    p.min_distance_m = in.f64();
+    p.max_distance_m = in.f64();
+    p.reference_keyframe = in.i64();
+    p.first_keyframe = in.i64();
+    p.n_visible = in.i32();
+    p.n_found = in.i32();
+    const std::size_t n_observations = in.count(kObservationBytes);
+    for (std::size_t k = 0; k < n_observations; ++k) {
+      const map::KeyFrameId kf = in.i64();
+      p.observations[kf] = in.i32();
+    }
+  }
+  if (!in.ok()) return refuse("section PNTS ends early or holds a broken point");
+  return points;
+}
+
+Status read_covisibility(std::span<const std::uint8_t> body, std::vector<map::KeyFrame>& keyframes) {
+  std::unordered_map<map::KeyFrameId, map::KeyFrame*> index;
+  for (map::KeyFrame& kf : keyframes) index[kf.id] = &kf;
+  ByteReader in(body);
+  const std::size_t n = in.count(16);
+  for (std::size_t i = 0; i < n && in.ok(); ++i) {
+    const map::KeyFrameId id = in.i64();
+    const std::size_t n_edges = in.count(kCovisibilityBytes);
+    auto it = index.find(id);
+    if (in.ok() && it == index.end()) return refuse("section COVI names keyframe " + std::to_string(id));
+    for (std::size_t e = 0; e < n_edges && in.ok(); ++e) {
+      const map::KeyFrameId other = in.i64();
+      it->second->covisibility[other] = in.i32();
+    }
+  }
+  if (!in.ok()) return refuse("section COVI ends early");
+  return ok_status();
+}
+
+}  // namespace
+
+Expected<LoadedMap> decode_map(std::span<const std::uint8_t> bytes) {
+  std::uint32_t version = 0;
+  SITEPOSE_TRY(const auto payload, check_header(bytes, version));
+  SITEPOSE_TRY(const auto sections, split_sections(payload));
+  SITEPOSE_TRY(Meta meta, read_meta(sections.at(kMetaTag)));
+  SITEPOSE_TRY(std::vector<map::KeyFrame> keyframes, read_keyframes(sections.at(kKeyFramesTag)));
+  SITEPOSE_TRY(std::vector<map::MapPoint> points, read_points(sections.at(kPointsTag)));
+  SITEPOSE_TRY_STATUS(read_covisibility(sections.at(kCovisibilityTag), keyframes));
+  auto restored =
+      map::MapData::restore(meta.pyramid, std::move(keyframes), std::move(points), meta.first, meta.last);
+  if (!restored) return refuse("inconsistent map: " + restored.error().message);
+  return LoadedMap{std::move(restored).value(), std::move(meta.file), version};
+}
+
+}  // namespace sitepose::mapfile

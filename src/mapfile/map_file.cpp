@@ -1,0 +1,57 @@
+#include "sitepose/mapfile/map_file.hpp"
+
+#include <fstream>
+#include <iterator>
+#include <map>
+
+#include "sitepose/mapfile/atomic_file.hpp"
+
+namespace sitepose::mapfile {
+
+Status save_map(const std::filesystem::path& path, const map::MapData& map, const MapFileMeta& meta) {
+  const std::vector<std::uint8_t> bytes = encode_map(map, meta);
+  return write_file_atomically(path, bytes);
+}
+
+Expected<LoadedMap> load_map(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return make_error(ErrorCode::kNotFound, "map file " + path.string() + ": no such file");
+  }
+  std::ifstream in(path, std::ios::binary);
+  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) return make_error(ErrorCode::kIoError, "map file " + path.string() + ": cannot read");
+  auto loaded = decode_map(bytes);
+  if (!loaded) return make_error(loaded.error().code, path.string() + ": " + loaded.error().message);
+  return loaded;
+}
+
+MapSummary summarise(const LoadedMap& loaded, std::uint64_t file_bytes) {
+  MapSummary s;
+  s.version = loaded.version;
+  s.file_bytes = file_bytes;
+  s.meta = loaded.meta;
+  const map::MapData& map = loaded.map;
+  s.keyframes = map.keyframe_count();
+  s.points = map.point_count();
+  std::map<map::KeyFrameId, Eigen::Vector3d> centres;
+  for (const auto& [id, kf] : map.keyframes()) {
+    s.keypoints += kf.keypoints.size();
+    s.covisibility_edges += kf.covisibility.size();
+    centres[id] = kf.camera_center();
+  }
+  for (const auto& [id, p] : map.points()) s.observations += p.observations.size();
+  s.covisibility_edges /= 2;  // each edge is kept on both keyframes
+  bool first = true;
+  Eigen::Vector3d previous = Eigen::Vector3d::Zero();
+  for (const auto& [id, c] : centres) {
+    s.centre_min_m = first ? c : s.centre_min_m.cwiseMin(c);
+    s.centre_max_m = first ? c : s.centre_max_m.cwiseMax(c);
+    if (!first) s.path_length_m += (c - previous).norm();
+    previous = c;
+    first = false;
+  }
+  return s;
+}
+
+}  // namespace sitepose::mapfile
