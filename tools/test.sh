@@ -4,6 +4,9 @@
 # Extra arguments go to ctest, e.g. tools/test.sh -L unit
 # Sweeps (ctest label sweep, minutes each) are left out unless
 # SITEPOSE_SWEEPS=1, e.g. SITEPOSE_SWEEPS=1 tools/test.sh -L sweep
+# Without extra arguments, the tests labelled asan then run again under
+# AddressSanitizer + UndefinedBehaviorSanitizer (tools/asan.sh, build/asan);
+# SITEPOSE_ASAN=0 skips that.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh
@@ -12,3 +15,6 @@ build_dir=${SITEPOSE_BUILD_DIR:-build/release}
 labels=(-LE sweep)
 if [[ "${SITEPOSE_SWEEPS:-0}" == 1 ]]; then labels=(); fi
 ctest --test-dir "$build_dir" --output-on-failure -j "${SITEPOSE_JOBS:-2}" "${labels[@]}" "$@"
+if [[ $# -eq 0 && "${SITEPOSE_ASAN:-1}" != 0 ]]; then
+  bash tools/asan.sh
+fi
