@@ -48,7 +48,8 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
     for (const auto& o : report.objects) {
       ObjectSample s;
       s.frame = frame.frame.seq;
-      if (const auto it = frame.moving.find(o.verdict.instance); it != frame.moving.end()) s.moving_gt = it->second;
+      if (const auto it = frame.moving.find(o.verdict.instance); it != frame.moving.end())
+        s.moving_gt = it->second;
       s.object = o;
       result.samples.push_back(std::move(s));
     }
@@ -57,6 +58,7 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
   system->finish();
   result.keyframes = system->keyframe_count();
   result.points = system->point_count();
+  result.tracker_counters = system->tracker_counters();
   if (result.ground_truth.size() < 3 || result.estimate.size() < 3) {
     result.evaluation_error = "fewer than 3 ground-truth or estimated poses";
     return result;
@@ -112,7 +114,8 @@ int static_flips(const std::vector<ObjectSample>& samples, int min_points) {
     dynamic::MotionState last = dynamic::MotionState::kUnknown;
     for (const ObjectSample* s : list) {
       const dynamic::MotionState state = s->object.verdict.state;
-      const bool evidence_gone = state == dynamic::MotionState::kUnknown && s->object.verdict.points < min_points;
+      const bool evidence_gone =
+          state == dynamic::MotionState::kUnknown && s->object.verdict.points < min_points;
       if (seen_static && state != last && !evidence_gone) ++flips;
       if (state == dynamic::MotionState::kStatic) seen_static = true;
       last = state;

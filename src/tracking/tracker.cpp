@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <future>
+#include <iterator>
 #include <set>
 
 #include "sitepose/core/stopwatch.hpp"
@@ -429,6 +430,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
     ++counters_.frames_lost;
     state_ = TrackingState::kLost;
     has_velocity_ = false;
+    last_close_points_.clear();
     pose.state = TrackingState::kLost;
     pose.state_reason = result.failure;
     // Keep the last pose for relocalisation; the outputs carry LOST.
@@ -447,6 +449,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
       last_matches_.emplace_back(result.point_of_keypoint[k], frame.octave[k]);
     }
   }
+  count_close_repeatability(frame, result);
   map_.write([&](map::MapData& map) {
     for (map::PointId pid : result.visible_points) {
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
@@ -466,6 +469,29 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
   pose.counters.features_used = result.n_inliers;
   pose.counters.features_used_pass1 = result.n_inliers;
   return pose;
+}
+
+void Tracker::count_close_repeatability(const PreparedFrame& frame, const PassResult& result) {
+  std::vector<map::PointId> matched;
+  std::vector<map::PointId> close;
+  const double close_depth_m = config_.tracking.close_depth_baselines * camera_.baseline_m;
+  for (int k = 0; k < frame.size(); ++k) {
+    const map::PointId id = result.point_of_keypoint[k];
+    if (id == map::kNoPoint) continue;
+    matched.push_back(id);
+    const double depth = frame.features.depth_m[k];
+    if (depth > 0.0 && depth < close_depth_m) close.push_back(id);
+  }
+  std::sort(matched.begin(), matched.end());
+  std::sort(close.begin(), close.end());
+  if (!last_close_points_.empty()) {
+    std::vector<map::PointId> again;
+    std::set_intersection(last_close_points_.begin(), last_close_points_.end(), matched.begin(),
+                          matched.end(), std::back_inserter(again));
+    counters_.close_points_previous += static_cast<long>(last_close_points_.size());
+    counters_.close_points_rematched += static_cast<long>(again.size());
+  }
+  last_close_points_ = std::move(close);
 }
 
 Expected<PoseEstimate> Tracker::track(const StereoFrame& frame) {

@@ -7,12 +7,13 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "bench_report.hpp"
 #include "command_config.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/detect/create_detector.hpp"
-#include "sitepose/io/sequence.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
+#include "sitepose/io/sequence.hpp"
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"
@@ -64,13 +65,15 @@ int run(Args args) {
     const auto t0 = std::chrono::steady_clock::now();
     auto objects = slam::detect_objects(**detector, *frame);
     if (!objects) return fail(kCommand, objects.error().message, 1);
-    const double detect_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const double detect_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     auto report = (*system)->process(*frame, *objects);
     if (!report) return fail(kCommand, report.error().message, 1);
     report->timings.detect_ms = detect_ms;
     report->timings.total_ms += detect_ms;
     recorder.add(*report);
-    if ((i + 1) % 50 == 0 || i + 1 == frames) std::fprintf(stderr, "bench dynamic: %d/%d frames\n", i + 1, frames);
+    if ((i + 1) % 50 == 0 || i + 1 == frames)
+      std::fprintf(stderr, "bench dynamic: %d/%d frames\n", i + 1, frames);
   }
   (*system)->finish();
   const double whole = recorder.stage_total_ms("whole_frame");
@@ -84,7 +87,8 @@ int run(Args args) {
               config::to_string(config.dynamic.mode), args.detector.c_str(), recorder.frames_ok());
   std::printf("%-22s %10s %10s\n", "stage", "mean ms", "share");
   const auto row = [&](const char* name, double total) {
-    std::printf("%-22s %10.2f %9.1f %%\n", name, total / std::max(1, frames), whole > 0 ? 100.0 * total / whole : 0.0);
+    std::printf("%-22s %10.2f %9.1f %%\n", name, total / std::max(1, frames),
+                whole > 0 ? 100.0 * total / whole : 0.0);
   };
   row("detect", detect);
   row("mask (Algorithm 1)", mask);
@@ -92,9 +96,16 @@ int run(Args args) {
   row("pass 2", pass2);
   row("dynamic layer", dynamic_ms);
   row("whole frame", whole);
-  std::printf("dynamic layer share of frame time: %.1f %% (not in it: left ORB extraction, %.1f %% of the "
-              "frame, which includes the masked areas' own feature budget)\n",
-              whole > 0 ? 100.0 * dynamic_ms / whole : 0.0, whole > 0 ? 100.0 * extract / whole : 0.0);
+  std::printf(
+      "dynamic layer share of frame time: %.1f %% (not in it: left ORB extraction, %.1f %% of the "
+      "frame, which includes the masked areas' own feature budget)\n",
+      whole > 0 ? 100.0 * dynamic_ms / whole : 0.0, whole > 0 ? 100.0 * extract / whole : 0.0);
+  print_tracker_counters((*system)->tracker_counters());
+  const auto stages = recorder.stage_summaries();
+  if (const auto it = stages.find("whole_frame"); it != stages.end()) {
+    std::printf("whole frame p50 %.2f ms, p99 %.2f ms (detect included)\n", it->second.p50_ms,
+                it->second.p99_ms);
+  }
   return 0;
 }
 

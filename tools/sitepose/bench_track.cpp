@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "bench_report.hpp"
 #include "command_config.hpp"
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
@@ -55,11 +56,13 @@ int bench_track(const BenchTrackArgs& args) {
   }
   std::printf("frames/s (1000 / mean whole_frame): %.1f\n", run->recorder.frames_per_second());
   std::printf("keyframes in map %zu, points in map %zu\n", run->keyframes, run->points);
+  print_tracker_counters(run->tracker_counters);
   std::printf("peak RSS %.1f MiB\n", slam::peak_rss_bytes() / 1048576.0);
   for (std::size_t i = 0; i < rss_marks.size(); ++i) {
     std::printf("RSS after %d frames: %.1f MiB", rss_marks[i].first, rss_marks[i].second);
-    if (i > 0) std::printf(" (%.3f x the RSS after %d frames)", rss_marks[i].second / rss_marks[0].second,
-                           rss_marks[0].first);
+    if (i > 0)
+      std::printf(" (%.3f x the RSS after %d frames)", rss_marks[i].second / rss_marks[0].second,
+                  rss_marks[0].first);
     std::printf("\n");
   }
   if (run->evaluation) {
@@ -69,21 +72,23 @@ int bench_track(const BenchTrackArgs& args) {
   return 0;
 }
 
-const CommandRegistrar kBenchTrack{{"bench", "track",
-                                    "Tracking time per stage (p50/p99), frames/s and memory on a simulated scenario or a sequence",
-                                    [](CLI::App& sub) -> CommandAction {
-  auto args = std::make_shared<BenchTrackArgs>();
-  sub.add_option("--scenario", args->scenario, "Scenario to simulate in-process (ignored with --sequence)")
-      ->capture_default_str();
-  sub.add_option("--sequence", args->sequence, "Recorded sequence directory instead of a scenario");
-  sub.add_option("--config", args->config_path, "sitepose YAML config (mode is forced to none)");
-  sub.add_option("--frames", args->frames, "Frames to track (0 = all)")->capture_default_str();
-  sub.add_flag("!--inline-mapper", args->mapper_thread,
-               "Run local mapping inline on the tracking thread instead of its own thread");
-  sub.add_option("--rss-at", args->rss_at_frames, "Frame counts at which to report the resident set")
-      ->capture_default_str();
-  return [args] { return bench_track(*args); };
-}}};
+const CommandRegistrar kBenchTrack{
+    {"bench", "track",
+     "Tracking time per stage (p50/p99), frames/s and memory on a simulated scenario or a sequence",
+     [](CLI::App& sub) -> CommandAction {
+       auto args = std::make_shared<BenchTrackArgs>();
+       sub.add_option("--scenario", args->scenario,
+                      "Scenario to simulate in-process (ignored with --sequence)")
+           ->capture_default_str();
+       sub.add_option("--sequence", args->sequence, "Recorded sequence directory instead of a scenario");
+       sub.add_option("--config", args->config_path, "sitepose YAML config (mode is forced to none)");
+       sub.add_option("--frames", args->frames, "Frames to track (0 = all)")->capture_default_str();
+       sub.add_flag("!--inline-mapper", args->mapper_thread,
+                    "Run local mapping inline on the tracking thread instead of its own thread");
+       sub.add_option("--rss-at", args->rss_at_frames, "Frame counts at which to report the resident set")
+           ->capture_default_str();
+       return [args] { return bench_track(*args); };
+     }}};
 
 }  // namespace
 }  // namespace sitepose::cli

@@ -14,9 +14,10 @@
 #include "sitepose/core/expected.hpp"
 #include "sitepose/detect/detector.hpp"
 #include "sitepose/eval/evaluate.hpp"
-#include "sitepose/io/trajectory.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
+#include "sitepose/io/trajectory.hpp"
 #include "sitepose/slam/run_recorder.hpp"
+#include "sitepose/tracking/tracker.hpp"
 
 namespace sitepose::experiments {
 
@@ -56,6 +57,7 @@ struct DynamicRunResult {
   double max_mar = 0.0;
   std::size_t keyframes = 0;  // in the map at the end of the run
   std::size_t points = 0;
+  tracking::TrackerCounters tracker_counters;  // at the end of the run
 
   double coverage_ok() const;  // frames OK / frames
   double ate_m() const;        // RMSE, NaN without evaluation

@@ -46,6 +46,12 @@ struct TrackerCounters {
   int keyframes_created = 0;
   int relocalisations = 0;
   int frames_lost = 0;
+  // Close-point repeatability (a measurement, no effect on tracking): over
+  // consecutive tracked frames, the previous frame's matched close points
+  // (stereo depth < close_depth_baselines) and how many of them this frame
+  // matched again. rematched / previous = share re-found.
+  long close_points_previous = 0;
+  long close_points_rematched = 0;
 };
 
 class Tracker {
@@ -143,6 +149,8 @@ class Tracker {
                      const std::vector<std::uint8_t>& usable) const;
   void create_keyframe(const PreparedFrame& frame, const PassResult& result,
                        const std::vector<std::uint8_t>& usable);
+  // Updates the close-point repeatability counters with a committed frame.
+  void count_close_repeatability(const PreparedFrame& frame, const PassResult& result);
 
   StereoCamera camera_;
   config::SiteposeConfig config_;
@@ -163,6 +171,7 @@ class Tracker {
   Relocaliser relocaliser_;
   RelocalisationHold hold_;                                 // since the last relocalisation
   std::vector<std::pair<map::PointId, int>> last_matches_;  // point, octave
+  std::vector<map::PointId> last_close_points_;             // sorted; for the repeatability counters
   map::KeyFrameId reference_keyframe_ = map::kNoKeyFrame;
   std::int64_t last_keyframe_seq_ = -1;
   std::int64_t last_keyframe_t_ns_ = 0;
