@@ -16,6 +16,7 @@ struct Prepared {
   Shape shape;
   const Patch* patch;
   std::uint16_t instance;
+  std::uint8_t part;
 };
 
 bool inside(Shape shape, double s, double t) {
@@ -99,6 +100,7 @@ std::vector<Prepared> prepare(const Scene& scene, const StereoCamera& cam, const
       p.shape = patch.shape;
       p.patch = &patch;
       p.instance = inst.instance_id;
+      p.part = inst.part_id;
       out.push_back(p);
     }
   }
@@ -178,6 +180,7 @@ void Renderer::render(const Scene& scene, const StereoCamera& cam, const SE3& T_
   out.radiance.create(cam.height, cam.width, CV_32FC1);
   out.depth_m.create(cam.height, cam.width, CV_32FC1);
   out.instance.create(cam.height, cam.width, CV_16UC1);
+  out.part.create(cam.height, cam.width, CV_8UC1);
   const std::vector<Prepared> prims = prepare(scene, cam, T_world_cam, options_.near_m);
   const double w_min = 1.0 / options_.far_m;
   const double w_max = 1.0 / options_.near_m;
@@ -198,6 +201,7 @@ void Renderer::render(const Scene& scene, const StereoCamera& cam, const SE3& T_
           float* rad = out.radiance.ptr<float>(v);
           float* dep = out.depth_m.ptr<float>(v);
           std::uint16_t* ins = out.instance.ptr<std::uint16_t>(v);
+          std::uint8_t* part = out.part.ptr<std::uint8_t>(v);
           const int* idrow = idbuf.data() + static_cast<size_t>(v - r0) * cam.width;
           for (int u = 0; u < cam.width; ++u) {
             const int id = idrow[u];
@@ -208,11 +212,13 @@ void Renderer::render(const Scene& scene, const StereoCamera& cam, const SE3& T_
               rad[u] = static_cast<float>(opt.sky_horizon + (opt.sky_zenith - opt.sky_horizon) * elevation);
               dep[u] = std::numeric_limits<float>::infinity();
               ins[u] = 0;
+              part[u] = 0;
               continue;
             }
             const Prepared& p = prims[static_cast<size_t>(id)];
             rad[u] = shade_pixel(p, u, v, dep[u]);
             ins[u] = p.instance;
+            part[u] = p.part;
           }
         }
       },

@@ -88,8 +88,29 @@ void read_world(const YamlMap& m, WorldSpec& w) {
   }
 }
 
+void read_work(const YamlMap& m, MachineSpec& s) {
+  double last = -1.0;
+  for (const YamlMap& w : m.maps("work")) {
+    WorkSpec work;
+    w.read_required("at_s", work.at_s, at_least(0.0));
+    w.read_required("duration_s", work.duration_s, positive());
+    w.read("slew_deg", work.slew_deg, in_range(-360.0, 360.0));
+    w.read("dig_deg", work.dig_deg, in_range(-40.0, 40.0));
+    w.read("period_s", work.period_s, positive());
+    if (work.at_s <= last) w.report("at_s", "work intervals must be in time order and not overlap");
+    last = work.at_s + work.duration_s;
+    s.work.push_back(work);
+  }
+  if (m.has("work") && s.class_name != "excavator" && s.class_name != "loader") {
+    m.report("work", "only an excavator or a loader works in place");
+  }
+  if (m.has("work") && !s.waypoints.empty()) m.report("work", "a working machine is parked (no waypoints)");
+  m.read("pose", s.pose, one_of({"standing", "crouching"}));
+  if (m.has("pose") && s.class_name != "person") m.report("pose", "only a person has a pose");
+}
+
 void read_machine(const YamlMap& m, MachineSpec& s) {
-  m.read_required("class", s.class_name, one_of({"roller", "truck", "excavator"}));
+  m.read_required("class", s.class_name, one_of({"roller", "truck", "excavator", "loader", "person"}));
   m.read("paint", s.paint, one_of(detail::paint_names()));
   m.read("label", s.label);
   m.read("x_m", s.x_m);
@@ -127,6 +148,7 @@ void read_machine(const YamlMap& m, MachineSpec& s) {
     last = stop.at_s + stop.duration_s;
     s.stops.push_back(stop);
   }
+  read_work(m, s);
   if (s.waypoints.empty() && (m.has("stops") || m.has("speed_mps") || m.has("start_s"))) {
     m.report_here("speed_mps, start_s and stops need waypoints (a machine without them is parked)");
   }

@@ -60,22 +60,28 @@ Status prepare_dir(const fs::path& dir, bool force) {
   std::error_code ec;
   if (fs::exists(dir, ec)) {
     if (!fs::is_directory(dir, ec)) {
-      return make_error(ErrorCode::kInvalidArgument, "output " + dir.string() + " exists and is not a folder");
+      return make_error(ErrorCode::kInvalidArgument,
+                        "output " + dir.string() + " exists and is not a folder");
     }
     if (!fs::is_empty(dir, ec)) {
       if (!force) {
-        return make_error(ErrorCode::kInvalidArgument,
-                          "output folder " + dir.string() + " is not empty (use --force to replace the sequence in it)");
+        return make_error(
+            ErrorCode::kInvalidArgument,
+            "output folder " + dir.string() + " is not empty (use --force to replace the sequence in it)");
       }
-      for (const char* name : {"image_0", "image_1", "labels", "calib.txt", "times.txt", "poses.txt", "meta.json"}) {
+      for (const char* name :
+           {"image_0", "image_1", "labels", "calib.txt", "times.txt", "poses.txt", "meta.json"}) {
         fs::remove_all(dir / name, ec);
-        if (ec) return make_error(ErrorCode::kIoError, "cannot remove " + (dir / name).string() + ": " + ec.message());
+        if (ec)
+          return make_error(ErrorCode::kIoError,
+                            "cannot remove " + (dir / name).string() + ": " + ec.message());
       }
     }
   }
   for (const char* sub : {"image_0", "image_1", "labels/masks"}) {
     fs::create_directories(dir / sub, ec);
-    if (ec) return make_error(ErrorCode::kIoError, "cannot create " + (dir / sub).string() + ": " + ec.message());
+    if (ec)
+      return make_error(ErrorCode::kIoError, "cannot create " + (dir / sub).string() + ": " + ec.message());
   }
   return ok_status();
 }
@@ -97,7 +103,8 @@ Expected<WriteSummary> write_sequence(const Simulator& sim, const std::string& d
         << cam.cy << " 0 0 0 1 0\n";
   if (sim.distorted()) {
     const DistortionSpec& d = sc.realism.distortion;
-    for (const char* key : {"D0: ", "D1: "}) calib << key << d.k1 << " " << d.k2 << " " << d.p1 << " " << d.p2 << "\n";
+    for (const char* key : {"D0: ", "D1: "})
+      calib << key << d.k1 << " " << d.k2 << " " << d.p1 << " " << d.p2 << "\n";
   }
   SITEPOSE_TRY_STATUS(write_text(dir / "calib.txt", calib.str()));
 
@@ -105,6 +112,14 @@ Expected<WriteSummary> write_sequence(const Simulator& sim, const std::string& d
   times << std::setprecision(12);
   poses << std::setprecision(12);
   boxes << "frame,instance,class,x,y,w,h,moving\n";
+  // Articulated machines: one row per visible part, and part masks.
+  std::ostringstream parts;
+  parts << "frame,instance,part,name,x,y,w,h,moving\n";
+  if (sim.has_articulated()) {
+    std::error_code ec;
+    fs::create_directories(dir / "labels" / "parts", ec);
+    if (ec) return make_error(ErrorCode::kIoError, "cannot create " + (dir / "labels" / "parts").string());
+  }
   WriteSummary summary;
   const int n = sim.frame_count();
   for (int k = 0; k < n; ++k) {
@@ -119,6 +134,15 @@ Expected<WriteSummary> write_sequence(const Simulator& sim, const std::string& d
       if (!o.visible) continue;
       boxes << k << "," << o.instance << "," << o.class_name << "," << o.box.x << "," << o.box.y << ","
             << o.box.width << "," << o.box.height << "," << (o.moving ? 1 : 0) << "\n";
+      for (const PartTruth& p : o.parts) {
+        if (!p.visible) continue;
+        parts << k << "," << o.instance << "," << static_cast<int>(p.part) << "," << p.name << "," << p.box.x
+              << "," << p.box.y << "," << p.box.width << "," << p.box.height << "," << (p.moving ? 1 : 0)
+              << "\n";
+      }
+    }
+    if (sim.has_articulated()) {
+      SITEPOSE_TRY_STATUS(write_png(dir / "labels" / "parts" / frame_name(k), f.part_mask));
     }
     occlusion << (k ? "," : "") << std::setprecision(5) << f.occlusion_ratio;
     machine_occlusion << (k ? "," : "") << std::setprecision(5) << f.machine_occlusion_ratio;
@@ -130,6 +154,7 @@ Expected<WriteSummary> write_sequence(const Simulator& sim, const std::string& d
   SITEPOSE_TRY_STATUS(write_text(dir / "times.txt", times.str()));
   SITEPOSE_TRY_STATUS(write_text(dir / "poses.txt", poses.str()));
   SITEPOSE_TRY_STATUS(write_text(dir / "labels" / "boxes.csv", boxes.str()));
+  if (sim.has_articulated()) SITEPOSE_TRY_STATUS(write_text(dir / "labels" / "parts.csv", parts.str()));
 
   std::ostringstream meta;
   meta << std::setprecision(12);
@@ -137,9 +162,10 @@ Expected<WriteSummary> write_sequence(const Simulator& sim, const std::string& d
   meta << "  \"scenario\": \"" << json_escape(sc.name) << "\",\n";
   meta << "  \"description\": \"" << json_escape(sc.description) << "\",\n";
   meta << "  \"seed\": " << sc.seed << ",\n  \"fps\": " << sc.fps << ",\n  \"frames\": " << n << ",\n";
-  meta << "  \"camera\": {\"width\": " << cam.width << ", \"height\": " << cam.height << ", \"fx\": " << cam.fx
-       << ", \"fy\": " << cam.fy << ", \"cx\": " << cam.cx << ", \"cy\": " << cam.cy
-       << ", \"baseline_m\": " << cam.baseline_m << ", \"rectified\": " << (sim.distorted() ? "false" : "true");
+  meta << "  \"camera\": {\"width\": " << cam.width << ", \"height\": " << cam.height
+       << ", \"fx\": " << cam.fx << ", \"fy\": " << cam.fy << ", \"cx\": " << cam.cx << ", \"cy\": " << cam.cy
+       << ", \"baseline_m\": " << cam.baseline_m
+       << ", \"rectified\": " << (sim.distorted() ? "false" : "true");
   if (sim.distorted()) {
     const DistortionSpec& d = sc.realism.distortion;
     meta << ", \"distortion\": {\"model\": \"plumb_bob\", \"k1\": " << d.k1 << ", \"k2\": " << d.k2
@@ -151,8 +177,10 @@ Expected<WriteSummary> write_sequence(const Simulator& sim, const std::string& d
   write_3x4(meta, sim.T_site_world().matrix3x4());
   meta << "],\n";
   meta << "  \"site_frame\": \"x along the ego lane, y left of +x, z up, ground z = 0\",\n";
-  meta << "  \"moving\": \"1 when the object's site pose differs from the previous frame (frame 0: from frame 1)\",\n";
-  meta << "  \"occlusion_ratio_definition\": \"fraction of left-image pixels on any labelled object, cones included\",\n";
+  meta << "  \"moving\": \"1 when the object's site pose differs from the previous frame (frame 0: from "
+          "frame 1)\",\n";
+  meta << "  \"occlusion_ratio_definition\": \"fraction of left-image pixels on any labelled object, cones "
+          "included\",\n";
   meta << "  \"occlusion_ratio\": [" << occlusion.str() << "],\n";
   meta << "  \"machine_occlusion_ratio\": [" << machine_occlusion.str() << "],\n";
   meta << "  \"exposure_gain\": [" << gains.str() << "]\n}\n";

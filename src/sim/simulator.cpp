@@ -119,6 +119,19 @@ MeshPtr site_background(const Scenario& s, const SpeedProfile& ego_profile, int 
   return std::make_shared<const Mesh>(detail::make_background(world_rng, layout));
 }
 
+// Joint angle of a working machine at t: each work interval adds its
+// half-cosine stroke, held once the interval is over.
+double work_angle_rad(const std::vector<WorkSpec>& work, double t_s, bool slew) {
+  double angle = 0.0;
+  for (const WorkSpec& w : work) {
+    if (t_s <= w.at_s) break;
+    const double tau = std::min(t_s - w.at_s, w.duration_s);
+    const double amplitude = (slew ? w.slew_deg : w.dig_deg) * kDegToRad;
+    angle += amplitude * 0.5 * (1.0 - std::cos(2.0 * std::numbers::pi * tau / w.period_s));
+  }
+  return angle;
+}
+
 // A machine's speed along its path: start, then its stops.
 SpeedProfile machine_speed_profile(const MachineSpec& m) {
   std::vector<SpeedChange> mc{{m.start_s, m.speed_mps}};
@@ -159,10 +172,23 @@ void Simulator::add_objects() {
     o.class_name = m.class_name;
     Rng mrng(mix64(static_cast<std::uint64_t>(s.seed) * 104729ull + o.instance));
     const detail::MachineLook look{m.paint, m.label};
-    Mesh mesh = m.class_name == "roller"  ? detail::make_roller(mrng, look)
-                : m.class_name == "truck" ? detail::make_truck(mrng, look)
-                                          : detail::make_excavator(mrng, look);
-    o.mesh = std::make_shared<const Mesh>(std::move(mesh));
+    if (m.class_name == "loader" || (m.class_name == "excavator" && !m.work.empty())) {
+      const std::vector<detail::JointPart> parts = m.class_name == "loader"
+                                                       ? detail::make_loader_parts(mrng, look)
+                                                       : detail::make_excavator_parts(mrng, look);
+      for (const detail::JointPart& jp : parts) {
+        o.parts.push_back({jp.name, std::make_shared<const Mesh>(jp.mesh), jp.parent, jp.pivot, jp.axis,
+                           static_cast<int>(jp.drive), jp.gain});
+      }
+      o.work = m.work;
+      articulated_ = true;
+    } else {
+      Mesh mesh = m.class_name == "roller"   ? detail::make_roller(mrng, look)
+                  : m.class_name == "truck"  ? detail::make_truck(mrng, look)
+                  : m.class_name == "person" ? detail::make_person(mrng, look, m.pose == "crouching")
+                                             : detail::make_excavator(mrng, look);
+      o.mesh = std::make_shared<const Mesh>(std::move(mesh));
+    }
     o.parked = planar_pose(m.x_m, m.y_m, m.yaw_deg * kDegToRad);
     if (!m.waypoints.empty()) {
       std::vector<Eigen::Vector2d> pts;
@@ -239,11 +265,72 @@ SE3 Simulator::object_pose(const Object& o, double t_s) const {
   return planar_pose(p.x(), p.y(), yaw);
 }
 
+std::vector<SE3> Simulator::part_poses(const Object& o, double t_s) {
+  const double slew = work_angle_rad(o.work, t_s, true);
+  const double dig = work_angle_rad(o.work, t_s, false);
+  std::vector<SE3> poses;
+  poses.reserve(o.parts.size());
+  for (const Part& p : o.parts) {
+    const double angle = p.gain * (p.drive == 1 ? slew : p.drive == 2 ? dig : 0.0);
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(angle, p.axis));
+    const SE3 local(q, p.pivot - q * p.pivot);  // turn about the pivot
+    poses.push_back(p.parent < 0 ? local : poses[static_cast<size_t>(p.parent)] * local);
+  }
+  return poses;
+}
+
 Scene Simulator::scene_at(double t_s) const {
   Scene scene;
   scene.instances.push_back({background_, SE3::identity(), 0});
-  for (const Object& o : objects_) scene.instances.push_back({o.mesh, object_pose(o, t_s), o.instance});
+  for (const Object& o : objects_) {
+    const SE3 T_world_obj = object_pose(o, t_s);
+    if (o.parts.empty()) {
+      scene.instances.push_back({o.mesh, T_world_obj, o.instance});
+      continue;
+    }
+    const std::vector<SE3> poses = part_poses(o, t_s);
+    for (size_t i = 0; i < o.parts.size(); ++i) {
+      scene.instances.push_back(
+          {o.parts[i].mesh, T_world_obj * poses[i], o.instance, static_cast<std::uint8_t>(i + 1)});
+    }
+  }
   return scene;
+}
+
+void Simulator::part_truth(const Object& o, const SimFrame& f, double t_other, ObjectTruth& truth) const {
+  const std::vector<SE3> now = part_poses(o, f.t_s);
+  const std::vector<SE3> other = part_poses(o, t_other);
+  const SE3 T_site_other = object_pose(o, t_other);
+  for (size_t i = 0; i < o.parts.size(); ++i) {
+    PartTruth p;
+    p.part = static_cast<std::uint8_t>(i + 1);
+    p.name = o.parts[i].name;
+    p.T_site_part = truth.T_site_obj * now[i];
+    p.moving = !same_pose(p.T_site_part, T_site_other * other[i]);
+    truth.moving = truth.moving || p.moving;
+    truth.parts.push_back(p);
+  }
+  // Tight boxes of the part's pixels.
+  std::vector<int> u0(o.parts.size(), INT32_MAX), v0(o.parts.size(), INT32_MAX), u1(o.parts.size(), -1),
+      v1(o.parts.size(), -1);
+  for (int v = 0; v < f.instance_mask.rows; ++v) {
+    const std::uint16_t* ins = f.instance_mask.ptr<std::uint16_t>(v);
+    const std::uint8_t* part = f.part_mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < f.instance_mask.cols; ++u) {
+      if (ins[u] != o.instance || part[u] == 0 || part[u] > o.parts.size()) continue;
+      const size_t i = part[u] - 1u;
+      u0[i] = std::min(u0[i], u);
+      u1[i] = std::max(u1[i], u);
+      v0[i] = std::min(v0[i], v);
+      v1[i] = std::max(v1[i], v);
+      ++truth.parts[i].pixels;
+    }
+  }
+  for (size_t i = 0; i < o.parts.size(); ++i) {
+    if (truth.parts[i].pixels == 0) continue;
+    truth.parts[i].visible = true;
+    truth.parts[i].box = cv::Rect(u0[i], v0[i], u1[i] - u0[i] + 1, v1[i] - v0[i] + 1);
+  }
 }
 
 cv::Mat Simulator::render_radiance(double t_s, bool right_camera, RenderBuffers* labels) const {
@@ -327,6 +414,7 @@ SimFrame Simulator::render(int k) const {
   cv::Mat rad_right = render_radiance(f.t_s, true, nullptr);
   f.depth_m = labels.depth_m;
   f.instance_mask = labels.instance;
+  if (articulated_) f.part_mask = labels.part;
   if (distorted()) {
     cv::Mat left_d, right_d;  // separate buffers: remap must not write into its source
     cv::remap(rad_left, left_d, distort_map_x_, distort_map_y_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
@@ -335,6 +423,10 @@ SimFrame Simulator::render(int k) const {
     rad_right = right_d;
     cv::remap(labels.instance, f.instance_mask, distort_map_x_, distort_map_y_, cv::INTER_NEAREST,
               cv::BORDER_CONSTANT, 0);
+    if (articulated_) {
+      cv::remap(labels.part, f.part_mask, distort_map_x_, distort_map_y_, cv::INTER_NEAREST,
+                cv::BORDER_CONSTANT, 0);
+    }
   }
   f.exposure_gain = exposure_gain(k);
   f.left = to_image(rad_left, f.exposure_gain, k, 0);
@@ -350,6 +442,7 @@ SimFrame Simulator::render(int k) const {
     truth.class_name = o.class_name;
     truth.T_site_obj = object_pose(o, f.t_s);
     truth.moving = !same_pose(truth.T_site_obj, object_pose(o, t_other));
+    if (!o.parts.empty()) part_truth(o, f, t_other, truth);
     index_of[o.instance] = static_cast<int>(i);
     f.objects.push_back(truth);
   }

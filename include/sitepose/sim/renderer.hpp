@@ -30,6 +30,7 @@ struct RenderBuffers {
   cv::Mat radiance;  // CV_32FC1, 0..255 before exposure and noise
   cv::Mat depth_m;   // CV_32FC1, z in the camera frame; +inf where sky
   cv::Mat instance;  // CV_16UC1, SceneInstance::instance_id (0 = background)
+  cv::Mat part;      // CV_8UC1, SceneInstance::part_id (0 = background or not a part)
 };
 
 class Renderer {

@@ -80,8 +80,21 @@ struct StopSpec {
   double duration_s = 0.0;  // standing still after braking
 };
 
+// Work of a machine that stands (excavator, loader): during the interval its
+// joints follow (1 - cos(2 pi tau / period_s)) / 2 of their amplitudes
+// (tau = time since at_s) and keep the pose they reached afterwards. slew:
+// the excavator's house about its vertical axis; dig: boom, arm and bucket
+// (excavator) or lift arms and bucket (loader).
+struct WorkSpec {
+  double at_s = 0.0;
+  double duration_s = 0.0;
+  double slew_deg = 0.0;
+  double dig_deg = 0.0;
+  double period_s = 8.0;
+};
+
 struct MachineSpec {
-  std::string class_name;  // roller | truck | excavator
+  std::string class_name;  // roller | truck | excavator | loader | person
   std::string paint = "yellow";
   std::string label;  // painted text; empty = model default
   // Without a path: parked at (x, y) with yaw. With a path: starts at its
@@ -93,6 +106,10 @@ struct MachineSpec {
   double accel_mps2 = 0.4;
   bool reverse = false;
   std::vector<StopSpec> stops;
+  // excavator, loader: joint motion while standing (an excavator with work
+  // is rendered from its parts; without, as one rigid mesh).
+  std::vector<WorkSpec> work;
+  std::string pose = "standing";  // person: standing | crouching (with waypoints: walking)
 };
 
 struct ConeSpec {

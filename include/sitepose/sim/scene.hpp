@@ -55,6 +55,7 @@ struct SceneInstance {
   MeshPtr mesh;
   SE3 T_world_obj;
   std::uint16_t instance_id = 0;  // 0 = background (not an object)
+  std::uint8_t part_id = 0;       // articulated machines: 1 + part index; 0 = not a part
 };
 
 struct Scene {

@@ -7,6 +7,11 @@
 //   poses.txt     T_world_cam of the left camera, world = left camera at frame 0
 //   labels/boxes.csv      frame,instance,class,x,y,w,h,moving (visible objects)
 //   labels/masks/NNNNNN.png  CV_16UC1 instance ids of the left image
+//   labels/parts.csv      frame,instance,part,name,x,y,w,h,moving (visible
+//                         parts of articulated machines), and
+//   labels/parts/NNNNNN.png  CV_8UC1 part ids (PartTruth::part) of the left
+//                         image; both only when the scenario has articulated
+//                         machines (other sequences are unchanged)
 //   meta.json     scenario, seed, fps, frames, camera, T_site_world,
 //                 per-frame occlusion ratios and exposure gains
 // Runs on the calling thread (rendering uses OpenCV's pool).

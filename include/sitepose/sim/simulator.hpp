@@ -42,13 +42,27 @@ struct SimOptions {
   std::optional<double> fps;
 };
 
+// One rigid part of an articulated machine (excavator with work, loader).
+struct PartTruth {
+  std::uint8_t part = 0;  // 1 + index in the machine's part list; the part mask's value
+  std::string name;       // undercarriage, house, boom, arm, bucket, body
+  SE3 T_site_part;        // maps the machine's rest-pose model frame
+  bool moving = false;    // same rule as ObjectTruth::moving, for this part
+  bool visible = false;
+  cv::Rect box;
+  int pixels = 0;
+};
+
 struct ObjectTruth {
   std::uint16_t instance = 0;  // > 0, stable across frames
-  std::string class_name;      // roller | truck | excavator | cone
+  std::string class_name;      // roller | truck | excavator | loader | person | cone
   SE3 T_site_obj;
+  // 1 when its base pose or any part's pose changed (a slewing excavator
+  // whose tracks stand is moving).
   bool moving = false;
-  bool visible = false;  // has pixels in the left mask
-  cv::Rect box;          // tight bounds of its mask pixels (when visible)
+  std::vector<PartTruth> parts;  // empty for rigid objects
+  bool visible = false;          // has pixels in the left mask
+  cv::Rect box;                  // tight bounds of its mask pixels (when visible)
   int pixels = 0;
 };
 
@@ -59,10 +73,13 @@ struct SimFrame {
   cv::Mat left;           // CV_8UC1 (unrectified when the scenario asks for distortion)
   cv::Mat right;          // CV_8UC1
   cv::Mat instance_mask;  // CV_16UC1, left image, same geometry as `left`
-  cv::Mat depth_m;        // CV_32FC1, left rectified depth (z), +inf for sky
+  // CV_8UC1, PartTruth::part of articulated machines (0 elsewhere); empty
+  // when the scenario has none.
+  cv::Mat part_mask;
+  cv::Mat depth_m;  // CV_32FC1, left rectified depth (z), +inf for sky
   SE3 T_world_cam;
   SE3 T_site_cam;
-  std::vector<ObjectTruth> objects;  // every object, visible or not
+  std::vector<ObjectTruth> objects;      // every object, visible or not
   double occlusion_ratio = 0.0;          // left pixels on any object (machines and cones)
   double machine_occlusion_ratio = 0.0;  // left pixels on machines only
   double exposure_gain = 1.0;            // gain applied to the left image
@@ -87,8 +104,18 @@ class Simulator {
   double ego_speed_mps(double t_s) const { return ego_profile_.speed_mps(t_s); }
 
   SimFrame render(int frame_index) const;
+  bool has_articulated() const { return articulated_; }
 
  private:
+  struct Part {
+    std::string name;
+    MeshPtr mesh;
+    int parent = -1;  // earlier part, -1 = the base
+    Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
+    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+    int drive = 0;  // 0 fixed, 1 slew, 2 dig
+    double gain = 0.0;
+  };
   struct Object {
     std::uint16_t instance = 0;
     std::string class_name;
@@ -98,12 +125,17 @@ class Simulator {
     Polyline path;
     SpeedProfile profile;
     bool reverse = false;
+    std::vector<Part> parts;  // articulated: rendered part by part, `mesh` unused
+    std::vector<WorkSpec> work;
   };
 
   Simulator() : renderer_(RenderOptions{}) {}
   void add_objects();           // the scenario's machines and cones
   void make_distortion_maps();  // distort_map_x_ / _y_ for the camera
   SE3 object_pose(const Object& o, double t_s) const;
+  // T_obj_part of each part at t (rest-pose model frame to the base frame).
+  static std::vector<SE3> part_poses(const Object& o, double t_s);
+  void part_truth(const Object& o, const SimFrame& f, double t_other, ObjectTruth& truth) const;
   Scene scene_at(double t_s) const;
   cv::Mat render_radiance(double t_s, bool right_camera, RenderBuffers* labels) const;
   cv::Mat to_image(const cv::Mat& radiance, double gain, int frame_index, int camera_index) const;
@@ -120,6 +152,7 @@ class Simulator {
   double vib_phase_[4] = {0, 0, 0, 0};
   double exposure_phase_[2] = {0, 0};
   cv::Mat distort_map_x_, distort_map_y_;  // distorted pixel -> rectified pixel
+  bool articulated_ = false;
 };
 
 }  // namespace sitepose::sim

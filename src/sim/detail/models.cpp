@@ -178,8 +178,8 @@ TexturePtr hub(Rng& rng, double radius_m, int paint, bool tyre) {
   c.circle(radius_m, radius_m, radius_m * 0.22, 70, true);
   for (int i = 0; i < 8; ++i) {
     const double a = 2.0 * std::numbers::pi * i / 8.0;
-    c.circle(radius_m + 0.4 * radius_m * std::cos(a), radius_m + 0.4 * radius_m * std::sin(a),
-             0.025, 225, true);
+    c.circle(radius_m + 0.4 * radius_m * std::cos(a), radius_m + 0.4 * radius_m * std::sin(a), 0.025, 225,
+             true);
   }
   c.text(std::to_string(rng.integer(10, 99)), radius_m * 0.7, radius_m * 1.75, radius_m * 0.12, 200);
   c.dirt(0.4, 0.8);
@@ -188,7 +188,7 @@ TexturePtr hub(Rng& rng, double radius_m, int paint, bool tyre) {
 
 TexturePtr track_side(Rng& rng, double w, double h) {
   Canvas c(rng, w, h, kMachineTpm, 55, 8.0);
-  for (double x = 0.0; x < w; x += 0.19) c.rect(x, 0.0, 0.07, h, 30);  // grousers
+  for (double x = 0.0; x < w; x += 0.19) c.rect(x, 0.0, 0.07, h, 30);                   // grousers
   for (double x = 0.4; x < w - 0.3; x += 0.55) c.circle(x, h * 0.62, 0.13, 150, true);  // rollers
   c.rect(0.2, h * 0.25, w - 0.4, 0.08, 90);
   c.dirt(0.8, 0.6);
@@ -201,8 +201,8 @@ TexturePtr load_top(Rng& rng, double w, double h) {
   return tex(img);
 }
 
-BoxTextures painted_box(Rng& rng, const Vector3d& size, int paint, double dirt,
-                        const std::string& label, bool stripes, bool grille) {
+BoxTextures painted_box(Rng& rng, const Vector3d& size, int paint, double dirt, const std::string& label,
+                        bool stripes, bool grille) {
   BoxTextures t;
   t.left = painted_panel(rng, size.x(), size.z(), paint, dirt, label, stripes, grille);
   t.right = painted_panel(rng, size.x(), size.z(), paint, dirt, label, stripes, grille);
@@ -231,9 +231,11 @@ Mesh make_roller(Rng& rng, const MachineLook& look) {
   // Front drum and its frame.
   add_cylinder(m, {1.9, 0.0, 0.75}, 0.75, 2.1, 16, steel_drum(rng, 2 * std::numbers::pi * 0.75, 2.1),
                hub(rng, 0.75, paint, false));
-  add_box(m, {1.0, -1.15, 1.35}, {1.8, 2.3, 0.4}, painted_box(rng, {1.8, 2.3, 0.4}, paint, 0.3, "", true, false));
+  add_box(m, {1.0, -1.15, 1.35}, {1.8, 2.3, 0.4},
+          painted_box(rng, {1.8, 2.3, 0.4}, paint, 0.3, "", true, false));
   for (double y : {-1.2, 1.07}) {
-    add_box(m, {1.25, y, 0.35}, {1.3, 0.13, 1.05}, painted_box(rng, {1.3, 0.13, 1.05}, paint, 0.5, "", false, false));
+    add_box(m, {1.25, y, 0.35}, {1.3, 0.13, 1.05},
+            painted_box(rng, {1.3, 0.13, 1.05}, paint, 0.5, "", false, false));
   }
   // Rear body (engine) with wheels.
   const Vector3d body_size(3.8, 2.2, 1.4);
@@ -250,7 +252,8 @@ Mesh make_roller(Rng& rng, const MachineLook& look) {
   cab.back = cab_side(rng, 1.9, 1.1, paint, false);
   cab.top = painted_panel(rng, 2.0, 1.9, paint, 0.2, "", false, false);
   add_box(m, {-1.7, -0.95, 1.9}, {2.0, 1.9, 1.1}, cab);
-  add_box(m, {-1.85, -1.05, 3.0}, {2.3, 2.1, 0.15}, painted_box(rng, {2.3, 2.1, 0.15}, paint, 0.2, "", false, false));
+  add_box(m, {-1.85, -1.05, 3.0}, {2.3, 2.1, 0.15},
+          painted_box(rng, {2.3, 2.1, 0.15}, paint, 0.2, "", false, false));
   add_box(m, {-0.8, -0.1, 3.15}, {-0.6, 0.1, 3.35}, tex(Canvas(rng, 0.2, 0.2, kMachineTpm, 170).image()));
   return m;
 }
@@ -279,11 +282,13 @@ Mesh make_truck(Rng& rng, const MachineLook& look) {
   add_box(m, {2.6, -1.25, 1.0}, {1.65, 2.5, 2.2}, cab);
   // Tipper body with ribs, fleet number and a load of soil on top.
   const Vector3d bed_size(6.6, 2.5, 1.8);
-  BoxTextures bed = painted_box(rng, bed_size, paint_level("gray") + rng.integer(-20, 30), 0.6, label, false, false);
+  BoxTextures bed =
+      painted_box(rng, bed_size, paint_level("gray") + rng.integer(-20, 30), 0.6, label, false, false);
   bed.top = load_top(rng, bed_size.x(), bed_size.y());
   add_box(m, {-4.2, -1.25, 1.1}, bed_size, bed);
   // Fuel tank, mudguards, wheels.
-  add_box(m, {0.6, -1.2, 0.6}, {1.2, 0.35, 0.55}, painted_box(rng, {1.2, 0.35, 0.55}, 190, 0.5, "DIESEL", false, false));
+  add_box(m, {0.6, -1.2, 0.6}, {1.2, 0.35, 0.55},
+          painted_box(rng, {1.2, 0.35, 0.55}, 190, 0.5, "DIESEL", false, false));
   const TexturePtr tread = tyre_tread(rng, 2 * std::numbers::pi * 0.52, 0.45);
   const TexturePtr wheel_hub = hub(rng, 0.52, 200, true);
   for (double x : {3.3, -1.6, -2.9}) {
@@ -292,41 +297,134 @@ Mesh make_truck(Rng& rng, const MachineLook& look) {
   return m;
 }
 
-Mesh make_excavator(Rng& rng, const MachineLook& look) {
-  Mesh m;
+std::vector<JointPart> make_excavator_parts(Rng& rng, const MachineLook& look) {
   const int paint = paint_or_default(look.paint);
   const std::string label = look.label.empty() ? "EX 320" : look.label;
+  std::vector<JointPart> parts(5);
+  JointPart& under = parts[0];
+  under.name = "undercarriage";
   for (double y : {0.7, -1.35}) {
     BoxTextures t;
     t.left = t.right = track_side(rng, 4.6, 0.9);
     t.front = t.back = track_side(rng, 0.65, 0.9);
     t.top = track_side(rng, 4.6, 0.65);
-    add_box(m, {-2.3, y, 0.0}, {4.6, 0.65, 0.9}, t);
+    add_box(under.mesh, {-2.3, y, 0.0}, {4.6, 0.65, 0.9}, t);
   }
-  add_box(m, {-1.0, -0.7, 0.3}, {1.0, 0.7, 1.0}, painted_panel(rng, 2.0, 0.7, 60, 0.8, "", false, false));
+  add_box(under.mesh, {-1.0, -0.7, 0.3}, {1.0, 0.7, 1.0},
+          painted_panel(rng, 2.0, 0.7, 60, 0.8, "", false, false));
+  JointPart& house_part = parts[1];
+  house_part = {"house", {}, 0, Vector3d::Zero(), Vector3d::UnitZ(), JointDrive::kSlew, 1.0};
   const Vector3d house(3.2, 2.7, 1.3);
-  add_box(m, {-2.2, -1.35, 1.0}, house, painted_box(rng, house, paint, 0.3, label, false, true));
-  add_box(m, {-2.65, -1.35, 1.0}, {0.45, 2.7, 1.15}, painted_box(rng, {0.45, 2.7, 1.15}, 60, 0.4, "", true, false));
+  add_box(house_part.mesh, {-2.2, -1.35, 1.0}, house,
+          painted_box(rng, house, paint, 0.3, label, false, true));
+  add_box(house_part.mesh, {-2.65, -1.35, 1.0}, {0.45, 2.7, 1.15},
+          painted_box(rng, {0.45, 2.7, 1.15}, 60, 0.4, "", true, false));
   BoxTextures cab;
   cab.left = cab_side(rng, 1.7, 2.0, paint, true);
   cab.right = cab_side(rng, 1.7, 2.0, paint, false);
   cab.front = cab_side(rng, 1.0, 2.0, paint, false);
   cab.back = painted_panel(rng, 1.0, 2.0, paint, 0.2, "", false, false);
   cab.top = painted_panel(rng, 1.7, 1.0, paint, 0.2, "", false, false);
-  add_box(m, {0.0, 0.35, 1.0}, {1.7, 1.0, 2.0}, cab);
-  // Boom up 40 deg, stick down, bucket: tilted boxes.
+  add_box(house_part.mesh, {0.0, 0.35, 1.0}, {1.7, 1.0, 2.0}, cab);
+  // Boom up 40 deg, stick down, bucket: tilted boxes. Digging lowers the
+  // boom a little and curls stick and bucket in (turns about y).
   const double boom_len = 4.2, stick_len = 2.6;
   const Eigen::Matrix3d R_boom = pitch_up(40.0 * std::numbers::pi / 180.0);
   const Vector3d boom_start(0.9, -0.55, 1.6);
-  add_box(m, boom_start, {boom_len, 0.5, 0.55},
+  parts[2] = {"boom", {}, 1, boom_start, Vector3d::UnitY(), JointDrive::kDig, 0.35};
+  add_box(parts[2].mesh, boom_start, {boom_len, 0.5, 0.55},
           painted_box(rng, {boom_len, 0.5, 0.55}, paint, 0.4, "", false, false), R_boom);
   const Vector3d boom_end = boom_start + R_boom.col(0) * boom_len;
   const Eigen::Matrix3d R_stick = pitch_up(-60.0 * std::numbers::pi / 180.0);
-  add_box(m, boom_end, {stick_len, 0.45, 0.45},
+  parts[3] = {"arm", {}, 2, boom_end, Vector3d::UnitY(), JointDrive::kDig, -0.8};
+  add_box(parts[3].mesh, boom_end, {stick_len, 0.45, 0.45},
           painted_box(rng, {stick_len, 0.45, 0.45}, paint, 0.5, "", false, false), R_stick);
   const Vector3d stick_end = boom_end + R_stick.col(0) * stick_len;
-  add_box(m, stick_end - Vector3d(0.3, 0.0, 0.4), {0.9, 1.1, 0.8},
+  parts[4] = {"bucket", {}, 3, stick_end, Vector3d::UnitY(), JointDrive::kDig, -1.2};
+  add_box(parts[4].mesh, stick_end - Vector3d(0.3, 0.0, 0.4), {0.9, 1.1, 0.8},
           painted_box(rng, {0.9, 1.1, 0.8}, 70, 1.0, "", false, false));
+  return parts;
+}
+
+Mesh merge_parts(const std::vector<JointPart>& parts) {
+  Mesh m;
+  for (const JointPart& p : parts)
+    m.patches.insert(m.patches.end(), p.mesh.patches.begin(), p.mesh.patches.end());
+  return m;
+}
+
+Mesh make_excavator(Rng& rng, const MachineLook& look) {
+  return merge_parts(make_excavator_parts(rng, look));
+}
+
+std::vector<JointPart> make_loader_parts(Rng& rng, const MachineLook& look) {
+  const int paint = paint_or_default(look.paint);
+  const std::string label = look.label.empty() ? "WL 150" : look.label;
+  std::vector<JointPart> parts(3);
+  JointPart& body = parts[0];
+  body.name = "body";
+  const Vector3d rear(3.0, 2.3, 1.5);
+  add_box(body.mesh, {-3.0, -1.15, 0.6}, rear, painted_box(rng, rear, paint, 0.35, label, true, true));
+  add_box(body.mesh, {0.0, -0.6, 0.6}, {1.2, 1.2, 0.7},
+          painted_box(rng, {1.2, 1.2, 0.7}, paint, 0.4, "", false, false));
+  BoxTextures cab;
+  cab.left = cab_side(rng, 1.6, 1.4, paint, true);
+  cab.right = cab_side(rng, 1.6, 1.4, paint, true);
+  cab.front = cab_side(rng, 1.5, 1.4, paint, false);
+  cab.back = cab_side(rng, 1.5, 1.4, paint, false);
+  cab.top = painted_panel(rng, 1.6, 1.5, paint, 0.2, "", false, false);
+  add_box(body.mesh, {-1.6, -0.75, 2.1}, {1.6, 1.5, 1.4}, cab);
+  const TexturePtr tread = tyre_tread(rng, 2 * std::numbers::pi * 0.7, 0.55);
+  const TexturePtr wheel_hub = hub(rng, 0.7, 200, true);
+  for (double x : {-2.0, 0.9}) {
+    for (double y : {-1.05, 1.05}) add_cylinder(body.mesh, {x, y, 0.7}, 0.7, 0.55, 14, tread, wheel_hub);
+  }
+  // Lift arms from the front frame, pitched down to the bucket.
+  const Vector3d arm_pivot(0.8, 0.0, 1.8);
+  const double arm_len = 2.4;
+  const Eigen::Matrix3d R_arm = pitch_up(-32.0 * std::numbers::pi / 180.0);
+  parts[1] = {"arm", {}, -1, arm_pivot, Vector3d::UnitY(), JointDrive::kDig, -1.0};
+  for (double y : {-0.85, 0.6}) {
+    add_box(parts[1].mesh, arm_pivot + Vector3d(0.0, y, 0.0), {arm_len, 0.25, 0.3},
+            painted_box(rng, {arm_len, 0.25, 0.3}, paint, 0.5, "", false, false), R_arm);
+  }
+  const Vector3d arm_end = arm_pivot + R_arm.col(0) * arm_len;
+  parts[2] = {"bucket", {}, 1, arm_end, Vector3d::UnitY(), JointDrive::kDig, 0.7};
+  add_box(parts[2].mesh, arm_end + Vector3d(-0.1, -1.3, -0.35), {0.9, 2.6, 0.85},
+          painted_box(rng, {0.9, 2.6, 0.85}, 70, 1.0, "", false, false));
+  return parts;
+}
+
+Mesh make_person(Rng& rng, const MachineLook& look, bool crouching) {
+  Mesh m;
+  const int vest = paint_or_default(look.paint.empty() ? "orange" : look.paint);
+  Canvas v(rng, 0.45, 0.6, 200.0, vest, 6.0);
+  v.rect(0.0, 0.18, 0.45, 0.05, 240);
+  v.rect(0.0, 0.38, 0.45, 0.05, 240);
+  if (!look.label.empty()) v.text(look.label, 0.05, 0.3, 0.06, 30);
+  v.dirt(0.3, 1.0);
+  const TexturePtr torso = tex(v.image());
+  const TexturePtr trousers = tex(Canvas(rng, 0.3, 0.9, 200.0, 60, 8.0).image());
+  const TexturePtr skin = tex(Canvas(rng, 0.22, 0.22, 200.0, 150, 6.0).image());
+  const TexturePtr helmet = tex(Canvas(rng, 0.3, 0.3, 200.0, 235, 4.0).image());
+  const double leg_h = crouching ? 0.45 : 0.85;
+  const double lean = crouching ? 0.15 : 0.0;
+  for (double y : {-0.17, 0.02})
+    add_box(m, {-0.08, y, 0.0}, {0.16, 0.15, leg_h},
+            BoxTextures{trousers, trousers, trousers, trousers, trousers});
+  if (crouching) {  // thighs forward
+    for (double y : {-0.17, 0.02})
+      add_box(m, {0.0, y, leg_h - 0.12}, {0.4, 0.15, 0.14},
+              BoxTextures{trousers, trousers, trousers, trousers, trousers});
+  }
+  add_box(m, {-0.14 + lean, -0.22, leg_h}, {0.28, 0.45, 0.6}, BoxTextures{torso, torso, torso, torso, torso});
+  for (double y : {-0.3, 0.22}) {
+    add_box(m, {-0.05 + lean, y, leg_h + 0.05}, {0.12, 0.08, 0.55},
+            BoxTextures{torso, torso, torso, torso, torso});
+  }
+  add_box(m, {-0.1 + lean, -0.1, leg_h + 0.62}, {0.2, 0.2, 0.2}, BoxTextures{skin, skin, skin, skin, skin});
+  add_box(m, {-0.14 + lean, -0.14, leg_h + 0.8}, {0.28, 0.28, 0.1},
+          BoxTextures{helmet, helmet, helmet, helmet, helmet});
   return m;
 }
 
