@@ -217,5 +217,19 @@ TEST_F(ViewsCli, TopWithNothingOnTheBusExitsOne) {
   EXPECT_NE(r.err.find("nothing received"), std::string::npos) << r.err;
 }
 
+// The demo ends with the report and an annotated clip and says where they are.
+TEST(DemoCli, WritesTheReportAndAnAnnotatedClip) {
+  testing::TempDir dir;
+  const Result r = sitepose_cli("demo --frames 6 --clip-frames 3 --out-dir " + (dir / "demo"), dir.path());
+  ASSERT_EQ(r.status, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("report: " + (dir / "demo/report.html")), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("annotated clip: " + (dir / "demo/clip.avi") + " (3 frames"), std::string::npos)
+      << r.out;
+  cv::VideoCapture clip(dir / "demo/clip.avi");
+  ASSERT_TRUE(clip.isOpened());
+  EXPECT_EQ(static_cast<int>(clip.get(cv::CAP_PROP_FRAME_COUNT)), 3);
+  EXPECT_NE(testing::read_text(dir / "demo/report.html").find("ATE (m)"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace sitepose
