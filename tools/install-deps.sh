@@ -19,8 +19,9 @@ packages=(
   # middleware and devices
   liblcm-dev liblcm-bin libaravis-dev aravis-tools libusb-1.0-0-dev
   libsystemd-dev systemd libv4l-dev
-  # test helpers: network namespaces, CAN log decoding
-  iproute2 python3 python3-can python3-numpy
+  # test helpers: network namespaces, CAN log decoding, rendering the run
+  # report (sitepose report) in a headless browser
+  iproute2 python3 python3-can python3-numpy chromium
   # packaging: dpkg-shlibdeps (dpkg-dev) for Depends:, lintian checks the .deb
   dpkg-dev lintian
 )

@@ -23,6 +23,7 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
   slam::SlamOptions slam_options;
   slam_options.fps = source.fps();
   slam_options.mapper_thread = options.mapper_thread;
+  slam_options.trace = options.trace;
   SITEPOSE_TRY(auto system, slam::SlamSystem::create(source.camera(), config, slam_options));
   DynamicRunResult result;
   result.name = source.name();

@@ -34,7 +34,7 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
     link.is_idle = [this] { return mapper_->is_idle(); };
   }
   tracker_ = std::make_unique<tracking::Tracker>(camera, config, map_, std::move(link));
-  two_pass_ = std::make_unique<TwoPassTracker>(*tracker_, camera, config, options.fps);
+  two_pass_ = std::make_unique<TwoPassTracker>(*tracker_, camera, config, options.fps, options.trace);
   if (options_.mapper_thread && config.mapping.enabled) mapper_->start();
 }
 
@@ -56,8 +56,23 @@ Expected<FrameReport> SlamSystem::process(const StereoFrame& frame) {
   report.pose = tracker_->commit(prepared, result, usable);
   copy_stage_timings(prepared, result, report.timings);
   report.timings.total_ms = ms_since(start);
+  if (options_.trace) {
+    const auto trace_start = SteadyClock::now();
+    report.trace.keypoints = trace_keypoints(prepared, usable, result);
+    report.trace.fill_ms = ms_since(trace_start);
+  }
   SITEPOSE_TRY_STATUS(run_inline_mapping(report));
+  fill_map_trace(report);
   return report;
+}
+
+void SlamSystem::fill_map_trace(FrameReport& report) const {
+  if (!options_.trace) return;
+  const auto start = SteadyClock::now();
+  report.trace.keyframes_in_map = keyframe_count();
+  report.trace.points_in_map = point_count();
+  report.trace.keyframes_created = tracker_->counters().keyframes_created;
+  report.trace.fill_ms += ms_since(start);
 }
 
 Status SlamSystem::run_inline_mapping(FrameReport& report) {
@@ -78,10 +93,12 @@ Expected<FrameReport> SlamSystem::process(const StereoFrame& frame, const dynami
                                                                      frame.left.size(), config_.dynamic));
     report.mar = mask.mar;
     report.pose.counters.masked_area_ratio = report.mar;
+    if (options_.trace) report.trace.boxes = mask.dynamic_boxes;
     return report;
   }
   SITEPOSE_TRY(FrameReport report, two_pass_->process(frame, objects));
   SITEPOSE_TRY_STATUS(run_inline_mapping(report));
+  fill_map_trace(report);
   return report;
 }
 

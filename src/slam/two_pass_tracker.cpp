@@ -13,9 +13,10 @@ constexpr double kMapCheckRadiusPx = 7.0;
 }  // namespace
 
 TwoPassTracker::TwoPassTracker(tracking::Tracker& tracker, const StereoCamera& camera,
-                               const config::SiteposeConfig& config, double fps)
+                               const config::SiteposeConfig& config, double fps, bool trace)
     : tracker_(tracker),
       config_(config.dynamic),
+      trace_(trace),
       classifier_(camera, config.dynamic, fps, config.orb.scale_factor, config.orb.n_levels) {}
 
 Expected<FrameReport> TwoPassTracker::process(const StereoFrame& frame, const dynamic::FrameObjects& objects) {
@@ -40,7 +41,26 @@ Expected<FrameReport> TwoPassTracker::process(const StereoFrame& frame, const dy
   if (full()) remember(prepared, mask, passes.final_pass(), std::move(current), report.pose);
   copy_stage_timings(prepared, passes.pass1, report.timings);
   report.timings.total_ms = ms_since(start);
+  if (trace_) fill_trace(prepared, mask, passes, report);
   return report;
+}
+
+void TwoPassTracker::fill_trace(const tracking::PreparedFrame& prepared, const dynamic::MaskResult& mask,
+                                const Passes& passes, FrameReport& report) const {
+  const auto start = SteadyClock::now();
+  const bool pass2_ran = !passes.usable2.empty();
+  report.trace.boxes = mask.dynamic_boxes;
+  report.trace.pass2_ran = pass2_ran;
+  report.trace.pass2_used = passes.pass2_used;
+  report.trace.keypoints = trace_keypoints(prepared, passes.usable1, passes.pass1);
+  for (std::size_t k = 0; pass2_ran && k < report.trace.keypoints.size(); ++k) {
+    auto& keypoint = report.trace.keypoints[k];
+    if (passes.usable2[k] != 0) keypoint.flags |= KeypointTrace::kUsablePass2;
+    if (k < passes.pass2.point_of_keypoint.size() && passes.pass2.point_of_keypoint[k] != map::kNoPoint) {
+      keypoint.flags |= KeypointTrace::kInlierPass2;
+    }
+  }
+  report.trace.fill_ms = ms_since(start);
 }
 
 Expected<dynamic::MaskResult> TwoPassTracker::build_mask(const StereoFrame& frame,

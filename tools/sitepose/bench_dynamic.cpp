@@ -17,6 +17,7 @@
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"
+#include "sitepose/views/debug_record.hpp"
 
 namespace sitepose::cli {
 namespace {
@@ -28,6 +29,7 @@ struct Args {
   std::string config_path;
   std::string detector = "labels";
   std::string mode = "full";
+  std::string debug_out;
 };
 
 int run(Args args) {
@@ -52,6 +54,16 @@ int run(Args args) {
   detect::add_inherent_dynamic_classes(config.detector, config.dynamic);
   slam::SlamOptions options;
   if (const double hz = io::mean_frame_rate_hz(**sequence); hz > 0.0) options.fps = hz;
+  options.trace = !args.debug_out.empty();
+  std::unique_ptr<views::DebugRecordWriter> debug;
+  if (options.trace) {
+    views::RunInfo info{"", "", dir, args.source.scenario, config::to_string(config.dynamic.mode), args.detector,
+                        (*sequence)->camera().width, (*sequence)->camera().height, options.fps};
+    auto opened = views::DebugRecordWriter::open(args.debug_out, info, config::to_yaml(config));
+    if (!opened) return fail(kCommand, "--debug-out: " + opened.error().message, 2);
+    debug = std::move(*opened);
+  }
+  double trace_ms = 0.0;
   const std::size_t n = (*sequence)->size();
   auto system = slam::SlamSystem::create((*sequence)->camera(), config, options);
   if (!system) return fail(kCommand, system.error().message, 2);
@@ -72,6 +84,10 @@ int run(Args args) {
     report->timings.detect_ms = detect_ms;
     report->timings.total_ms += detect_ms;
     recorder.add(*report);
+    if (debug) {
+      trace_ms += report->trace.fill_ms;
+      if (auto st = debug->write(*report); !st) return fail(kCommand, st.error().message, 1);
+    }
     if ((i + 1) % 50 == 0 || i + 1 == frames)
       std::fprintf(stderr, "bench dynamic: %d/%d frames\n", i + 1, frames);
   }
@@ -106,6 +122,13 @@ int run(Args args) {
     std::printf("whole frame p50 %.2f ms, p99 %.2f ms (detect included)\n", it->second.p50_ms,
                 it->second.p99_ms);
   }
+  if (debug) {
+    if (auto st = debug->close(); !st) return fail(kCommand, st.error().message, 1);
+    // Filling the trace and writing the record, outside the frame times.
+    const double cost = trace_ms + debug->write_ms();
+    std::printf("debug record (--debug-out %s): %.2f ms per frame = %.2f %% of tracking time (whole frame)\n",
+                args.debug_out.c_str(), cost / std::max(1, frames), whole > 0 ? 100.0 * cost / whole : 0.0);
+  }
   return 0;
 }
 
@@ -121,6 +144,8 @@ const CommandRegistrar kBenchDynamic{
        sub.add_option("--detector", args->detector, "Detector (default labels)");
        sub.add_option("--mode", args->mode, "Masking mode (default full)");
        sub.add_option("--config", args->config_path, "sitepose YAML config");
+       sub.add_option("--debug-out", args->debug_out,
+                      "Also write the debug record (as `run --debug-out`) and report its cost");
        return [args] { return run(*args); };
      }}};
 

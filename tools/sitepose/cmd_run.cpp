@@ -19,6 +19,8 @@
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"
+#include "sitepose/core/build_info.hpp"
+#include "sitepose/views/debug_record.hpp"
 
 namespace sitepose::cli {
 namespace {
@@ -35,6 +37,7 @@ struct RunArgs {
   std::string gt;
   std::string map_in;
   std::string map_out;
+  std::string debug_out;
   int max_frames = 0;
   int first_frame = 0;
   bool mapper_thread = false;
@@ -160,6 +163,7 @@ int run(const RunArgs& args) {
   }
   slam::SlamOptions slam_options;
   slam_options.mapper_thread = args.mapper_thread;
+  slam_options.trace = !args.debug_out.empty();
   if (const double hz = io::mean_frame_rate_hz(**sequence); hz > 0.0) slam_options.fps = hz;
   auto system = slam::SlamSystem::create(camera, config, slam_options);
   if (!system) return fail(kCommand, system.error().message, 2);
@@ -167,6 +171,16 @@ int run(const RunArgs& args) {
     if (auto st = load_map_in(args.map_in, **system, args.quiet); !st)
       return fail(kCommand, st.error().message, 2);
   }
+  std::unique_ptr<views::DebugRecordWriter> debug;
+  if (!args.debug_out.empty()) {
+    views::RunInfo info{version_string(), git_revision(), std::filesystem::absolute(args.sequence).string(), "",
+                        config::to_string(config.dynamic.mode), detector ? config.detector.name : "",
+                        camera.width, camera.height, slam_options.fps};
+    auto opened = views::DebugRecordWriter::open(args.debug_out, info, config::to_yaml(config));
+    if (!opened) return fail(kCommand, "--debug-out: " + opened.error().message, 2);
+    debug = std::move(*opened);
+  }
+  double trace_ms = 0.0;
 
   const std::size_t first = static_cast<std::size_t>(args.first_frame);
   if (first >= (*sequence)->size()) {
@@ -209,6 +223,10 @@ int run(const RunArgs& args) {
                   report.error().exit_status());
     }
     recorder.add(*report);
+    if (debug) {
+      trace_ms += report->trace.fill_ms;
+      if (auto st = debug->write(*report); !st) return fail(kCommand, st.error().message, 1);
+    }
     if (!args.quiet && (tty ? (i % 5 == 0 || i + 1 == n_frames) : ((i + 1) % 100 == 0 || i + 1 == n_frames))) {
       std::fprintf(stderr, "%sframe %zu/%zu  %s  %.1f frames/s%s", tty ? "\r" : "", i + 1, n_frames,
                    to_string(report->pose.state), recorder.frames_per_second(), tty ? "   " : "\n");
@@ -237,6 +255,13 @@ int run(const RunArgs& args) {
   }
   if (!args.states_out.empty()) {
     if (auto st = recorder.write_states_csv(args.states_out); !st) return fail(kCommand, st.error().message, 1);
+  }
+  if (debug) {
+    if (auto st = debug->close(); !st) return fail(kCommand, st.error().message, 1);
+    const double whole = recorder.stage_total_ms("whole_frame");
+    const double cost = trace_ms + debug->write_ms();
+    std::printf("debug record in %s: %.1f ms, %.2f %% of tracking time\n", args.debug_out.c_str(), cost,
+                whole > 0 ? 100.0 * cost / whole : 0.0);
   }
   std::printf("frames %d, tracked OK %d (%.1f %%), %.1f frames/s, keyframes %zu, points %zu\n",
               recorder.frames(), recorder.frames_ok(),
@@ -274,6 +299,8 @@ const CommandRegistrar kRun{{"", "run", "Track a recorded stereo sequence and wr
                  "Motion states CSV, frame,instance,class,state,score,points (--mode full only)");
   sub.add_option("--stats-out", args->stats_out, "Per-run statistics JSON");
   sub.add_option("--gt", args->gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
+  sub.add_option("--debug-out", args->debug_out,
+                 "Folder for the per-frame debug record that `sitepose view` and `sitepose report` read");
   sub.add_option("--frames", args->max_frames, "Process at most N frames (default: all)")
       ->check(CLI::Range(1, std::numeric_limits<int>::max()));
   sub.add_option("--first-frame", args->first_frame, "Start at frame N (0-based; default 0)")

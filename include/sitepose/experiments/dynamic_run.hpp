@@ -34,6 +34,8 @@ struct DynamicRunOptions {
   // weight-free stereo-geometric detector); motion-state samples then carry
   // no ground truth (its instance ids are not the labels').
   detect::Detector* detector = nullptr;
+  // Fill FrameReport::trace for the views (slam::SlamOptions::trace).
+  bool trace = false;
 };
 
 // A classified object with its ground truth, for ROC and latency figures.

@@ -1,6 +1,7 @@
 #pragma once
 // What SlamSystem::process() reports about one frame.
 
+#include <cstdint>
 #include <vector>
 
 #include "sitepose/core/pose_estimate.hpp"
@@ -29,6 +30,31 @@ struct FrameTimings {
   double total_ms = 0.0;     // the whole frame, excluding inline mapping
 };
 
+// One left keypoint as the views draw it (FrameTrace).
+struct KeypointTrace {
+  static constexpr std::uint8_t kUsablePass1 = 1;  // offered to pass 1 (not masked)
+  static constexpr std::uint8_t kInlierPass1 = 2;
+  static constexpr std::uint8_t kUsablePass2 = 4;  // offered to pass 2 (pass 2 ran)
+  static constexpr std::uint8_t kInlierPass2 = 8;
+  float u_px = 0.0F;
+  float v_px = 0.0F;
+  std::uint16_t instance = 0;  // object under the keypoint, 0 = background
+  std::uint8_t flags = 0;
+};
+
+// What the views need beyond the report (`sitepose run --debug-out`); filled
+// only when SlamOptions::trace is set, so plain runs pay nothing.
+struct FrameTrace {
+  std::vector<KeypointTrace> keypoints;
+  std::vector<dynamic::ObjectBox> boxes;  // the mask's dynamic boxes, clipped
+  bool pass2_ran = false;
+  bool pass2_used = false;
+  std::size_t keyframes_in_map = 0;
+  std::size_t points_in_map = 0;
+  int keyframes_created = 0;  // since the start of the run
+  double fill_ms = 0.0;       // time spent filling this trace (not in timings)
+};
+
 struct FrameReport {
   PoseEstimate pose;
   FrameTimings timings;
@@ -50,7 +76,26 @@ struct FrameReport {
   // Mode full: one entry per dynamic-class box of the frame, in box order
   // (states unknown when pass 1 found no pose). Empty in other modes.
   std::vector<dynamic::ClassifiedObject> objects;
+  FrameTrace trace;  // empty unless SlamOptions::trace
 };
+
+// The keypoints of `prepared` with the pass-1 flags of `usable` and `pass`.
+inline std::vector<KeypointTrace> trace_keypoints(const tracking::PreparedFrame& prepared,
+                                                  const std::vector<std::uint8_t>& usable,
+                                                  const tracking::PassResult& pass) {
+  std::vector<KeypointTrace> keypoints(prepared.uv_px.size());
+  for (std::size_t k = 0; k < keypoints.size(); ++k) {
+    KeypointTrace& out = keypoints[k];
+    out.u_px = static_cast<float>(prepared.uv_px[k].x());
+    out.v_px = static_cast<float>(prepared.uv_px[k].y());
+    out.instance = k < prepared.instance.size() ? prepared.instance[k] : 0;
+    if (k < usable.size() && usable[k] != 0) out.flags |= KeypointTrace::kUsablePass1;
+    if (k < pass.point_of_keypoint.size() && pass.point_of_keypoint[k] != map::kNoPoint) {
+      out.flags |= KeypointTrace::kInlierPass1;
+    }
+  }
+  return keypoints;
+}
 
 // The extraction timings of `prepared` and the estimate timings of `pass`.
 inline void copy_stage_timings(const tracking::PreparedFrame& prepared, const tracking::PassResult& pass,

@@ -49,6 +49,8 @@ struct SlamOptions {
   // Frame rate of the source; sets the motion classifier's reference offset
   // (paper mode, when dynamic.reference_offset_frames = 0) and ring length.
   double fps = 6.0;
+  // Fill FrameReport::trace (keypoints, boxes, map size) for the views.
+  bool trace = false;
 };
 
 class SlamSystem {
@@ -96,6 +98,7 @@ class SlamSystem {
              const SlamOptions& options);
 
   Status run_inline_mapping(FrameReport& report);
+  void fill_map_trace(FrameReport& report) const;
 
   config::SiteposeConfig config_;
   SlamOptions options_;

@@ -37,8 +37,9 @@ namespace sitepose::slam {
 class TwoPassTracker {
  public:
   // fps: the source's frame rate (the classifier's reference offset).
+  // trace: fill FrameReport::trace's keypoints and boxes.
   TwoPassTracker(tracking::Tracker& tracker, const StereoCamera& camera, const config::SiteposeConfig& config,
-                 double fps);
+                 double fps, bool trace = false);
 
   // One frame in config.dynamic.mode (not none). Errors: those of
   // dynamic::build_mask and Tracker::prepare.
@@ -74,8 +75,12 @@ class TwoPassTracker {
                 const tracking::PassResult& final_pass, std::optional<dynamic::ObjectFeatures> current,
                 const PoseEstimate& pose);
 
+  void fill_trace(const tracking::PreparedFrame& prepared, const dynamic::MaskResult& mask, const Passes& passes,
+                  FrameReport& report) const;
+
   tracking::Tracker& tracker_;
   config::DynamicConfig config_;
+  bool trace_ = false;
   dynamic::MotionClassifier classifier_;
 };
 
