@@ -264,7 +264,8 @@ int run_bench_pipeline(const BenchPipelineArgs& a) {
         "skipped at start %llu, failed buffers %llu\n",
         from_camera.p50_ms, from_camera.p99_ms, from_camera.max_ms,
         static_cast<unsigned long long>(pairing.pairs),
-        static_cast<unsigned long long>(pairing.unpaired_left + pairing.unpaired_right),
+        static_cast<unsigned long long>(pairing.unpaired_left) +
+            static_cast<unsigned long long>(pairing.unpaired_right),
         static_cast<unsigned long long>(pairing.skipped_at_start),
         static_cast<unsigned long long>(cams->aravis.failed_buffers));
   }

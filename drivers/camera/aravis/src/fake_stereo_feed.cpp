@@ -4,6 +4,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 
 namespace sitepose::drivers::aravis {
@@ -38,7 +39,7 @@ void fill(ArvBuffer* buffer, void* data, guint32 /*exposure_us*/, guint32 /*gain
 FakeStereoFeed::FakeStereoFeed(std::vector<cv::Mat> left, std::vector<cv::Mat> right, double frame_rate_hz,
                                Playback playback)
     : sides_{Side{std::move(left), this}, Side{std::move(right), this}},
-      period_ns_(static_cast<std::int64_t>(1e9 / frame_rate_hz + 0.5)),
+      period_ns_(std::llround(1e9 / frame_rate_hz)),
       playback_(playback) {}
 
 AravisOpenerOptions FakeStereoFeed::opener_options() {

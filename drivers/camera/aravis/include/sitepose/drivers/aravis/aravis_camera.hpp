@@ -19,7 +19,7 @@
 #include "sitepose/drivers/aravis/camera_device.hpp"
 
 // Aravis's opaque type, declared as <arv.h> does.
-typedef struct _ArvCamera ArvCamera;
+typedef struct _ArvCamera ArvCamera;  // NOLINT(bugprone-reserved-identifier): Aravis names it so
 
 namespace sitepose::drivers::aravis {
 
