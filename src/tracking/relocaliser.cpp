@@ -1,8 +1,11 @@
 #include "sitepose/tracking/relocaliser.hpp"
 
+#include <cmath>
+#include <limits>
 #include <optional>
 #include <set>
 
+#include <Eigen/Eigenvalues>
 #include <opencv2/calib3d.hpp>
 
 #include "sitepose/features/hamming.hpp"
@@ -100,6 +103,13 @@ std::optional<SE3> pnp_pose(const DescriptorMatches& pairs, const StereoCamera& 
 }
 
 }  // namespace
+
+double position_sigma_m(const PassResult& result) {
+  if (!result.covariance_world_cam) return std::numeric_limits<double>::infinity();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
+      result.covariance_world_cam->topLeftCorner<3, 3>(), Eigen::EigenvaluesOnly);
+  return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
+}
 
 Relocaliser::Relocaliser(const StereoCamera& camera, const config::TrackingConfig& tracking,
                          const map::ScalePyramid& pyramid)

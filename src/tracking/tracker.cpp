@@ -380,15 +380,20 @@ bool Tracker::update_state(const PassResult& result) {
     ++counters_.relocalisations;
     hold_.restart();
   }
-  const bool enough_inliers = result.n_inliers >= config_.tracking.min_inliers_ok;
-  hold_.update(enough_inliers);
-  state_ = enough_inliers && !hold_.holding() ? TrackingState::kOk : TrackingState::kRecovering;
+  const bool precise =
+      result.n_inliers >= config_.tracking.min_inliers_ok && position_sigma_m(result) <= kMaxOkPositionSigmaM;
+  hold_.update(precise);
+  state_ = precise && !hold_.holding() ? TrackingState::kOk : TrackingState::kRecovering;
   return relocalised;
 }
 
 std::string Tracker::state_reason(const PassResult& result) const {
   if (state_ != TrackingState::kRecovering) return "";
-  if (!hold_.holding()) return "only " + std::to_string(result.n_inliers) + " inliers";
+  if (!hold_.holding()) {
+    if (result.n_inliers < config_.tracking.min_inliers_ok)
+      return "only " + std::to_string(result.n_inliers) + " inliers";
+    return "position sigma " + std::to_string(position_sigma_m(result)) + " m";
+  }
   return "relocalised, held " + std::to_string(hold_.held_frames()) + " of " +
          std::to_string(hold_.hold_frames()) + " frames";
 }

@@ -34,6 +34,17 @@ struct RelocalisationCandidate {
   std::vector<PointView> neighbourhood_points;
 };
 
+// An OK pose promises 0.05 m (issue 19). Its position sigma from the
+// motion-only BA's Hessian (unit pixel noise, not scaled by the variance
+// factor, which is below 1 on sharp images) must be within 0.02 m, so that
+// 2.5 sigma stays inside the promise: a pose held by few or only distant
+// points is RECOVERING, and a relocalisation does not hold on one.
+inline constexpr double kMaxOkPositionSigmaM = 0.02;
+
+// The square root of the largest eigenvalue of the position block of
+// result's covariance; +inf without one.
+double position_sigma_m(const PassResult& result);
+
 class Relocaliser {
  public:
   // Reads tracking.min_inliers_ok and the motion-only BA settings.

@@ -57,40 +57,64 @@ TEST(Tracker, TracksASmallStaticSite) {
 // The blackout scenario covers the lens for frames 24-33 while the roller
 // drives 1.3 m. The tracker must come back by relocalisation, stay
 // RECOVERING until the new pose has held, and never call a wrong pose OK.
-// Disabled: open defect (issue 19). At 480x270 without a local mapper the
-// relocalisation lands 0.81 m off with enough inliers and the wrong pose is
-// tracked consistently, so it is OK from frame 36 on (0.81-0.83 m off); the
-// hold rule does not catch a wrong place. The full-size regression test
-// (Blackout.*) passes. Enable when relocalisation verifies the place.
-TEST(Tracker, DISABLED_AfterABlindSpellRelocalisesAndHoldsBeforeOk) {
-  constexpr int kFrames = 46;
-  constexpr int kFirstCovered = 24;
-  constexpr int kFirstVisible = 34;
-  const SmallSite site = SmallSite::make("blackout", kFrames);
+// At 480x270 without a local mapper the relocalisation lands 0.81 m off with
+// enough inliers and the wrong pose is tracked consistently: it held for 3
+// frames and was OK from frame 36 on, until OK also required a position
+// sigma <= kMaxOkPositionSigmaM (relocaliser.hpp).
+struct BlindSpell {
+  static constexpr int kFrames = 46;
+  static constexpr int kFirstCovered = 24;
+  static constexpr int kFirstVisible = 34;
+  std::vector<TrackingState> states;
+  int first_back = kFirstVisible;  // first frame not LOST after the spell
+  int hold = 0;
+  int relocalisations = 0;
+};
+
+BlindSpell track_blind_spell() {
+  BlindSpell out;
+  const SmallSite site = SmallSite::make("blackout", BlindSpell::kFrames);
   map::SharedMap map;
   const config::SiteposeConfig config = small_config();
   Tracker tracker(site.simulator.camera(), config, map);
-  std::vector<TrackingState> states;
-  for (int i = 0; i < kFrames; ++i) {
+  for (int i = 0; i < BlindSpell::kFrames; ++i) {
     sim::SimFrame truth;
     auto pose = tracker.track(site.frame(i, &truth));
-    ASSERT_TRUE(pose.has_value()) << pose.error().message;
-    states.push_back(pose->state);
+    EXPECT_TRUE(pose.has_value()) << pose.error().message;
+    if (!pose) return out;
+    out.states.push_back(pose->state);
     if (pose->state != TrackingState::kOk) continue;
     const double error_m = (pose->T_world_cam.translation() - truth.T_world_cam.translation()).norm();
     EXPECT_LT(error_m, 0.05) << "frame " << i << " reported OK " << error_m << " m off";
   }
-  for (int i = kFirstCovered; i < kFirstVisible; ++i)
-    EXPECT_EQ(states[i], TrackingState::kLost) << "frame " << i;
-  int first_back = kFirstVisible;
-  while (first_back < kFrames && states[first_back] == TrackingState::kLost) ++first_back;
-  ASSERT_LT(first_back - kFirstVisible, 5) << "no relocalisation within 5 frames of the view's return";
-  const int hold = config.tracking.relocalisation_hold_frames;
-  for (int i = first_back; i < first_back + hold - 1; ++i) {
-    EXPECT_EQ(states[i], TrackingState::kRecovering) << "frame " << i << " is OK before the pose held";
+  while (out.first_back < BlindSpell::kFrames && out.states[out.first_back] == TrackingState::kLost)
+    ++out.first_back;
+  out.hold = config.tracking.relocalisation_hold_frames;
+  out.relocalisations = tracker.counters().relocalisations;
+  return out;
+}
+
+TEST(Tracker, AfterABlindSpellRelocalisesAndHoldsBeforeOk) {
+  const BlindSpell spell = track_blind_spell();
+  ASSERT_EQ(spell.states.size(), static_cast<std::size_t>(BlindSpell::kFrames));
+  for (int i = BlindSpell::kFirstCovered; i < BlindSpell::kFirstVisible; ++i)
+    EXPECT_EQ(spell.states[i], TrackingState::kLost) << "frame " << i;
+  ASSERT_LT(spell.first_back - BlindSpell::kFirstVisible, 5)
+      << "no relocalisation within 5 frames of the view's return";
+  for (int i = spell.first_back; i < spell.first_back + spell.hold - 1; ++i) {
+    EXPECT_EQ(spell.states[i], TrackingState::kRecovering) << "frame " << i << " is OK before the pose held";
   }
-  EXPECT_EQ(states[first_back + hold - 1], TrackingState::kOk);
-  EXPECT_GE(tracker.counters().relocalisations, 1);
+  EXPECT_GE(spell.relocalisations, 1);
+}
+
+// Disabled: open defect (issue 19). The relocalisation above is the wrong
+// place and is now kept RECOVERING (never OK) to the end; coming back OK
+// needs a relocalisation that rejects the repeated structure or a new map.
+TEST(Tracker, DISABLED_AfterABlindSpellComesBackOkAtTheRightPlace) {
+  const BlindSpell spell = track_blind_spell();
+  ASSERT_EQ(spell.states.size(), static_cast<std::size_t>(BlindSpell::kFrames));
+  ASSERT_LT(spell.first_back + spell.hold - 1, BlindSpell::kFrames);
+  EXPECT_EQ(spell.states[spell.first_back + spell.hold - 1], TrackingState::kOk);
 }
 
 // A tracker that has tracked frames 0-9 of the static scenario, and frame 10
