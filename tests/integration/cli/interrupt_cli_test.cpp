@@ -164,7 +164,9 @@ TEST_F(InterruptCli, SigintAtRandomFramesOfRunWritesTheFramesTracked) {
   expect_complete_outputs(whole, times, false);
 
   std::mt19937 rng(21);
-  std::uniform_real_distribution<double> at(0.0, run_s);
+  // Over the first 70 % of a whole run's time: the rest is closing the map
+  // and writing, and a loaded machine stretches runs unevenly.
+  std::uniform_real_distribution<double> at(0.0, 0.7 * run_s);
   int interrupted = 0;
   for (int attempt = 0; attempt < 20; ++attempt) {
     const fs::path out = dir_->path() / ("try" + std::to_string(attempt));
