@@ -11,7 +11,7 @@ packages=(
   # numerics and vision
   libeigen3-dev libopencv-dev libceres-dev
   # config, logging, command line
-  libyaml-cpp-dev libspdlog-dev libfmt-dev libcli11-dev
+  libyaml-cpp-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # geodesy

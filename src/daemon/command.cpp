@@ -2,8 +2,6 @@
 
 #include <signal.h>
 
-#include <spdlog/sinks/stdout_color_sinks.h>
-
 #include <cstdio>
 
 #include "sitepose/config/config.hpp"
@@ -33,7 +31,7 @@ int run_siteposed(const Invocation& invocation) {
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
   // Logs on stderr (the journal under systemd); stdout may carry candump lines.
-  spdlog::set_default_logger(spdlog::stderr_color_mt("siteposed"));
+  use_stderr_logger("siteposed");
 
   auto config = load_daemon_config(invocation.config_path);
   if (!config) return fail(config.error().message, 2);

@@ -1,7 +1,7 @@
 #include "sitepose/eval/alignment.hpp"
 
-#include <Eigen/SVD>
 #include <fmt/format.h>
+#include <Eigen/Geometry>
 
 namespace sitepose::eval {
 
@@ -18,28 +18,17 @@ Expected<SE3> umeyama_se3(const std::vector<Eigen::Vector3d>& p_src,
                       fmt::format("umeyama_se3: {} point pairs; at least 3 are needed",
                                   p_src.size()));
   }
-  const double n = static_cast<double>(p_src.size());
-  Eigen::Vector3d mean_src = Eigen::Vector3d::Zero();
-  Eigen::Vector3d mean_dst = Eigen::Vector3d::Zero();
+  Eigen::Matrix3Xd src(3, static_cast<Eigen::Index>(p_src.size()));
+  Eigen::Matrix3Xd dst(3, static_cast<Eigen::Index>(p_dst.size()));
   for (std::size_t i = 0; i < p_src.size(); ++i) {
-    mean_src += p_src[i];
-    mean_dst += p_dst[i];
+    src.col(static_cast<Eigen::Index>(i)) = p_src[i];
+    dst.col(static_cast<Eigen::Index>(i)) = p_dst[i];
   }
-  mean_src /= n;
-  mean_dst /= n;
-  // Cross-covariance Sigma = 1/n sum (y - mu_y)(x - mu_x)^T (Umeyama eq. 38).
-  Eigen::Matrix3d sigma = Eigen::Matrix3d::Zero();
-  for (std::size_t i = 0; i < p_src.size(); ++i) {
-    sigma += (p_dst[i] - mean_dst) * (p_src[i] - mean_src).transpose();
-  }
-  sigma /= n;
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(sigma, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  // S flips the axis of the smallest singular value when U V^T would be a
-  // reflection (Umeyama eq. 39/43), so det R = +1 always.
-  Eigen::Matrix3d s = Eigen::Matrix3d::Identity();
-  if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0.0) s(2, 2) = -1.0;
-  const Eigen::Matrix3d rotation = svd.matrixU() * s * svd.matrixV().transpose();
-  const Eigen::Vector3d translation = mean_dst - rotation * mean_src;
+  // Eigen's implementation of the paper, scale fixed to 1 (with_scaling
+  // false); it guards against reflections the same way (det R = +1).
+  const Eigen::Matrix4d T = Eigen::umeyama(src, dst, false);
+  const Eigen::Matrix3d rotation = T.topLeftCorner<3, 3>();
+  const Eigen::Vector3d translation = T.topRightCorner<3, 1>();
   return SE3(rotation, translation);
 }
 

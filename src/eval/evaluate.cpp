@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "sitepose/io/json_file.hpp"
+
 #include "sitepose/eval/alignment.hpp"
 #include "sitepose/eval/time_offset.hpp"
 
@@ -112,69 +114,68 @@ Expected<EvalResult> evaluate(const io::Trajectory& gt, const io::Trajectory& es
 
 namespace {
 
-std::string json_number(double v) {
-  if (!std::isfinite(v)) return "null";
-  return fmt::format("{:.9g}", v);
+// Nine significant digits (the figures mean no more); NaN stays NaN, which
+// the writer turns into null.
+double sig9(double v) { return std::isfinite(v) ? std::stod(fmt::format("{:.9g}", v)) : v; }
+
+io::Json stats_json(const ErrorStats& s) {
+  return io::Json{{"count", s.count},         {"rmse", sig9(s.rmse)}, {"mean", sig9(s.mean)},
+                  {"median", sig9(s.median)}, {"std", sig9(s.std)},   {"min", sig9(s.min)},
+                  {"max", sig9(s.max)}};
 }
 
-std::string stats_json(const ErrorStats& s) {
-  return fmt::format(
-      R"({{"count": {}, "rmse": {}, "mean": {}, "median": {}, "std": {}, "min": {}, "max": {}}})",
-      s.count, json_number(s.rmse), json_number(s.mean), json_number(s.median),
-      json_number(s.std), json_number(s.min), json_number(s.max));
+io::Json rpe_json(const RpeResult& r) {
+  io::Json out = io::Json::object();
+  if (r.spec.kind == RpeGapKind::kTime) {
+    out["delta_s"] = sig9(r.spec.delta_time_s);
+    out["tolerance_s"] = sig9(r.spec.time_tolerance_s);
+  } else {
+    out["delta_frames"] = r.spec.delta_frames;
+  }
+  out["pairs"] = r.translation_m.count;
+  out["translation_m"] = stats_json(r.translation_m);
+  out["rotation_deg"] = stats_json(r.rotation_deg);
+  return out;
 }
 
-std::string rpe_json(const RpeResult& r) {
-  const std::string gap =
-      r.spec.kind == RpeGapKind::kTime
-          ? fmt::format(R"("delta_s": {}, "tolerance_s": {})", json_number(r.spec.delta_time_s),
-                        json_number(r.spec.time_tolerance_s))
-          : fmt::format(R"("delta_frames": {})", r.spec.delta_frames);
-  return fmt::format(R"({{{}, "pairs": {}, "translation_m": {}, "rotation_deg": {}}})", gap,
-                     r.translation_m.count, stats_json(r.translation_m),
-                     stats_json(r.rotation_deg));
+io::Json vec_json(const Eigen::Vector3d& v) {
+  return io::Json::array({sig9(v.x()), sig9(v.y()), sig9(v.z())});
 }
 
-std::string vec_json(const Eigen::Vector3d& v) {
-  return fmt::format("[{}, {}, {}]", json_number(v.x()), json_number(v.y()), json_number(v.z()));
+io::Json pose_errors_json(const std::vector<PoseError>& errors) {
+  io::Json poses = io::Json::array();
+  for (const PoseError& p : errors) {
+    poses.push_back({{"gt_index", p.gt_index},
+                     {"est_index", p.est_index},
+                     {"t_s", sig9(p.t_gt_s)},
+                     {"p_gt_m", vec_json(p.p_gt_m)},
+                     {"p_est_aligned_m", vec_json(p.p_est_aligned_m)},
+                     {"error_m", sig9(p.error_m)}});
+  }
+  return poses;
 }
 
 }  // namespace
 
 std::string to_json(const EvalResult& r, bool include_poses) {
   const Eigen::Quaterniond& q = r.T_gt_est.rotation();
-  std::string out = "{\n";
-  out += fmt::format("  \"gt_frames\": {},\n", r.gt_frames);
-  out += fmt::format("  \"est_poses\": {},\n", r.est_poses);
-  out += fmt::format("  \"associated\": {},\n", r.associated);
-  out += fmt::format("  \"coverage\": {},\n", json_number(r.coverage));
-  out += fmt::format("  \"max_dt_s\": {},\n", json_number(r.max_dt_s));
-  out += fmt::format("  \"time_offset_searched\": {},\n", r.time_offset_searched ? "true" : "false");
-  out += fmt::format("  \"time_offset_search_range_s\": {},\n",
-                     json_number(r.time_offset_search_range_s));
-  out += fmt::format("  \"time_offset_s\": {},\n", json_number(r.time_offset_s));
-  out += fmt::format(
-      "  \"alignment\": {{\"T_gt_est_translation_m\": {}, \"T_gt_est_quaternion_xyzw\": [{}, {}, "
-      "{}, {}]}},\n",
-      vec_json(r.T_gt_est.translation()), json_number(q.x()), json_number(q.y()),
-      json_number(q.z()), json_number(q.w()));
-  out += fmt::format("  \"ate_m\": {},\n", stats_json(r.ate_m));
-  out += fmt::format("  \"rpe_time\": {},\n", rpe_json(r.rpe_time));
-  out += fmt::format("  \"rpe_frames\": {}", rpe_json(r.rpe_frames));
-  if (include_poses) {
-    out += ",\n  \"poses\": [";
-    for (std::size_t i = 0; i < r.poses.size(); ++i) {
-      const PoseError& p = r.poses[i];
-      out += fmt::format(
-          "{}\n    {{\"gt_index\": {}, \"est_index\": {}, \"t_s\": {}, \"p_gt_m\": {}, "
-          "\"p_est_aligned_m\": {}, \"error_m\": {}}}",
-          i == 0 ? "" : ",", p.gt_index, p.est_index, json_number(p.t_gt_s), vec_json(p.p_gt_m),
-          vec_json(p.p_est_aligned_m), json_number(p.error_m));
-    }
-    out += "\n  ]";
-  }
-  out += "\n}\n";
-  return out;
+  const io::Json alignment{
+      {"T_gt_est_translation_m", vec_json(r.T_gt_est.translation())},
+      {"T_gt_est_quaternion_xyzw", io::Json::array({sig9(q.x()), sig9(q.y()), sig9(q.z()), sig9(q.w())})}};
+  io::Json out{{"gt_frames", r.gt_frames},
+               {"est_poses", r.est_poses},
+               {"associated", r.associated},
+               {"coverage", sig9(r.coverage)},
+               {"max_dt_s", sig9(r.max_dt_s)},
+               {"time_offset_searched", r.time_offset_searched},
+               {"time_offset_search_range_s", sig9(r.time_offset_search_range_s)},
+               {"time_offset_s", sig9(r.time_offset_s)},
+               {"alignment", alignment},
+               {"ate_m", stats_json(r.ate_m)},
+               {"rpe_time", rpe_json(r.rpe_time)},
+               {"rpe_frames", rpe_json(r.rpe_frames)}};
+  if (include_poses) out["poses"] = pose_errors_json(r.poses);
+  return io::to_json_text(out);
 }
 
 std::string to_text(const EvalResult& r) {

@@ -30,6 +30,11 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
   result.mode = config.dynamic.mode;
   result.frames = options.frames > 0 ? std::min(options.frames, source.size()) : source.size();
   for (int i = 0; i < result.frames; ++i) {
+    if (options.stop && options.stop()) {
+      result.frames = i;
+      result.partial = true;
+      break;
+    }
     SITEPOSE_TRY(LabelledFrame frame, source.read(i));
     if (options.alter) options.alter(frame);
     if (options.detector != nullptr) {

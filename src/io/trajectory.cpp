@@ -6,9 +6,11 @@
 #include <cstring>
 #include <iomanip>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "detail/text.hpp"
+#include "sitepose/io/euroc.hpp"
 
 namespace sitepose::io {
 namespace {
@@ -186,6 +188,110 @@ Expected<Trajectory> read_kitti_trajectory(const std::string& poses_path, const 
   trajectory.reserve(poses.size());
   for (std::size_t i = 0; i < poses.size(); ++i) trajectory.push_back({times[i], poses[i]});
   return trajectory;
+}
+
+const char* to_string(TrajectoryFormat format) {
+  switch (format) {
+    case TrajectoryFormat::kTum: return "tum";
+    case TrajectoryFormat::kKitti: return "kitti";
+    case TrajectoryFormat::kEuroc: return "euroc";
+  }
+  return "?";
+}
+
+Expected<TrajectoryFormat> parse_trajectory_format(const std::string& name) {
+  for (TrajectoryFormat f : {TrajectoryFormat::kTum, TrajectoryFormat::kKitti, TrajectoryFormat::kEuroc}) {
+    if (name == to_string(f)) return f;
+  }
+  std::string message = "'";  // appended, not "'" + ...: GCC 12 warns falsely (-Wrestrict) on that
+  message.append(name, 0, 40).append("' is not one of tum, kitti, euroc");
+  return make_error(ErrorCode::kInvalidArgument, message);
+}
+
+std::string kitti_times_path(const std::string& path) { return path + ".times.txt"; }
+
+namespace {
+
+Status write_times(const std::string& path, const Trajectory& trajectory) {
+  SITEPOSE_TRY(FilePtr file, open_for_writing(path));
+  for (const StampedPose& p : trajectory) std::fprintf(file.get(), "%.9f\n", p.t_s);
+  return finish_writing(path, std::move(file));
+}
+
+Status write_euroc_trajectory(const std::string& path, const Trajectory& trajectory) {
+  for (std::size_t i = 0; i < trajectory.size(); ++i) {
+    if (!std::isfinite(trajectory[i].t_s) || !pose_is_finite(trajectory[i].T_world_cam)) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        path + ": refusing to write pose " + std::to_string(i) + ": non-finite time or pose");
+    }
+  }
+  SITEPOSE_TRY(FilePtr file, open_for_writing(path));
+  std::fprintf(
+      file.get(),
+      "#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []\n");
+  for (const StampedPose& p : trajectory) {
+    const Eigen::Vector3d& t = p.T_world_cam.translation();
+    const Eigen::Quaterniond& q = p.T_world_cam.rotation();
+    std::fprintf(file.get(), "%lld,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", std::llround(p.t_s * 1e9), t.x(),
+                 t.y(), t.z(), q.w(), q.x(), q.y(), q.z());
+  }
+  return finish_writing(path, std::move(file));
+}
+
+}  // namespace
+
+Status write_trajectory(const std::string& path, const Trajectory& trajectory, TrajectoryFormat format) {
+  switch (format) {
+    case TrajectoryFormat::kTum: return write_tum_trajectory(path, trajectory);
+    case TrajectoryFormat::kEuroc: return write_euroc_trajectory(path, trajectory);
+    case TrajectoryFormat::kKitti: {
+      std::vector<SE3> poses;
+      for (const StampedPose& p : trajectory) poses.push_back(p.T_world_cam);
+      SITEPOSE_TRY_STATUS(write_kitti_poses(path, poses));
+      return write_times(kitti_times_path(path), trajectory);
+    }
+  }
+  return make_error(ErrorCode::kInvalidArgument, "unknown trajectory format");
+}
+
+Expected<TrajectoryFormat> detect_trajectory_format(const std::string& path) {
+  std::optional<TrajectoryFormat> format;
+  Status seen = detail::for_each_data_line(
+      path, detail::DataLines::kSkipCommentsAndBlanks,
+      [&](std::size_t line_no, std::string_view line) -> Status {
+        if (format) return ok_status();
+        if (line.find(',') != std::string_view::npos) {
+          format = TrajectoryFormat::kEuroc;
+        } else if (const std::size_t n = detail::split_whitespace(line).size(); n == 12 || n == 8) {
+          format = n == 12 ? TrajectoryFormat::kKitti : TrajectoryFormat::kTum;
+        } else {
+          return make_error(ErrorCode::kParseError,
+                            detail::where(path, line_no) + "expected a trajectory line: " +
+                                "8 numbers (TUM), 12 (KITTI) or a EuRoC CSV row, got " + std::to_string(n) +
+                                " fields");
+        }
+        return ok_status();
+      });
+  if (!seen) return make_error(seen.error().code, seen.error().message);
+  if (!format) return make_error(ErrorCode::kInvalidArgument, path + " holds no poses");
+  return *format;
+}
+
+Expected<Trajectory> read_trajectory(const std::string& path, const std::string& times_path) {
+  SITEPOSE_TRY(const TrajectoryFormat format, detect_trajectory_format(path));
+  switch (format) {
+    case TrajectoryFormat::kTum: return read_tum_trajectory(path);
+    case TrajectoryFormat::kKitti:
+      return read_kitti_trajectory(path, times_path.empty() ? kitti_times_path(path) : times_path);
+    case TrajectoryFormat::kEuroc: {
+      SITEPOSE_TRY(const std::vector<EurocGtSample> samples, read_euroc_groundtruth(path));
+      Trajectory trajectory;
+      for (const EurocGtSample& s : samples)
+        trajectory.push_back({static_cast<double>(s.t_ns) * 1e-9, s.T_world_body});
+      return trajectory;
+    }
+  }
+  return make_error(ErrorCode::kInvalidArgument, "unknown trajectory format");
 }
 
 }  // namespace sitepose::io

@@ -1,5 +1,6 @@
 #include "sitepose/sim/sequence_writer.hpp"
 
+#include <unistd.h>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -7,6 +8,9 @@
 #include <iomanip>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
+
+#include "sitepose/io/json_file.hpp"
+#include "sitepose/io/trajectory.hpp"
 
 namespace sitepose::sim {
 namespace {
@@ -17,19 +21,6 @@ std::string frame_name(int k) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), "%06d.png", k);
   return buf;
-}
-
-std::string json_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (c == '\n') {
-      out += "\\n";
-      continue;
-    }
-    out += c;
-  }
-  return out;
 }
 
 void write_3x4(std::ostream& out, const Eigen::Matrix<double, 3, 4>& M) {
@@ -56,80 +47,105 @@ Status write_png(const fs::path& path, const cv::Mat& img) {
   return ok_status();
 }
 
-Status prepare_dir(const fs::path& dir, bool force) {
+constexpr const char* kSequenceEntries[] = {"image_0",   "image_1",   "labels",        "calib.txt",
+                                            "times.txt", "poses.txt", "poses_tum.txt", "meta.json"};
+
+// The output folder is checked before any rendering; the sequence is written
+// into a hidden folder beside it and moved in only when complete, so an
+// interrupted or failed run never leaves a half sequence under `dir`.
+Status check_output_dir(const fs::path& dir, bool force) {
   std::error_code ec;
-  if (fs::exists(dir, ec)) {
-    if (!fs::is_directory(dir, ec)) {
-      return make_error(ErrorCode::kInvalidArgument,
-                        "output " + dir.string() + " exists and is not a folder");
-    }
-    if (!fs::is_empty(dir, ec)) {
-      if (!force) {
-        return make_error(
-            ErrorCode::kInvalidArgument,
-            "output folder " + dir.string() + " is not empty (use --force to replace the sequence in it)");
-      }
-      for (const char* name :
-           {"image_0", "image_1", "labels", "calib.txt", "times.txt", "poses.txt", "meta.json"}) {
-        fs::remove_all(dir / name, ec);
-        if (ec)
-          return make_error(ErrorCode::kIoError,
-                            "cannot remove " + (dir / name).string() + ": " + ec.message());
-      }
-    }
+  if (!fs::exists(dir, ec)) return ok_status();
+  if (!fs::is_directory(dir, ec)) {
+    return make_error(ErrorCode::kInvalidArgument, "output " + dir.string() + " exists and is not a folder");
   }
-  for (const char* sub : {"image_0", "image_1", "labels/masks"}) {
-    fs::create_directories(dir / sub, ec);
-    if (ec)
-      return make_error(ErrorCode::kIoError, "cannot create " + (dir / sub).string() + ": " + ec.message());
+  if (!fs::is_empty(dir, ec) && !force) {
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        "output folder " + dir.string() + " is not empty (use --force to replace the sequence in it)");
   }
   return ok_status();
 }
 
-}  // namespace
+Expected<fs::path> make_staging_dir(const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir.parent_path(), ec);
+  if (ec)
+    return make_error(ErrorCode::kIoError,
+                      "cannot create " + dir.parent_path().string() + ": " + ec.message());
+  const fs::path staging =
+      dir.parent_path() / ("." + dir.filename().string() + ".partial-" + std::to_string(::getpid()));
+  fs::remove_all(staging, ec);
+  for (const char* sub : {"image_0", "image_1", "labels/masks"}) {
+    fs::create_directories(staging / sub, ec);
+    if (ec)
+      return make_error(ErrorCode::kIoError,
+                        "cannot create " + (staging / sub).string() + ": " + ec.message());
+  }
+  return staging;
+}
 
-Expected<WriteSummary> write_sequence(const Simulator& sim, const std::string& dir_str,
-                                      const WriteOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  const fs::path dir(dir_str);
-  SITEPOSE_TRY_STATUS(prepare_dir(dir, options.force));
+// Moves the finished sequence from `staging` to `dir`: a rename of the
+// folder when `dir` is absent or empty, else (--force) the old sequence's
+// entries are removed and the new ones renamed in; other files stay.
+Status publish(const fs::path& staging, const fs::path& dir) {
+  std::error_code ec;
+  if (fs::exists(dir, ec) && fs::is_empty(dir, ec)) fs::remove(dir, ec);
+  if (!fs::exists(dir, ec)) {
+    fs::rename(staging, dir, ec);
+    if (ec)
+      return make_error(ErrorCode::kIoError,
+                        "cannot rename " + staging.string() + " to " + dir.string() + ": " + ec.message());
+    return ok_status();
+  }
+  for (const char* name : kSequenceEntries) {
+    fs::remove_all(dir / name, ec);
+    if (ec)
+      return make_error(ErrorCode::kIoError, "cannot remove " + (dir / name).string() + ": " + ec.message());
+    fs::rename(staging / name, dir / name, ec);
+    if (ec)
+      return make_error(ErrorCode::kIoError, "cannot move " + (staging / name).string() + " into " +
+                                                 dir.string() + ": " + ec.message());
+  }
+  fs::remove_all(staging, ec);
+  return ok_status();
+}
+
+std::string calib_text(const Simulator& sim) {
   const StereoCamera& cam = sim.camera();
-  const Scenario& sc = sim.scenario();
-
   std::ostringstream calib;
   calib << std::setprecision(12);
   calib << "P0: " << cam.fx << " 0 " << cam.cx << " 0 0 " << cam.fy << " " << cam.cy << " 0 0 0 1 0\n";
   calib << "P1: " << cam.fx << " 0 " << cam.cx << " " << -cam.fx * cam.baseline_m << " 0 " << cam.fy << " "
         << cam.cy << " 0 0 0 1 0\n";
   if (sim.distorted()) {
-    const DistortionSpec& d = sc.realism.distortion;
-    for (const char* key : {"D0: ", "D1: "})
-      calib << key << d.k1 << " " << d.k2 << " " << d.p1 << " " << d.p2 << "\n";
+    const DistortionSpec& d = sim.scenario().realism.distortion;
+    for (const char* key : {"D0: ", "D1: "}) calib << key << d.k1 << " " << d.k2 << " " << d.p1 << " " << d.p2 << "\n";
   }
-  SITEPOSE_TRY_STATUS(write_text(dir / "calib.txt", calib.str()));
+  return calib.str();
+}
 
-  std::ostringstream times, poses, boxes, occlusion, machine_occlusion, gains;
-  times << std::setprecision(12);
-  poses << std::setprecision(12);
-  boxes << "frame,instance,class,x,y,w,h,moving\n";
-  // Articulated machines: one row per visible part, and part masks.
-  std::ostringstream parts;
-  parts << "frame,instance,part,name,x,y,w,h,moving\n";
-  if (sim.has_articulated()) {
-    std::error_code ec;
-    fs::create_directories(dir / "labels" / "parts", ec);
-    if (ec) return make_error(ErrorCode::kIoError, "cannot create " + (dir / "labels" / "parts").string());
+// The per-frame texts and figures, filled while rendering.
+struct FrameTables {
+  std::ostringstream times, poses, boxes;
+  std::ostringstream parts;  // articulated machines: one row per visible part
+  io::Trajectory truth;  // the same poses, TUM
+  io::Json occlusion = io::Json::array();
+  io::Json machine_occlusion = io::Json::array();
+  io::Json gains = io::Json::array();
+
+  FrameTables() {
+    times << std::setprecision(12);
+    poses << std::setprecision(12);
+    boxes << "frame,instance,class,x,y,w,h,moving\n";
+    parts << "frame,instance,part,name,x,y,w,h,moving\n";
   }
-  WriteSummary summary;
-  const int n = sim.frame_count();
-  for (int k = 0; k < n; ++k) {
-    const SimFrame f = sim.render(k);
-    SITEPOSE_TRY_STATUS(write_png(dir / "image_0" / frame_name(k), f.left));
-    SITEPOSE_TRY_STATUS(write_png(dir / "image_1" / frame_name(k), f.right));
-    SITEPOSE_TRY_STATUS(write_png(dir / "labels" / "masks" / frame_name(k), f.instance_mask));
+
+  void add(int k, const SimFrame& f) {
     times << f.t_s << "\n";
     write_3x4(poses, f.T_world_cam.matrix3x4());
     poses << "\n";
+    truth.push_back({f.t_s, f.T_world_cam});
     for (const ObjectTruth& o : f.objects) {
       if (!o.visible) continue;
       boxes << k << "," << o.instance << "," << o.class_name << "," << o.box.x << "," << o.box.y << ","
@@ -141,54 +157,114 @@ Expected<WriteSummary> write_sequence(const Simulator& sim, const std::string& d
               << "\n";
       }
     }
+    occlusion.push_back(f.occlusion_ratio);
+    machine_occlusion.push_back(f.machine_occlusion_ratio);
+    gains.push_back(f.exposure_gain);
+  }
+};
+
+std::string meta_json(const Simulator& sim, int frames, bool partial, const FrameTables& tables) {
+  const StereoCamera& cam = sim.camera();
+  const Scenario& sc = sim.scenario();
+  io::Json camera{{"width", cam.width},
+                  {"height", cam.height},
+                  {"fx", cam.fx},
+                  {"fy", cam.fy},
+                  {"cx", cam.cx},
+                  {"cy", cam.cy},
+                  {"baseline_m", cam.baseline_m},
+                  {"rectified", !sim.distorted()}};
+  if (sim.distorted()) {
+    const DistortionSpec& d = sc.realism.distortion;
+    camera["distortion"] = {{"model", "plumb_bob"}, {"k1", d.k1}, {"k2", d.k2}, {"p1", d.p1}, {"p2", d.p2}};
+  }
+  const Eigen::Matrix<double, 3, 4> T = sim.T_site_world().matrix3x4();
+  io::Json T_site_world = io::Json::array();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) T_site_world.push_back(T(r, c));
+  io::Json meta{
+      {"generator", "sitepose sim"},
+      {"scenario", sc.name},
+      {"description", sc.description},
+      {"seed", sc.seed},
+      {"fps", sc.fps},
+      {"frames", frames},
+      {"partial", partial},
+      {"camera", camera},
+      {"world_frame", "left camera at frame 0 (x right, y down, z forward)"},
+      {"T_site_world", T_site_world},
+      {"T_site_world_layout", "row-major 3x4 [R | t]"},
+      {"site_frame", "x along the ego lane, y left of +x, z up, ground z = 0"},
+      {"moving", "1 when the object's site pose differs from the previous frame (frame 0: from frame 1)"},
+      {"occlusion_ratio_definition", "fraction of left-image pixels on any labelled object, cones included"},
+      {"occlusion_ratio", tables.occlusion},
+      {"machine_occlusion_ratio", tables.machine_occlusion},
+      {"exposure_gain", tables.gains}};
+  return io::to_json_text(meta);
+}
+
+Expected<WriteSummary> write_into(const Simulator& sim, const fs::path& dir, const WriteOptions& options) {
+  SITEPOSE_TRY_STATUS(write_text(dir / "calib.txt", calib_text(sim)));
+  if (sim.has_articulated()) {
+    std::error_code ec;
+    fs::create_directories(dir / "labels" / "parts", ec);
+    if (ec) return make_error(ErrorCode::kIoError, "cannot create " + (dir / "labels" / "parts").string());
+  }
+  FrameTables tables;
+  WriteSummary summary;
+  const int n = sim.frame_count();
+  for (int k = 0; k < n; ++k) {
+    if (options.stop && options.stop()) {
+      summary.partial = true;
+      break;
+    }
+    const SimFrame f = sim.render(k);
+    SITEPOSE_TRY_STATUS(write_png(dir / "image_0" / frame_name(k), f.left));
+    SITEPOSE_TRY_STATUS(write_png(dir / "image_1" / frame_name(k), f.right));
+    SITEPOSE_TRY_STATUS(write_png(dir / "labels" / "masks" / frame_name(k), f.instance_mask));
     if (sim.has_articulated()) {
       SITEPOSE_TRY_STATUS(write_png(dir / "labels" / "parts" / frame_name(k), f.part_mask));
     }
-    occlusion << (k ? "," : "") << std::setprecision(5) << f.occlusion_ratio;
-    machine_occlusion << (k ? "," : "") << std::setprecision(5) << f.machine_occlusion_ratio;
-    gains << (k ? "," : "") << std::setprecision(5) << f.exposure_gain;
+    tables.add(k, f);
+    summary.frames = k + 1;
     summary.max_occlusion_ratio = std::max(summary.max_occlusion_ratio, f.occlusion_ratio);
-    summary.mean_occlusion_ratio += f.occlusion_ratio / n;
+    summary.mean_occlusion_ratio += f.occlusion_ratio;
     if (options.progress) options.progress(k + 1, n);
   }
-  SITEPOSE_TRY_STATUS(write_text(dir / "times.txt", times.str()));
-  SITEPOSE_TRY_STATUS(write_text(dir / "poses.txt", poses.str()));
-  SITEPOSE_TRY_STATUS(write_text(dir / "labels" / "boxes.csv", boxes.str()));
-  if (sim.has_articulated()) SITEPOSE_TRY_STATUS(write_text(dir / "labels" / "parts.csv", parts.str()));
-
-  std::ostringstream meta;
-  meta << std::setprecision(12);
-  meta << "{\n  \"generator\": \"sitepose sim\",\n";
-  meta << "  \"scenario\": \"" << json_escape(sc.name) << "\",\n";
-  meta << "  \"description\": \"" << json_escape(sc.description) << "\",\n";
-  meta << "  \"seed\": " << sc.seed << ",\n  \"fps\": " << sc.fps << ",\n  \"frames\": " << n << ",\n";
-  meta << "  \"camera\": {\"width\": " << cam.width << ", \"height\": " << cam.height
-       << ", \"fx\": " << cam.fx << ", \"fy\": " << cam.fy << ", \"cx\": " << cam.cx << ", \"cy\": " << cam.cy
-       << ", \"baseline_m\": " << cam.baseline_m
-       << ", \"rectified\": " << (sim.distorted() ? "false" : "true");
-  if (sim.distorted()) {
-    const DistortionSpec& d = sc.realism.distortion;
-    meta << ", \"distortion\": {\"model\": \"plumb_bob\", \"k1\": " << d.k1 << ", \"k2\": " << d.k2
-         << ", \"p1\": " << d.p1 << ", \"p2\": " << d.p2 << "}";
-  }
-  meta << "},\n";
-  meta << "  \"world_frame\": \"left camera at frame 0 (x right, y down, z forward)\",\n";
-  meta << "  \"T_site_world\": [";
-  write_3x4(meta, sim.T_site_world().matrix3x4());
-  meta << "],\n";
-  meta << "  \"site_frame\": \"x along the ego lane, y left of +x, z up, ground z = 0\",\n";
-  meta << "  \"moving\": \"1 when the object's site pose differs from the previous frame (frame 0: from "
-          "frame 1)\",\n";
-  meta << "  \"occlusion_ratio_definition\": \"fraction of left-image pixels on any labelled object, cones "
-          "included\",\n";
-  meta << "  \"occlusion_ratio\": [" << occlusion.str() << "],\n";
-  meta << "  \"machine_occlusion_ratio\": [" << machine_occlusion.str() << "],\n";
-  meta << "  \"exposure_gain\": [" << gains.str() << "]\n}\n";
-  SITEPOSE_TRY_STATUS(write_text(dir / "meta.json", meta.str()));
-
-  summary.frames = n;
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (summary.frames > 0) summary.mean_occlusion_ratio /= summary.frames;
+  SITEPOSE_TRY_STATUS(write_text(dir / "times.txt", tables.times.str()));
+  SITEPOSE_TRY_STATUS(write_text(dir / "poses.txt", tables.poses.str()));
+  SITEPOSE_TRY_STATUS(io::write_tum_trajectory((dir / "poses_tum.txt").string(), tables.truth));
+  SITEPOSE_TRY_STATUS(write_text(dir / "labels" / "boxes.csv", tables.boxes.str()));
+  if (sim.has_articulated()) SITEPOSE_TRY_STATUS(write_text(dir / "labels" / "parts.csv", tables.parts.str()));
+  SITEPOSE_TRY_STATUS(write_text(dir / "meta.json", meta_json(sim, summary.frames, summary.partial, tables)));
   return summary;
+}
+
+}  // namespace
+
+Status check_sequence_output(const std::string& dir, bool force) {
+  return check_output_dir(fs::path(dir), force);
+}
+
+Expected<WriteSummary> write_sequence(const Simulator& sim, const std::string& dir_str,
+                                      const WriteOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  fs::path dir = fs::absolute(fs::path(dir_str)).lexically_normal();
+  if (!dir.has_filename()) dir = dir.parent_path();
+  SITEPOSE_TRY_STATUS(check_output_dir(dir, options.force));
+  SITEPOSE_TRY(const fs::path staging, make_staging_dir(dir));
+  auto written = write_into(sim, staging, options);
+  if (written) {
+    if (auto st = publish(staging, dir); !st) written = make_error(st.error().code, st.error().message);
+  }
+  if (!written) {
+    std::error_code ec;
+    fs::remove_all(staging, ec);
+    return written;
+  }
+  written->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return written;
 }
 
 }  // namespace sitepose::sim

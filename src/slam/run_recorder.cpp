@@ -7,6 +7,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "sitepose/io/json_file.hpp"
 #include "sitepose/io/trajectory.hpp"
 
 namespace sitepose::slam {
@@ -117,51 +118,75 @@ double RunRecorder::frames_per_second() const {
 }
 
 Status RunRecorder::write_tum(const std::string& path) const {
+  return write_trajectory(path, io::TrajectoryFormat::kTum);
+}
+
+Status RunRecorder::write_trajectory(const std::string& path, io::TrajectoryFormat format) const {
   io::Trajectory trajectory;
   for (const PoseEstimate& p : poses_) {
     if (p.state == TrackingState::kLost) continue;
     trajectory.push_back({static_cast<double>(p.t_ns) * 1e-9, p.T_world_cam});
   }
-  return io::write_tum_trajectory(path, trajectory);
+  return io::write_trajectory(path, trajectory, format);
 }
 
-Status RunRecorder::write_stats_json(const std::string& path, const std::string& extra_json_fields) const {
-  std::ostringstream json;
-  json.setf(std::ios::fixed);
-  json.precision(4);
-  json << "{\n  \"frames\": " << frames() << ",\n  \"frames_ok\": " << frames_ok()
-       << ",\n  \"frames_per_second\": " << frames_per_second() << ",\n  \"stages_ms\": {";
-  bool first = true;
-  for (const auto& [name, s] : stage_summaries()) {
-    json << (first ? "\n" : ",\n") << "    \"" << name << "\": {\"p50\": " << s.p50_ms
-         << ", \"p99\": " << s.p99_ms << ", \"mean\": " << s.mean_ms << ", \"max\": " << s.max_ms << "}";
-    first = false;
-  }
-  json << "\n  },\n  \"features_pass1\": [";
-  for (std::size_t i = 0; i < poses_.size(); ++i) {
-    json << (i ? "," : "") << poses_[i].counters.features_used_pass1;
-  }
-  json << "],\n  \"features_pass2\": [";
-  for (std::size_t i = 0; i < poses_.size(); ++i) json << (i ? "," : "") << poses_[i].counters.features_used;
-  json << "],\n  \"states\": [";
-  for (std::size_t i = 0; i < poses_.size(); ++i) {
-    json << (i ? "," : "") << "\"" << to_string(poses_[i].state) << "\"";
-  }
-  json << "],\n  \"mar\": [";
-  for (std::size_t i = 0; i < masked_area_ratio_.size(); ++i) {
-    json << (i ? "," : "") << masked_area_ratio_[i];
-  }
-  json << "],\n  \"pixel_mask_calls\": " << pixel_mask_calls_ << ",\n  \"pass2_rejected\": " << pass2_rejections_
-       << ",\n  \"remasked_by_map_check\": " << map_check_remasks_
-       << ",\n  \"peak_rss_bytes\": " << peak_rss_bytes();
-  if (!extra_json_fields.empty()) json << ",\n" << extra_json_fields;
-  json << "\n}\n";
+Status RunRecorder::write_tracking_states_csv(const std::string& path) const {
   std::ofstream out(path);
   if (!out) return make_error(ErrorCode::kIoError, "cannot write " + path);
-  out << json.str();
+  out << "frame,t_s,state\n";
+  char t_s[32];
+  for (std::size_t i = 0; i < poses_.size(); ++i) {
+    std::snprintf(t_s, sizeof(t_s), "%.9f", static_cast<double>(poses_[i].t_ns) * 1e-9);
+    out << i << ',' << t_s << ',' << to_string(poses_[i].state) << '\n';
+  }
   out.close();  // the buffered rest is written here: a full disk shows only now
   if (!out) return make_error(ErrorCode::kIoError, "write failed: " + path);
   return ok_status();
+}
+
+namespace {
+// Four decimals, as the figures mean no more (and the file stays short).
+double round4(double v) { return std::isfinite(v) ? std::round(v * 1e4) / 1e4 : v; }
+}  // namespace
+
+io::Json RunRecorder::stats_json() const {
+  io::Json stages = io::Json::object();
+  for (const auto& [name, s] : stage_summaries()) {
+    stages[name] = {{"p50", round4(s.p50_ms)},
+                    {"p99", round4(s.p99_ms)},
+                    {"mean", round4(s.mean_ms)},
+                    {"max", round4(s.max_ms)}};
+  }
+  io::Json pass1 = io::Json::array(), pass2 = io::Json::array(), states = io::Json::array(),
+           mar = io::Json::array();
+  for (const PoseEstimate& p : poses_) {
+    pass1.push_back(p.counters.features_used_pass1);
+    pass2.push_back(p.counters.features_used);
+    states.push_back(to_string(p.state));
+  }
+  for (double r : masked_area_ratio_) mar.push_back(round4(r));
+  return io::Json{{"frames", frames()},
+                  {"frames_ok", frames_ok()},
+                  {"frames_per_second", round4(frames_per_second())},
+                  {"stages_ms", stages},
+                  {"features_pass1", pass1},
+                  {"features_pass2", pass2},
+                  {"states", states},
+                  {"mar", mar},
+                  {"pixel_mask_calls", pixel_mask_calls_},
+                  {"pass2_rejected", pass2_rejections_},
+                  {"remasked_by_map_check", map_check_remasks_},
+                  {"peak_rss_bytes", peak_rss_bytes()}};
+}
+
+Status RunRecorder::write_stats_json(const std::string& path) const {
+  return io::write_json_file(path, stats_json());
+}
+
+Status RunRecorder::write_stats_json(const std::string& path, const io::Json& extra_fields) const {
+  io::Json json = stats_json();
+  for (const auto& [key, value] : extra_fields.items()) json[key] = value;
+  return io::write_json_file(path, json);
 }
 
 }  // namespace sitepose::slam

@@ -1,6 +1,7 @@
 #include "ablation_command.hpp"
 
 #include <filesystem>
+#include <limits>
 
 #include "command_config.hpp"
 
@@ -11,7 +12,8 @@ void add_ablation_options(CLI::App& sub, AblationArgs& args, const AblationHelp&
   sub.add_option("--sequence", args.source.sequence, help.sequence);
   sub.add_option("--scenario", args.source.scenario,
                  "Scenario to simulate into <out-dir>/sequence instead (default: " + help.default_scenario + ")");
-  sub.add_option("--frames", args.source.frames, "Frames to simulate (0 = the whole scenario)");
+  sub.add_option("--frames", args.source.frames, "Frames to simulate (0 = the whole scenario)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
   sub.add_option("--config", args.config_path, help.config);
   sub.add_option("--out-dir", args.out_dir, "Output folder: " + help.outputs)->required();
 }

@@ -6,10 +6,12 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 
 #include "bench_report.hpp"
 #include "command_config.hpp"
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
@@ -33,6 +35,7 @@ struct Args {
 };
 
 int run(Args args) {
+  install_interrupt_handlers();
   auto loaded = load_command_config(args.config_path, args.mode);
   if (!loaded) return fail(kCommand, loaded.error().message, 2);
   config::SiteposeConfig& config = *loaded;
@@ -67,11 +70,15 @@ int run(Args args) {
   const std::size_t n = (*sequence)->size();
   auto system = slam::SlamSystem::create((*sequence)->camera(), config, options);
   if (!system) return fail(kCommand, system.error().message, 2);
-  const int frames = args.source.sequence.empty() || args.source.frames <= 0
-                         ? static_cast<int>(n)
-                         : std::min<int>(args.source.frames, static_cast<int>(n));
+  int frames = args.source.sequence.empty() || args.source.frames <= 0
+                   ? static_cast<int>(n)
+                   : std::min<int>(args.source.frames, static_cast<int>(n));
   slam::RunRecorder recorder;
   for (int i = 0; i < frames; ++i) {
+    if (interrupted()) {
+      frames = i;  // the figures below are of the frames done
+      break;
+    }
     auto frame = (*sequence)->read_frame(i);
     if (!frame) return fail(kCommand, frame.error().message, 2);
     const auto t0 = std::chrono::steady_clock::now();
@@ -99,8 +106,9 @@ int run(Args args) {
   const double pass2 = recorder.stage_total_ms("pass2");
   const double extract = recorder.stage_total_ms("extract_left");
   const double dynamic_ms = detect + mask + classify + pass2;
-  std::printf("bench dynamic: %s, %d frames, mode %s, detector %s, %d frames OK\n", dir.c_str(), frames,
-              config::to_string(config.dynamic.mode), args.detector.c_str(), recorder.frames_ok());
+  std::printf("bench dynamic: %s, %d frames%s, mode %s, detector %s, %d frames OK\n", dir.c_str(), frames,
+              interrupted() ? " (interrupted: partial)" : "", config::to_string(config.dynamic.mode),
+              args.detector.c_str(), recorder.frames_ok());
   std::printf("%-22s %10s %10s\n", "stage", "mean ms", "share");
   const auto row = [&](const char* name, double total) {
     std::printf("%-22s %10.2f %9.1f %%\n", name, total / std::max(1, frames),
@@ -129,7 +137,7 @@ int run(Args args) {
     std::printf("debug record (--debug-out %s): %.2f ms per frame = %.2f %% of tracking time (whole frame)\n",
                 args.debug_out.c_str(), cost / std::max(1, frames), whole > 0 ? 100.0 * cost / whole : 0.0);
   }
-  return 0;
+  return interrupted() ? report_interrupted(kCommand, "printed the figures of the frames done") : 0;
 }
 
 const CommandRegistrar kBenchDynamic{
@@ -140,7 +148,8 @@ const CommandRegistrar kBenchDynamic{
        sub.add_option("--sequence", args->source.sequence, "Sequence directory with labels");
        sub.add_option("--scenario", args->source.scenario,
                       "Scenario simulated into a temporary folder instead (default: crowded)");
-       sub.add_option("--frames", args->source.frames, "Frames (0 = all)");
+       sub.add_option("--frames", args->source.frames, "Frames (0 = all)")
+           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
        sub.add_option("--detector", args->detector, "Detector (default labels)");
        sub.add_option("--mode", args->mode, "Masking mode (default full)");
        sub.add_option("--config", args->config_path, "sitepose YAML config");

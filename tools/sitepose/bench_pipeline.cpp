@@ -21,6 +21,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -30,6 +31,7 @@
 
 #include "command_config.hpp"
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/drivers/aravis/aravis_source.hpp"
@@ -66,7 +68,8 @@ class MemorySource final : public pipeline::FrameSource {
   std::string describe() const override { return "memory"; }
   bool live() const override { return fps_ > 0.0; }
   Expected<pipeline::SourceEvent> next(std::stop_token stop, pipeline::SteadyTime deadline) override {
-    if (next_ >= frames_.size() || stop.stop_requested())
+    // Ctrl-C ends the source: the pipeline drains and the figures so far are printed.
+    if (next_ >= frames_.size() || stop.stop_requested() || interrupted())
       return pipeline::SourceEvent{pipeline::SourceEventKind::kEnd, {}};
     if (fps_ > 0.0) {
       if (next_ == 0) start_ = SteadyClock::now();
@@ -210,6 +213,7 @@ void print_latency(const char* what, double pace, const RunResult& r) {
 }
 
 int run_bench_pipeline(const BenchPipelineArgs& a) {
+  install_interrupt_handlers();
   auto loaded = load_command_config(a.config_path, a.mode);
   if (!loaded) return fail(kCommand, loaded.error().message, 2);
   config::SiteposeConfig& config = *loaded;
@@ -239,6 +243,11 @@ int run_bench_pipeline(const BenchPipelineArgs& a) {
 
   auto fast = run_once(frames, camera, config, a.sequence, recorded_fps, 0.0);
   if (!fast) return fail(kCommand, fast.error().message, 1);
+  if (interrupted()) {
+    std::printf("throughput (interrupted: partial): %zu frames published in %.1f s\n",
+                fast->latencies_ms.size(), fast->wall_s);
+    return report_interrupted(kCommand, "printed the figures so far");
+  }
   const double fps = static_cast<double>(n) / fast->wall_s;
   const auto fast_lat = slam::summarize(fast->latencies_ms);
   std::printf(
@@ -251,6 +260,7 @@ int run_bench_pipeline(const BenchPipelineArgs& a) {
   const double pace = a.pace_fps > 0.0 ? a.pace_fps : aravis ? 30.0 : 0.8 * fps;
   auto paced = run_once(frames, camera, config, a.sequence, recorded_fps, pace);
   if (!paced) return fail(kCommand, paced.error().message, 1);
+  if (interrupted()) std::printf("latency run interrupted: partial\n");
   const auto lat = slam::summarize(paced->latencies_ms);
   print_latency("replay, live source", pace, *paced);
   if (aravis) {
@@ -271,7 +281,7 @@ int run_bench_pipeline(const BenchPipelineArgs& a) {
   }
   std::printf("goal: >= 30 frames/s with p99 <= 60 ms: %s\n",
               fps >= 30.0 && lat.p99_ms <= 60.0 ? "met" : "not met on this machine");
-  return 0;
+  return interrupted() ? report_interrupted(kCommand, "printed the figures so far") : 0;
 }
 
 const CommandRegistrar kBenchPipeline{
@@ -293,7 +303,8 @@ const CommandRegistrar kBenchPipeline{
        sub.add_option("--opencv-threads", args->opencv_threads,
                       "OpenCV worker threads (default 0: OpenCV's own pool, as siteposed)")
            ->check(CLI::Range(0, 256));
-       sub.add_option("--frames", args->frames, "Use the first N frames (0 = all; all are held in memory)");
+       sub.add_option("--frames", args->frames, "Use the first N frames (0 = all; all are held in memory)")
+           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
        sub.add_option("--pace-fps", args->pace_fps,
                       "Frame rate of the live run (default: 80 % of the measured throughput; 30 with "
                       "--source aravis)");

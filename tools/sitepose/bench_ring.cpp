@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <deque>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -18,6 +19,7 @@
 #include <vector>
 
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/pipeline/spsc_ring.hpp"
 
 namespace sitepose::cli {
@@ -70,6 +72,10 @@ constexpr char kMutexName[] = "mutex_deque";
 template <typename Queue>
 void transfer(benchmark::State& state, std::size_t capacity, std::uint64_t items) {
   for (auto _ : state) {
+    if (interrupted()) {  // Ctrl-C: this and the benchmarks after it report the error
+      state.SkipWithError("interrupted");
+      break;
+    }
     Queue queue(capacity);
     std::uint64_t sum = 0;
     std::thread consumer([&] {
@@ -126,6 +132,7 @@ class RateReporter : public benchmark::ConsoleReporter {
 
 int run_bench_ring(std::size_t capacity, std::uint64_t items,
                    const std::vector<std::string>& extras) {
+  install_interrupt_handlers();
   if (auto st = pipeline::check_ring_capacity("--capacity", capacity); !st) {
     return fail("bench ring", st.error().message, 2);
   }
@@ -173,7 +180,7 @@ int run_bench_ring(std::size_t capacity, std::uint64_t items,
       std::printf("ratio %s / %s: not measured (both must run without error)\n", name, kMutexName);
     }
   }
-  return 0;
+  return interrupted() ? report_interrupted("bench ring", "printed the rates measured before it") : 0;
 }
 
 const CommandRegistrar kBenchRing{

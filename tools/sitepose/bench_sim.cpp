@@ -1,13 +1,16 @@
 // `sitepose bench sim`: rendering speed of the simulator (stereo frames per
 // second, wall and CPU time per frame). A timing, never pass/fail.
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <limits>
 #include <opencv2/core/utility.hpp>
 #include <string>
 
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/sim/simulator.hpp"
 
 namespace sitepose::cli {
@@ -21,6 +24,7 @@ struct BenchSimArgs {
 };
 
 int run_bench_sim(const BenchSimArgs& a) {
+  install_interrupt_handlers();
   if (a.frames < 1) return fail("bench sim", "--frames = " + std::to_string(a.frames) + ": must be >= 1", 2);
   auto scenario = sim::load_scenario(a.scenario);
   if (!scenario) return fail("bench sim", scenario.error().message, scenario.error().exit_status());
@@ -34,23 +38,26 @@ int run_bench_sim(const BenchSimArgs& a) {
   const std::clock_t c0 = std::clock();
   double occlusion = 0.0;
   const int n = simulator->frame_count();
-  for (int i = 0; i < a.frames; ++i) {
+  int rendered = 0;
+  for (int i = 0; i < a.frames && !interrupted(); ++i, ++rendered) {
     // Spread over the sequence so the view (and occlusion) varies.
     const sim::SimFrame f = simulator->render(static_cast<int>(static_cast<long>(i) * n / a.frames));
-    occlusion += f.occlusion_ratio / a.frames;
+    occlusion += f.occlusion_ratio;
   }
   const std::clock_t c1 = std::clock();
   const auto t2 = std::chrono::steady_clock::now();
   const double build_s = std::chrono::duration<double>(t1 - t0).count();
   const double wall_s = std::chrono::duration<double>(t2 - t1).count();
   const double cpu_s = static_cast<double>(c1 - c0) / CLOCKS_PER_SEC;
-  std::printf("bench sim: scenario %s, %dx%d, %d stereo frames, %d threads\n", a.scenario.c_str(),
-              a.width, a.height, a.frames, cv::getNumThreads());
+  const int frames = std::max(rendered, 1);
+  std::printf("bench sim: scenario %s, %dx%d, %d stereo frames%s, %d threads\n", a.scenario.c_str(), a.width,
+              a.height, rendered, rendered < a.frames ? " (interrupted: partial)" : "", cv::getNumThreads());
   std::printf("  world build     %8.2f s\n", build_s);
-  std::printf("  render (wall)   %8.1f ms/frame  %6.1f frames/s\n", wall_s / a.frames * 1e3, a.frames / wall_s);
-  std::printf("  render (cpu)    %8.1f ms/frame  (all threads)\n", cpu_s / a.frames * 1e3);
-  std::printf("  mean occlusion  %8.3f\n", occlusion);
-  return 0;
+  std::printf("  render (wall)   %8.1f ms/frame  %6.1f frames/s\n", wall_s / frames * 1e3, rendered / wall_s);
+  std::printf("  render (cpu)    %8.1f ms/frame  (all threads)\n", cpu_s / frames * 1e3);
+  std::printf("  mean occlusion  %8.3f\n", occlusion / frames);
+  return rendered < a.frames ? report_interrupted("bench sim", "printed the figures of the frames rendered")
+                             : 0;
 }
 
 const CommandRegistrar kBenchSim{
@@ -58,9 +65,15 @@ const CommandRegistrar kBenchSim{
      [](CLI::App& sub) -> CommandAction {
        auto args = std::make_shared<BenchSimArgs>();
        sub.add_option("--scenario", args->scenario, "Scenario name or YAML path")->capture_default_str();
-       sub.add_option("--frames", args->frames, "Stereo frames to render")->capture_default_str();
-       sub.add_option("--width", args->width, "Image width")->capture_default_str();
-       sub.add_option("--height", args->height, "Image height")->capture_default_str();
+       sub.add_option("--frames", args->frames, "Stereo frames to render")
+           ->capture_default_str()
+           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+       sub.add_option("--width", args->width, "Image width")
+           ->capture_default_str()
+           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+       sub.add_option("--height", args->height, "Image height")
+           ->capture_default_str()
+           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
        return [args] { return run_bench_sim(*args); };
      }}};
 

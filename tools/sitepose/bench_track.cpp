@@ -3,11 +3,13 @@
 // never pass/fail; rendering time is excluded from the tracking figures.
 
 #include <cstdio>
+#include <limits>
 #include <memory>
 
 #include "bench_report.hpp"
 #include "command_config.hpp"
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/experiments/dynamic_run.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
@@ -25,6 +27,7 @@ struct BenchTrackArgs {
 };
 
 int bench_track(const BenchTrackArgs& args) {
+  install_interrupt_handlers();
   auto loaded = load_command_config(args.config_path);
   if (!loaded) return fail("bench track", loaded.error().message, 2);
   config::SiteposeConfig& config = *loaded;
@@ -39,13 +42,15 @@ int bench_track(const BenchTrackArgs& args) {
     }
     if ((i + 1) % 100 == 0 || i + 1 == n) std::fprintf(stderr, "bench track: %d/%d frames\n", i + 1, n);
   };
+  options.stop = [] { return interrupted(); };
   auto source = args.sequence.empty() ? experiments::open_simulated(args.scenario, args.frames)
                                       : experiments::open_labelled_sequence(args.sequence, false);
   if (!source) return fail("bench track", source.error().message, 2);
   auto run = experiments::run_dynamic(**source, config, options);
   if (!run) return fail("bench track", run.error().message, 1);
   const auto stages = run->recorder.stage_summaries();
-  std::printf("bench track: %s, %d frames, mapper %s\n", run->name.c_str(), run->frames,
+  std::printf("bench track: %s, %d frames%s, mapper %s\n", run->name.c_str(), run->frames,
+              run->partial ? " (interrupted: partial)" : "",
               args.mapper_thread ? "on its own thread" : "inline (excluded from whole_frame)");
   std::printf("%-20s %9s %9s %9s\n", "stage", "p50 ms", "p99 ms", "mean ms");
   for (const char* name : {"extract_left", "extract_right", "stereo_match", "track_motion_model",
@@ -69,6 +74,7 @@ int bench_track(const BenchTrackArgs& args) {
     std::printf("ATE rmse %.4f m, coverage OK %.1f %%\n", run->evaluation->ate_m.rmse,
                 100.0 * run->coverage_ok());
   }
+  if (run->partial) return report_interrupted("bench track", "printed the figures of the frames tracked");
   return 0;
 }
 
@@ -82,7 +88,9 @@ const CommandRegistrar kBenchTrack{
            ->capture_default_str();
        sub.add_option("--sequence", args->sequence, "Recorded sequence directory instead of a scenario");
        sub.add_option("--config", args->config_path, "sitepose YAML config (mode is forced to none)");
-       sub.add_option("--frames", args->frames, "Frames to track (0 = all)")->capture_default_str();
+       sub.add_option("--frames", args->frames, "Frames to track (0 = all)")
+           ->capture_default_str()
+           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
        sub.add_flag("!--inline-mapper", args->mapper_thread,
                     "Run local mapping inline on the tracking thread instead of its own thread");
        sub.add_option("--rss-at", args->rss_at_frames, "Frame counts at which to report the resident set")

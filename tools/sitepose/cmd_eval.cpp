@@ -18,6 +18,7 @@ struct EvalArgs {
   std::string gt_path;
   std::string times_path;
   std::string est_path;
+  std::string est_times_path;
   bool json = false;
   std::string plot_path;
   double max_dt_s = eval::kDefaultMaxDtS;
@@ -26,9 +27,17 @@ struct EvalArgs {
 
 int run_eval(const EvalArgs& args) {
   const std::string cmd = "eval";
-  auto gt = io::read_kitti_trajectory(args.gt_path, args.times_path);
+  // KITTI ground truth takes its times from --times; TUM and EuRoC carry them.
+  auto gt_format = io::detect_trajectory_format(args.gt_path);
+  if (!gt_format)
+    return fail(cmd, "ground truth: " + gt_format.error().message, gt_format.error().exit_status());
+  if (*gt_format == io::TrajectoryFormat::kKitti && args.times_path.empty()) {
+    return fail(cmd, "--gt " + args.gt_path + " is KITTI (12 numbers a line, no times): --times is required",
+                2);
+  }
+  auto gt = io::read_trajectory(args.gt_path, args.times_path);
   if (!gt) return fail(cmd, "ground truth: " + gt.error().message, gt.error().exit_status());
-  auto est = io::read_tum_trajectory(args.est_path);
+  auto est = io::read_trajectory(args.est_path, args.est_times_path);
   if (!est) return fail(cmd, "estimate: " + est.error().message, est.error().exit_status());
   if (gt->empty()) {
     return fail(cmd, "ground truth '" + args.gt_path + "' holds no poses", 2);
@@ -62,22 +71,27 @@ int run_eval(const EvalArgs& args) {
 
 const CommandRegistrar kEval{
     {"", "eval",
-     "Accuracy of an estimated trajectory (TUM) against ground truth (KITTI poses + times): "
+     "Accuracy of an estimated trajectory against ground truth (TUM, KITTI + times or EuRoC, "
+     "detected from the first line): "
      "ATE after SE(3) alignment, RPE over 1 s and 10 frames, coverage",
      [](CLI::App& sub) -> CommandAction {
        auto args = std::make_shared<EvalArgs>();
        sub.add_option("--gt", args->gt_path,
-                      "Ground-truth poses, KITTI format (12 numbers a line, T_world_cam)")
+                      "Ground-truth poses, T_world_cam: TUM (t x y z qx qy qz qw), KITTI (12 numbers a "
+                      "line, with --times) or EuRoC CSV (e.g. the sequence's poses_tum.txt, or poses.txt)")
            ->type_name("POSES")
            ->required();
        sub.add_option("--times", args->times_path,
-                      "Timestamps of the ground-truth poses (s), one a line (times.txt)")
-           ->type_name("TIMES")
-           ->required();
+                      "Timestamps of KITTI ground-truth poses (s), one a line (times.txt)")
+           ->type_name("TIMES");
        sub.add_option("--est", args->est_path,
-                      "Estimated trajectory, TUM format (t x y z qx qy qz qw)")
+                      "Estimated trajectory: TUM, KITTI (times from --est-times, default TRAJ.times.txt "
+                      "as `run --format kitti` writes it) or EuRoC CSV")
            ->type_name("TRAJ")
            ->required();
+       sub.add_option("--est-times", args->est_times_path,
+                      "Timestamps of a KITTI estimate (s), one a line (default: TRAJ.times.txt)")
+           ->type_name("TIMES");
        sub.add_flag("--json", args->json, "Print the figures as JSON on stdout instead of text");
        sub.add_option("--plot", args->plot_path,
                       "Write a PNG: top view of ground truth vs aligned estimate coloured by "

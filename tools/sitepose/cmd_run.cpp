@@ -8,14 +8,17 @@
 #include <unistd.h>
 
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/config/orbslam2_settings.hpp"
 #include "sitepose/core/echo.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/dynamic/masking.hpp"
+#include "sitepose/io/json_file.hpp"
 #include "sitepose/io/output_path.hpp"
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/mapfile/map_file.hpp"
+#include "sitepose/io/trajectory.hpp"
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"
@@ -32,6 +35,8 @@ struct RunArgs {
   std::string mode;
   std::string detector;
   std::string out;
+  std::string format = "tum";
+  std::string tracking_out;
   std::string states_out;
   std::string stats_out;
   std::string gt;
@@ -84,8 +89,100 @@ Status save_map_out(const std::string& path, const slam::SlamSystem& system, boo
   return ok_status();
 }
 
-int run(const RunArgs& args) {
-  config::SiteposeConfig config;
+struct TrackedRun {
+  slam::RunRecorder recorder;
+  int detector_failures = 0;
+  double trace_ms = 0.0;  // filling the --debug-out record, outside the frame times
+};
+
+// Tracks frames [first, n_frames) until done or interrupted (the frame in
+// progress is finished first, so the trajectory holds every frame started).
+// Returns 0, or the exit status of a failure.
+int track(const RunArgs& args, const io::Sequence& sequence, std::size_t first, std::size_t n_frames,
+          detect::Detector* detector, slam::SlamSystem& system, views::DebugRecordWriter* debug,
+          TrackedRun& tracked) {
+  const bool tty = isatty(STDERR_FILENO) != 0;
+  for (std::size_t i = first; i < n_frames && !interrupted(); ++i) {
+    auto frame = sequence.read_frame(i);
+    if (!frame) return fail(kCommand, frame.error().message, 2);
+    Expected<slam::FrameReport> report = make_error(ErrorCode::kRuntime, "not run");
+    if (detector != nullptr) {
+      const auto t_detect = std::chrono::steady_clock::now();
+      auto objects = slam::detect_objects(*detector, *frame);
+      const double detect_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_detect).count();
+      if (!objects) {
+        // The frame goes on without detections (counted), never a crash.
+        ++tracked.detector_failures;
+        std::fprintf(stderr, "sitepose run: frame %zu: %s\n", i, objects.error().message.c_str());
+        objects = dynamic::FrameObjects{};
+      }
+      report = system.process(*frame, *objects);
+      if (report) {
+        report->timings.detect_ms = detect_ms;
+        report->timings.total_ms += detect_ms;
+      }
+    } else {
+      report = system.process(*frame);
+    }
+    if (!report) {
+      return fail(kCommand, "frame " + std::to_string(i) + ": " + report.error().message,
+                  report.error().exit_status());
+    }
+    tracked.recorder.add(*report);
+    if (debug != nullptr) {
+      tracked.trace_ms += report->trace.fill_ms;
+      if (auto st = debug->write(*report); !st) return fail(kCommand, st.error().message, 1);
+    }
+    if (!args.quiet &&
+        (tty ? (i % 5 == 0 || i + 1 == n_frames) : ((i + 1) % 100 == 0 || i + 1 == n_frames))) {
+      std::fprintf(stderr, "%sframe %zu/%zu  %s  %.1f frames/s%s", tty ? "\r" : "", i + 1, n_frames,
+                   to_string(report->pose.state), tracked.recorder.frames_per_second(), tty ? "   " : "\n");
+    }
+  }
+  if (!args.quiet && tty) std::fprintf(stderr, "\n");
+  return 0;
+}
+
+// Writes the trajectory and the optional stats and states of the frames
+// tracked; `partial`: the run was interrupted before its last frame.
+int write_outputs(const RunArgs& args, const config::SiteposeConfig& config, bool with_detector,
+                  const slam::SlamSystem& system, const TrackedRun& tracked, bool partial) {
+  const slam::RunRecorder& recorder = tracked.recorder;
+  const io::TrajectoryFormat format = *io::parse_trajectory_format(args.format);  // checked at parse
+  if (auto st = recorder.write_trajectory(args.out, format); !st)
+    return fail(kCommand, st.error().message, 1);
+  if (!args.tracking_out.empty()) {
+    if (auto st = recorder.write_tracking_states_csv(args.tracking_out); !st) {
+      return fail(kCommand, st.error().message, 1);
+    }
+  }
+  if (!args.stats_out.empty()) {
+    const auto& counters = system.tracker_counters();
+    const auto mapping = system.mapping_stats();
+    const io::Json extra{{"mode", config::to_string(config.dynamic.mode)},
+                         {"detector", with_detector ? config.detector.name : std::string()},
+                         {"classifier", config::to_string(config.dynamic.classifier)},
+                         {"detector_failures", tracked.detector_failures},
+                         {"keyframes_created", counters.keyframes_created},
+                         {"relocalisations", counters.relocalisations},
+                         {"keyframes_in_map", system.keyframe_count()},
+                         {"points_in_map", system.point_count()},
+                         {"keyframes_culled", mapping.keyframes_culled},
+                         {"partial", partial}};
+    if (auto st = recorder.write_stats_json(args.stats_out, extra); !st)
+      return fail(kCommand, st.error().message, 1);
+  }
+  if (!args.states_out.empty()) {
+    if (auto st = recorder.write_states_csv(args.states_out); !st)
+      return fail(kCommand, st.error().message, 1);
+  }
+  return 0;
+}
+
+// The settings of the run (--config, --orbslam2-settings, --mode,
+// --detector) and the checks between them. Returns 0 or the exit status.
+int resolve_config(const RunArgs& args, config::SiteposeConfig& config) {
   if (!args.config_path.empty()) {
     auto loaded = config::load_config(args.config_path);
     if (!loaded) return fail(kCommand, loaded.error().message, 2);
@@ -94,6 +191,12 @@ int run(const RunArgs& args) {
   if (!args.orbslam2_settings.empty()) {
     auto settings = config::load_orbslam2_settings(args.orbslam2_settings);
     if (!settings) return fail(kCommand, settings.error().message, 2);
+    if (!settings->ignored_keys.empty()) {
+      std::string keys;
+      for (const std::string& key : settings->ignored_keys) keys += (keys.empty() ? "" : ", ") + key;
+      std::fprintf(stderr, "sitepose run: %s: keys sitepose does not use, ignored: %s\n",
+                   args.orbslam2_settings.c_str(), keys.c_str());
+    }
     config::apply_orbslam2_settings(*settings, config);
   }
   if (!args.mode.empty()) {
@@ -110,16 +213,31 @@ int run(const RunArgs& args) {
                               config::to_string(config.dynamic.mode), 2);
   }
   if (!args.detector.empty()) config.detector.name = args.detector;
-  // Outputs are written after the whole run: a path that cannot be written
-  // is bad usage now, not a failure then.
+  return 0;
+}
+
+// Outputs are written after the whole run: a path that cannot be written
+// is bad usage now, not a failure then. Returns 0 or the exit status.
+int check_outputs(const RunArgs& args) {
+  const std::string kitti_times = args.format == "kitti" ? io::kitti_times_path(args.out) : std::string();
   for (const auto& [option, path] :
-       {std::pair{"--out", &args.out}, std::pair{"--states-out", &args.states_out},
-        std::pair{"--stats-out", &args.stats_out}, std::pair{"--map-out", &args.map_out}}) {
+       {std::pair{"--out", &args.out}, std::pair{"--out (its .times.txt)", &kitti_times},
+        std::pair{"--states-out", &args.states_out}, std::pair{"--stats-out", &args.stats_out},
+        std::pair{"--tracking-out", &args.tracking_out}, std::pair{"--map-out", &args.map_out}}) {
     if (path->empty()) continue;
     if (auto st = io::check_output_path(*path); !st) {
       return fail(kCommand, std::string(option) + ": " + st.error().message, 2);
     }
   }
+  return 0;
+}
+
+int run(const RunArgs& args) {
+  install_interrupt_handlers();
+  config::SiteposeConfig config;
+  if (const int status = resolve_config(args, config); status != 0) return status;
+  if (const int status = check_outputs(args); status != 0) return status;
+  const bool masking = config.dynamic.mode != config::MaskingMode::kNone;
   io::SequenceOptions options;
   options.gt_path = args.gt;
   auto sequence = io::open_sequence(args.sequence, options);
@@ -180,7 +298,6 @@ int run(const RunArgs& args) {
     if (!opened) return fail(kCommand, "--debug-out: " + opened.error().message, 2);
     debug = std::move(*opened);
   }
-  double trace_ms = 0.0;
 
   const std::size_t first = static_cast<std::size_t>(args.first_frame);
   if (first >= (*sequence)->size()) {
@@ -192,81 +309,39 @@ int run(const RunArgs& args) {
   const std::size_t n_frames = args.max_frames > 0
                                    ? std::min<std::size_t>(first + args.max_frames, (*sequence)->size())
                                    : (*sequence)->size();
-  const bool tty = isatty(STDERR_FILENO) != 0;
-  slam::RunRecorder recorder;
-  int detector_failures = 0;
-  for (std::size_t i = first; i < n_frames; ++i) {
-    auto frame = (*sequence)->read_frame(i);
-    if (!frame) return fail(kCommand, frame.error().message, 2);
-    Expected<slam::FrameReport> report = make_error(ErrorCode::kRuntime, "not run");
-    if (detector) {
-      const auto t_detect = std::chrono::steady_clock::now();
-      auto objects = slam::detect_objects(*detector, *frame);
-      const double detect_ms =
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_detect).count();
-      if (!objects) {
-        // The frame goes on without detections (counted), never a crash.
-        ++detector_failures;
-        std::fprintf(stderr, "sitepose run: frame %zu: %s\n", i, objects.error().message.c_str());
-        objects = dynamic::FrameObjects{};
-      }
-      report = (*system)->process(*frame, *objects);
-      if (report) {
-        report->timings.detect_ms = detect_ms;
-        report->timings.total_ms += detect_ms;
-      }
-    } else {
-      report = (*system)->process(*frame);
-    }
-    if (!report) {
-      return fail(kCommand, "frame " + std::to_string(i) + ": " + report.error().message,
-                  report.error().exit_status());
-    }
-    recorder.add(*report);
-    if (debug) {
-      trace_ms += report->trace.fill_ms;
-      if (auto st = debug->write(*report); !st) return fail(kCommand, st.error().message, 1);
-    }
-    if (!args.quiet && (tty ? (i % 5 == 0 || i + 1 == n_frames) : ((i + 1) % 100 == 0 || i + 1 == n_frames))) {
-      std::fprintf(stderr, "%sframe %zu/%zu  %s  %.1f frames/s%s", tty ? "\r" : "", i + 1, n_frames,
-                   to_string(report->pose.state), recorder.frames_per_second(), tty ? "   " : "\n");
-    }
+  TrackedRun tracked;
+  if (const int status = track(args, **sequence, first, n_frames, detector.get(), **system, debug.get(), tracked);
+      status != 0) {
+    return status;
   }
   (*system)->finish();
-  if (!args.quiet && tty) std::fprintf(stderr, "\n");
+  const bool partial = tracked.recorder.frames() < static_cast<int>(n_frames - first);
   if (!args.map_out.empty()) {
     if (auto st = save_map_out(args.map_out, **system, args.quiet); !st)
       return fail(kCommand, st.error().message, 1);
   }
-  if (auto st = recorder.write_tum(args.out); !st) return fail(kCommand, st.error().message, 1);
-  if (!args.stats_out.empty()) {
-    const auto& counters = (*system)->tracker_counters();
-    const auto mapping = (*system)->mapping_stats();
-    const std::string extra =
- "  \"mode\": \"" + std::string(config::to_string(config.dynamic.mode)) + "\",\n  \"detector\": \"" +
-        (detector ? config.detector.name : std::string()) + "\",\n  \"classifier\": \"" +
-        config::to_string(config.dynamic.classifier) + "\",\n  \"detector_failures\": " +
-        std::to_string(detector_failures) + ",\n  \"keyframes_created\": " + std::to_string(counters.keyframes_created) +
-        ",\n  \"relocalisations\": " + std::to_string(counters.relocalisations) +
-        ",\n  \"keyframes_in_map\": " + std::to_string((*system)->keyframe_count()) +
-        ",\n  \"points_in_map\": " + std::to_string((*system)->point_count()) +
-        ",\n  \"keyframes_culled\": " + std::to_string(mapping.keyframes_culled);
-    if (auto st = recorder.write_stats_json(args.stats_out, extra); !st) return fail(kCommand, st.error().message, 1);
-  }
-  if (!args.states_out.empty()) {
-    if (auto st = recorder.write_states_csv(args.states_out); !st) return fail(kCommand, st.error().message, 1);
+  if (const int status = write_outputs(args, config, detector != nullptr, **system, tracked, partial);
+      status != 0) {
+    return status;
   }
   if (debug) {
     if (auto st = debug->close(); !st) return fail(kCommand, st.error().message, 1);
-    const double whole = recorder.stage_total_ms("whole_frame");
-    const double cost = trace_ms + debug->write_ms();
+    const double whole = tracked.recorder.stage_total_ms("whole_frame");
+    const double cost = tracked.trace_ms + debug->write_ms();
     std::printf("debug record in %s: %.1f ms, %.2f %% of tracking time\n", args.debug_out.c_str(), cost,
                 whole > 0 ? 100.0 * cost / whole : 0.0);
   }
-  std::printf("frames %d, tracked OK %d (%.1f %%), %.1f frames/s, keyframes %zu, points %zu\n",
-              recorder.frames(), recorder.frames_ok(),
-              recorder.frames() ? 100.0 * recorder.frames_ok() / recorder.frames() : 0.0,
-              recorder.frames_per_second(), (*system)->keyframe_count(), (*system)->point_count());
+  if (partial) {
+    const std::string what = "wrote the " + std::to_string(tracked.recorder.frames()) + " of " +
+                             std::to_string(n_frames - first) + " frames tracked" +
+                             (args.stats_out.empty() ? "" : " (stats marked partial)");
+    return report_interrupted(kCommand, what.c_str());
+  }
+  std::printf(
+      "frames %d, tracked OK %d (%.1f %%), %.1f frames/s, keyframes %zu, points %zu\n",
+      tracked.recorder.frames(), tracked.recorder.frames_ok(),
+      tracked.recorder.frames() ? 100.0 * tracked.recorder.frames_ok() / tracked.recorder.frames() : 0.0,
+      tracked.recorder.frames_per_second(), (*system)->keyframe_count(), (*system)->point_count());
   return 0;
 }
 
@@ -294,7 +369,16 @@ const CommandRegistrar kRun{{"", "run", "Track a recorded stereo sequence and wr
   sub.add_option("--detector", args->detector,
                  "Detector for the masking modes: labels (the sequence's labels/), stereo-geometric, "
                  "opencv-dnn, or a plugin .so path (default: the config's detector.name, labels)");
-  sub.add_option("--out", args->out, "Trajectory output, TUM format (T_world_cam, left camera)")->required();
+  sub.add_option("--out", args->out, "Trajectory output (T_world_cam, left camera; frames not LOST)")
+      ->required();
+  sub.add_option("--format", args->format,
+                 "Trajectory format: tum (t x y z qx qy qz qw), kitti (3x4 rows; times in OUT.times.txt) or "
+                 "euroc (CSV, t in ns)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"tum", "kitti", "euroc"}));
+  sub.add_option("--tracking-out", args->tracking_out,
+                 "Tracking state of every frame, CSV frame,t_s,state (OK, RECOVERING or LOST; "
+                 "docs/run/tracking_states.md)");
   sub.add_option("--states-out", args->states_out,
                  "Motion states CSV, frame,instance,class,state,score,points (--mode full only)");
   sub.add_option("--stats-out", args->stats_out, "Per-run statistics JSON");

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/sim/scenario.hpp"
 #include "sitepose/sim/sequence_writer.hpp"
 #include "sitepose/sim/simulator.hpp"
@@ -37,9 +38,11 @@ int list_scenarios() {
 
 int run_sim(const SimArgs& a, CLI::App& sub) {
   if (a.list) return list_scenarios();
+  install_interrupt_handlers();
   if (a.scenario.empty() || a.out.empty()) {
     return fail("sim", "--scenario and --out are required (or --list)", 2);
   }
+  if (auto st = sim::check_sequence_output(a.out, a.force); !st) return fail("sim", st.error().message, 2);
   auto scenario = sim::load_scenario(a.scenario);
   if (!scenario) return fail("sim", scenario.error().message, scenario.error().exit_status());
   sim::SimOptions options;
@@ -53,6 +56,7 @@ int run_sim(const SimArgs& a, CLI::App& sub) {
 
   sim::WriteOptions write;
   write.force = a.force;
+  write.stop = [] { return interrupted(); };
   const bool tty = isatty(STDERR_FILENO) != 0;
   write.progress = [tty](int done, int total) {
     if (tty) {
@@ -70,6 +74,13 @@ int run_sim(const SimArgs& a, CLI::App& sub) {
                simulator->fps(), simulator->camera().width, simulator->camera().height, a.out.c_str());
   auto summary = sim::write_sequence(*simulator, a.out, write);
   if (!summary) return fail("sim", summary.error().message, summary.error().exit_status());
+  if (summary->partial) {
+    if (tty) std::fprintf(stderr, "\n");
+    const std::string what = "wrote the first " + std::to_string(summary->frames) + " of " +
+                             std::to_string(simulator->frame_count()) + " frames to " + a.out +
+                             " as a complete sequence (meta.json \"partial\": true)";
+    return report_interrupted("sim", what.c_str());
+  }
   std::printf("wrote %d frames to %s in %.1f s (%.1f frames/s); occlusion ratio max %.3f, mean %.3f\n",
               summary->frames, a.out.c_str(), summary->seconds, summary->frames / summary->seconds,
               summary->max_occlusion_ratio, summary->mean_occlusion_ratio);
@@ -86,9 +97,13 @@ const CommandRegistrar kSim{
        sub.add_option("--frames", args->frames, "Number of frames (default: the scenario's duration_s x fps)")
            ->check(CLI::Range(1, std::numeric_limits<int>::max()));
        sub.add_option("--seed", args->seed, "Seed of textures, layout, exposure and noise (default: the scenario's)");
-       sub.add_option("--width", args->width, "Image width in pixels (focal length scales, the view is kept)");
-       sub.add_option("--height", args->height, "Image height in pixels (focal length scales, the view is kept)");
-       sub.add_option("--fps", args->fps, "Frame rate (default: the scenario's)");
+       sub.add_option("--width", args->width, "Image width in pixels (focal length scales, the view is kept)")
+           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+       sub.add_option("--height", args->height,
+                      "Image height in pixels (focal length scales, the view is kept)")
+           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+       sub.add_option("--fps", args->fps, "Frame rate (default: the scenario's)")
+           ->check(CLI::Range(0.001, 1000.0));
        sub.add_flag("--force", args->force, "Replace a sequence already in --out");
        sub.add_flag("--list", args->list, "List the shipped scenarios, one per line, and exit");
        return [args, &sub] { return run_sim(*args, sub); };

@@ -16,8 +16,12 @@
 
 int main(int argc, char** argv) {
   using namespace sitepose;
+  use_stderr_logger("sitepose");
   CLI::App app{"sitepose: stereo visual positioning for construction machines"};
   app.require_subcommand(1);
+  // Options the subcommands do not know (--log-level) go to this app, so
+  // they may come after the subcommand too; subcommands inherit the setting.
+  app.fallthrough();
   app.set_version_flag("--version", std::string("sitepose ") + version_string() + " (" +
                                         git_revision() + ", " + build_type() + ")");
   std::string log_level = "info";

@@ -30,6 +30,8 @@ struct DynamicRunOptions {
   // fake occluder and its box into it).
   std::function<void(LabelledFrame&)> alter;
   std::function<void(int, int, const slam::FrameReport&)> on_frame;
+  // Polled before each frame; true ends the run there (result.partial).
+  std::function<bool()> stop;
   // When set, its detections replace the source's labels (e.g. the
   // weight-free stereo-geometric detector); motion-state samples then carry
   // no ground truth (its instance ids are not the labels').
@@ -48,7 +50,8 @@ struct ObjectSample {
 struct DynamicRunResult {
   std::string name;
   config::MaskingMode mode = config::MaskingMode::kNone;
-  int frames = 0;
+  int frames = 0;        // frames tracked
+  bool partial = false;  // DynamicRunOptions::stop ended the run early
   slam::RunRecorder recorder;
   io::Trajectory ground_truth;
   io::Trajectory estimate;  // poses not LOST

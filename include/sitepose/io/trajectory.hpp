@@ -38,4 +38,27 @@ Expected<std::vector<double>> read_times(const std::string& path);
 Expected<Trajectory> read_kitti_trajectory(const std::string& poses_path,
                                            const std::string& times_path);
 
+// The trajectory files `sitepose run --format` writes and `eval` reads.
+//   tum    "t x y z qx qy qz qw", t in s
+//   kitti  12 numbers a line (row-major 3x4), no times: the times go to a
+//          sidecar, kitti_times_path(path), one per line (s)
+//   euroc  "#timestamp [ns],p_RS_R_x [m],...,q_RS_w [],q_RS_x [],..." CSV
+//          (state_groundtruth_estimate0/data.csv columns), t in ns
+enum class TrajectoryFormat { kTum, kKitti, kEuroc };
+const char* to_string(TrajectoryFormat format);
+// "tum", "kitti" or "euroc"; kInvalidArgument naming the choices otherwise.
+Expected<TrajectoryFormat> parse_trajectory_format(const std::string& name);
+// `path` + ".times.txt".
+std::string kitti_times_path(const std::string& path);
+
+Status write_trajectory(const std::string& path, const Trajectory& trajectory, TrajectoryFormat format);
+
+// The format of a trajectory file from its first data line: commas -> euroc,
+// 12 numbers -> kitti, 8 -> tum. kParseError naming the line otherwise.
+Expected<TrajectoryFormat> detect_trajectory_format(const std::string& path);
+
+// Reads any of the three, detected; a KITTI file takes its times from
+// `times_path`, or when that is empty from kitti_times_path(path).
+Expected<Trajectory> read_trajectory(const std::string& path, const std::string& times_path = "");
+
 }  // namespace sitepose::io

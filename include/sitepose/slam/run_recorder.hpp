@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "sitepose/core/expected.hpp"
+#include "sitepose/io/json_fwd.hpp"
+#include "sitepose/io/trajectory.hpp"
 #include "sitepose/slam/slam_system.hpp"
 
 namespace sitepose::slam {
@@ -56,7 +58,16 @@ class RunRecorder {
 
   // Poses that are not LOST, as TUM (t in seconds).
   Status write_tum(const std::string& path) const;
-  Status write_stats_json(const std::string& path, const std::string& extra_json_fields = "") const;
+  // The same poses in `format` (io::write_trajectory).
+  Status write_trajectory(const std::string& path, io::TrajectoryFormat format) const;
+  // header frame,t_s,state; one row per frame tracked, LOST ones included,
+  // so RECOVERING poses in the trajectory can be told from OK ones.
+  Status write_tracking_states_csv(const std::string& path) const;
+  // frames, frames_ok, per-stage times, per-frame features, states and mar.
+  io::Json stats_json() const;
+  // stats_json() with `extra_fields` (an object) added, to `path`.
+  Status write_stats_json(const std::string& path, const io::Json& extra_fields) const;
+  Status write_stats_json(const std::string& path) const;
   // header frame,instance,class,state,score,points; one row per object per
   // frame of mode full (state = the smoothed state the run used).
   Status write_states_csv(const std::string& path) const;

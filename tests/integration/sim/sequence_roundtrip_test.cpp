@@ -12,7 +12,9 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "sitepose/io/json_file.hpp"
 #include "sitepose/io/sequence.hpp"
+#include "sitepose/io/trajectory.hpp"
 #include "sitepose/sim/sequence_writer.hpp"
 #include "sitepose/sim/simulator.hpp"
 #include "sitepose/testing/files.hpp"
@@ -80,6 +82,47 @@ TEST(SimSequence, WrittenSequenceReadsBackThroughTheFoundationReader) {
   const std::string meta = testing::read_text((dir / "meta.json").string());
   EXPECT_NE(meta.find("\"scenario\": \"crowded\""), std::string::npos);
   EXPECT_NE(meta.find("\"occlusion_ratio\": ["), std::string::npos);
+}
+
+// issue 21: meta.json was not valid JSON (T_site_world without commas); the
+// ground truth is also written as TUM; the sequence is written beside the
+// folder and moved in, --force replacing only the sequence's own files.
+TEST(SimSequence, MetaIsJsonGroundTruthAlsoTumAndForceReplaces) {
+  const Simulator sim = small_crowded(4);
+  const testing::TempDir tmp;
+  const fs::path dir = tmp.path() / "seq";
+  ASSERT_TRUE(write_sequence(sim, dir.string()));
+  auto meta = io::read_json_file((dir / "meta.json").string());
+  ASSERT_TRUE(meta) << meta.error().message;
+  EXPECT_EQ((*meta)["frames"].get<int>(), 4);
+  EXPECT_FALSE((*meta)["partial"].get<bool>());
+  ASSERT_EQ((*meta)["T_site_world"].size(), 12u);
+  const Eigen::Matrix<double, 3, 4> T = sim.T_site_world().matrix3x4();
+  EXPECT_DOUBLE_EQ((*meta)["T_site_world"][7].get<double>(), T(1, 3));
+  EXPECT_EQ((*meta)["occlusion_ratio"].size(), 4u);
+
+  auto tum = io::read_tum_trajectory((dir / "poses_tum.txt").string());
+  auto kitti = io::read_kitti_trajectory((dir / "poses.txt").string(), (dir / "times.txt").string());
+  ASSERT_TRUE(tum && kitti);
+  ASSERT_EQ(tum->size(), 4u);
+  for (std::size_t k = 0; k < tum->size(); ++k) {
+    EXPECT_NEAR((*tum)[k].t_s, (*kitti)[k].t_s, 1e-9);
+    EXPECT_LT(((*tum)[k].T_world_cam.matrix() - (*kitti)[k].T_world_cam.matrix()).cwiseAbs().maxCoeff(),
+              1e-8);
+  }
+
+  testing::write_file((dir / "notes.txt").string(), "kept\n");
+  WriteOptions no_force;
+  EXPECT_FALSE(write_sequence(small_crowded(2), dir.string(), no_force));
+  WriteOptions force;
+  force.force = true;
+  ASSERT_TRUE(write_sequence(small_crowded(2), dir.string(), force));
+  EXPECT_EQ(testing::read_text((dir / "notes.txt").string()), "kept\n");
+  EXPECT_FALSE(fs::exists(dir / "image_0" / "000003.png"));  // no stale frame
+  EXPECT_TRUE(fs::exists(dir / "image_0" / "000001.png"));
+  for (const auto& entry : fs::directory_iterator(tmp.path())) {
+    EXPECT_EQ(entry.path().filename().string().find(".partial-"), std::string::npos) << entry.path();
+  }
 }
 
 TEST(SimSequence, FullSizeFrameCarriesManyOrbCornersOverTheWholeView) {

@@ -175,6 +175,37 @@ TEST_F(CmdEval, TimeOffsetSearchAndTextSummary) {
   EXPECT_NE(text.out.find("max |dt| 0.01 s"), std::string::npos) << text.out;
 }
 
+// issue 21: eval took only KITTI ground truth and TUM estimates. The same
+// trajectories in each format score the same.
+TEST_F(CmdEval, TumKittiAndEurocFilesScoreTheSame) {
+  const io::Trajectory gt = curvy_trajectory(300, 10.0);
+  write_gt(gt);
+  const io::Trajectory est = make_estimate(gt, 0.0);
+  write_tum(est);
+  const RunResult reference = run(file_args() + " --json");
+  ASSERT_EQ(reference.exit_status, 0) << reference.err;
+  const double ate = json_value(reference.out, "ate_m", "rmse");
+
+  ASSERT_TRUE(io::write_tum_trajectory((dir_ / "gt.tum").string(), gt));
+  const std::string est_path = (dir_ / "est.txt").string();
+  const RunResult tum_gt = run("--gt " + (dir_ / "gt.tum").string() + " --est " + est_path + " --json");
+  ASSERT_EQ(tum_gt.exit_status, 0) << tum_gt.err;
+  EXPECT_NEAR(json_value(tum_gt.out, "ate_m", "rmse"), ate, 1e-6);
+
+  for (io::TrajectoryFormat format : {io::TrajectoryFormat::kKitti, io::TrajectoryFormat::kEuroc}) {
+    const std::string path = (dir_ / (std::string("est.") + io::to_string(format))).string();
+    ASSERT_TRUE(io::write_trajectory(path, est, format));
+    const RunResult r = run("--gt " + (dir_ / "gt.tum").string() + " --est " + path + " --json");
+    ASSERT_EQ(r.exit_status, 0) << io::to_string(format) << ": " << r.err;
+    EXPECT_NEAR(json_value(r.out, "ate_m", "rmse"), ate, 1e-6) << io::to_string(format);
+    EXPECT_EQ(json_value(r.out, "", "associated"), 250.0) << io::to_string(format);
+  }
+  // KITTI ground truth without its times is bad usage.
+  const RunResult no_times = run("--gt " + (dir_ / "poses.txt").string() + " --est " + est_path);
+  EXPECT_EQ(no_times.exit_status, 2);
+  EXPECT_NE(no_times.err.find("--times is required"), std::string::npos) << no_times.err;
+}
+
 TEST_F(CmdEval, BadInputExitsTwo) {
   const io::Trajectory gt = curvy_trajectory(50, 10.0);
   write_gt(gt);
