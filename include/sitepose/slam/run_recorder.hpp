@@ -36,6 +36,7 @@ struct StateRow {
   dynamic::MotionState state = dynamic::MotionState::kUnknown;
   double score = 0.0;
   int points = 0;
+  dynamic::UnknownReason reason = dynamic::UnknownReason::kNone;  // why state is unknown
 };
 
 class RunRecorder {
@@ -57,8 +58,9 @@ class RunRecorder {
   // Poses that are not LOST, as TUM (t in seconds).
   Status write_tum(const std::string& path) const;
   Status write_stats_json(const std::string& path, const std::string& extra_json_fields = "") const;
-  // header frame,instance,class,state,score,points; one row per object per
-  // frame of mode full (state = the smoothed state the run used).
+  // header frame,instance,class,state,score,points,reason; one row per
+  // object per frame of mode full (state = the smoothed state the run used;
+  // reason = dynamic::to_string(UnknownReason), empty unless unknown).
   Status write_states_csv(const std::string& path) const;
 
   const std::vector<StateRow>& state_rows() const { return state_rows_; }
