@@ -213,7 +213,7 @@ const CommandRegistrar kRun{{"", "run", "Track a recorded stereo sequence and wr
                  "opencv-dnn, or a plugin .so path (default: the config's detector.name, labels)");
   sub.add_option("--out", args->out, "Trajectory output, TUM format (T_world_cam, left camera)")->required();
   sub.add_option("--states-out", args->states_out,
-                 "Motion states CSV, frame,instance,class,state,score,points (--mode full only)");
+                 "Motion states CSV, frame,instance,class,state,score,points,reason (--mode full only; reason: why unknown)");
   sub.add_option("--stats-out", args->stats_out, "Per-run statistics JSON");
   sub.add_option("--gt", args->gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
   sub.add_option("--frames", args->max_frames, "Process at most N frames (default: all)")
