@@ -80,7 +80,7 @@ constexpr const char* kPersonClass = "person";
 constexpr double kMinArticulatedPartFraction = 0.12;
 // A working machine pauses with zero joint speed between strokes (and at
 // the turn of a stroke), where a few static-looking frames follow motion:
-// once called moving it is unmasked only after twice the static verdicts.
+// it is unmasked only after twice the static verdicts.
 constexpr int kArticulatedHysteresisFactor = 2;
 constexpr int kMinArticulatedPartPoints = 2;
 bool is_articulated_class(const std::string& class_name) {
@@ -136,15 +136,14 @@ double part_points_needed(std::size_t points, int min_points, bool articulated) 
 }
 
 // The points that leave the common displacement and show motion on their
-// own; empty when they are too few to be a part. An articulated machine's
-// need not move across the image (a boom swinging towards the camera).
+// own and across the image; empty when they are too few to be a part.
 std::vector<PointDisplacement> moving_part(const std::vector<PointDisplacement>& points,
                                            const std::vector<bool>& agrees, int min_points,
                                            bool articulated) {
   std::vector<PointDisplacement> part;
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!agrees[i] && points[i].mahalanobis2 > kMovingPointGate &&
-        (articulated || points[i].image_shift2 > kMovingImageGate)) {
+        points[i].image_shift2 > kMovingImageGate) {
       part.push_back(points[i]);
     }
   }
@@ -513,12 +512,10 @@ void MotionClassifier::judge(const Pairing& pairing,
   const bool long_enough =
       pairing.ref != nullptr &&
       static_cast<double>(pairing.current.t_ns - pairing.ref->t_ns) * 1e-9 >= kMinStaticEvidenceS;
-  const auto track = tracks_.find(v.instance);
-  const bool was_moving = track != tracks_.end() && track->second.state == MotionState::kMoving;
-  const int hysteresis = config_.hysteresis_frames * (person ? kPersonHysteresisFactor
-                                                      : was_moving && is_articulated_class(v.class_name)
-                                                          ? kArticulatedHysteresisFactor
-                                                          : 1);
+  const int hysteresis =
+      config_.hysteresis_frames * (person                               ? kPersonHysteresisFactor
+                                   : is_articulated_class(v.class_name) ? kArticulatedHysteresisFactor
+                                                                        : 1);
   v.state = paper ? v.raw
                   : smooth(v.instance, pairing.current.seq, v.raw, long_enough,
                            reason == UnknownReason::kAmbiguous, hysteresis);
