@@ -119,19 +119,25 @@ TEST(MotionStates, Slewing) {
   EXPECT_GE(unmasked_share(f.run, 3), 0.75);
 }
 
+// Measured: balanced accuracy 0.865, AUC 0.918, unknown 9.1 %.
 TEST(MotionStates, Standing) {
   const Figures f = run_full("standing", 150);
   EXPECT_EQ(f.all.moving_called_static, 0);
+  EXPECT_LE(f.all.unknown_share(), 0.1);
 }
 
+// The truck comes into view at about 30 s (frame ~180), the roller later.
 TEST(MotionStates, Stopgo) {
-  const Figures f = run_full("stopgo", 120);
+  const Figures f = run_full("stopgo", 300);
+  EXPECT_GT(f.all.testable, 20);
   EXPECT_EQ(f.all.moving_called_static, 0);
 }
 
 TEST(MotionStates, Crowded) {
   const Figures f = run_full("crowded", 150);
   EXPECT_EQ(f.all.moving_called_static, 0);
+  EXPECT_GE(f.all.balanced_accuracy(), 0.95);  // measured 1.000, AUC 0.982, unknown 2.3 %
+  EXPECT_LE(f.all.unknown_share(), 0.1);
 }
 
 }  // namespace
