@@ -144,6 +144,11 @@ class Tracker {
   // Motion model or relocalisation, then the local map; see estimate().
   bool track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                           const SE3& predicted, PassResult& result) const;
+  // When the motion model found too few matches: the reference keyframe's
+  // local map searched from the predicted pose (ORB-SLAM2 tracks the
+  // reference keyframe there) before the frame counts as lost.
+  bool track_reference_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                           const SE3& predicted, PassResult& result) const;
   bool relocalise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                   PassResult& result) const;
   bool relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
