@@ -199,6 +199,24 @@ bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<s
   return result.n_inliers >= kMinInliersMotionModel;
 }
 
+bool Tracker::track_reference_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                                  const SE3& predicted, PassResult& result) const {
+  std::vector<int> match;
+  const std::vector<map::PointId> none(frame.size(), map::kNoPoint);
+  const std::vector<PointView> points = local_points(frame, none, false, match);
+  SearchParams params = local_map_search(kMotionModelRadiusPx);
+  int n = search_by_projection(frame, camera_, pyramid_, predicted, points, usable, params, match, nullptr);
+  if (n < kMinMatchesMotionModel) {
+    std::fill(match.begin(), match.end(), -1);
+    params.radius_px *= 2.0;
+    n = search_by_projection(frame, camera_, pyramid_, predicted, points, usable, params, match, nullptr);
+  }
+  if (n < kMinMatchesMotionModel) return false;
+  result.T_cam_world = predicted;
+  optimise_pose(frame, points, match, result);
+  return result.n_inliers >= kMinInliersMotionModel;
+}
+
 std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
                                              const std::vector<map::PointId>& tracked, bool keep_tracked,
                                              std::vector<int>& match) const {
@@ -316,6 +334,11 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
   } else if (has_last_ && state_ != TrackingState::kLost) {
     const SE3 predicted = has_velocity_ ? velocity_ * last_T_cam_world_ : last_T_cam_world_;
     tracked = track_motion_model(frame, usable, predicted, result);
+    // Too few of the last frame's points re-found (e.g. a machine passing
+    // close hides most of them): the reference keyframe's map from the
+    // predicted pose before relocalisation, which could pick a keyframe
+    // whose points lie on that machine.
+    if (!tracked) tracked = track_reference_map(frame, usable, predicted, result);
   }
   if (!tracked) tracked = relocaliser_.relocalise(map_, frame, usable, result);
   result.timings.motion_model_ms = ms_since(t_motion) - result.timings.motion_ba_ms;

@@ -122,6 +122,11 @@ class Tracker {
   // estimate().
   bool track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                           const SE3& predicted, PassResult& result) const;
+  // When the motion model found too few matches: the reference keyframe's
+  // local map searched from the predicted pose (ORB-SLAM2 tracks the
+  // reference keyframe there) before the frame counts as lost.
+  bool track_reference_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                           const SE3& predicted, PassResult& result) const;
   // Without anchor: the local map of result's own matches, which stay.
   // With anchor: the anchor's local map, every keypoint matched afresh.
   void track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
