@@ -9,7 +9,6 @@
 #include "sitepose/core/log.hpp"
 #include "sitepose/daemon/daemon.hpp"
 #include "sitepose/daemon/daemon_config.hpp"
-#include "sitepose/pipeline/replay_source.hpp"
 
 namespace sitepose::daemon {
 namespace {
@@ -41,12 +40,7 @@ int run_siteposed(const Invocation& invocation) {
 
   const std::string resolved = to_yaml(*config);
   if (invocation.check_config) {
-    // A sequence is part of the input: check that it opens too. Cameras are
-    // not opened (they may be off while the unit is being set up).
-    if (config->source_type == "replay") {
-      auto source = pipeline::ReplaySource::open(config->replay);
-      if (!source) return fail("source.replay.sequence: " + source.error().message, 2);
-    }
+    if (auto st = check_startable(*config); !st) return fail(st.error().message, 2);
     std::printf("%s", resolved.c_str());
     std::fprintf(stderr, "siteposed: %s: configuration ok\n", invocation.config_path.c_str());
     return 0;

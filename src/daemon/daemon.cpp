@@ -12,6 +12,7 @@
 #include "sitepose/core/log.hpp"
 #include "sitepose/drivers/aravis/aravis_camera.hpp"
 #include "sitepose/geo/nmea.hpp"
+#include "sitepose/io/output_path.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
 #include "sitepose/pipeline/replay_source.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"
@@ -51,6 +52,69 @@ Expected<std::unique_ptr<pipeline::FrameSource>> open_source(const DaemonConfig&
   }
   SITEPOSE_TRY(auto replay, pipeline::ReplaySource::open(config.replay));
   return std::unique_ptr<pipeline::FrameSource>(std::move(replay));
+}
+
+namespace {
+
+// A start finds the camera in the source; a check without a camera source
+// (it may be off) loads the detector with a nominal one.
+StereoCamera nominal_camera() {
+  StereoCamera camera;
+  camera.fx = camera.fy = 500.0;
+  camera.cx = 320.0;
+  camera.cy = 240.0;
+  camera.width = 640;
+  camera.height = 480;
+  camera.baseline_m = 0.12;
+  return camera;
+}
+
+// `camera`: the replay sequence's (none for a camera source).
+Status check_detector(const DaemonConfig& config, std::optional<StereoCamera> camera) {
+  if (config.sitepose.dynamic.mode == config::MaskingMode::kNone) return ok_status();
+  detect::DetectorContext context;
+  context.camera = config.sitepose.camera.stereo ? config.sitepose.camera.stereo : camera;
+  if (!context.camera) context.camera = nominal_camera();
+  if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
+  auto hook = pipeline::make_detect_hook(config.sitepose, context);
+  if (!hook) return make_error(ErrorCode::kInvalidArgument, "detector: " + hook.error().message);
+  return ok_status();
+}
+
+Status check_output(bool enabled, const std::string& key, const std::string& path) {
+  if (!enabled) return ok_status();
+  auto st = io::check_output_path(path);
+  if (!st) return make_error(ErrorCode::kInvalidArgument, key + ": " + st.error().message);
+  return ok_status();
+}
+
+}  // namespace
+
+Status check_startable(const DaemonConfig& config) {
+  std::optional<StereoCamera> camera;
+  if (config.source_type == "replay") {
+    auto source = pipeline::ReplaySource::open(config.replay);
+    if (!source) {
+      return make_error(ErrorCode::kInvalidArgument, "source.replay.sequence: " + source.error().message);
+    }
+    camera = (*source)->camera();
+  }
+  SITEPOSE_TRY_STATUS(check_detector(config, camera));
+  if (auto anchoring = Anchoring::create(config.geo); !anchoring) return Unexpected{anchoring.error()};
+  if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kNmeaFile) {
+    if (auto fixes = geo::read_nmea_file(config.geo.nmea_file, {}); !fixes) return Unexpected{fixes.error()};
+  }
+  if (config.lcm.enabled) SITEPOSE_TRY_STATUS(output::check_lcm_url(config.lcm.lcm.url, "outputs.lcm.url"));
+  if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kLcm &&
+      !config.lcm.enabled) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "geo.online.gnss_input = lcm: needs outputs.lcm.enabled = true");
+  }
+  SITEPOSE_TRY_STATUS(check_output(config.can.enabled && config.can.sink == CanSinkKind::kCandumpFile,
+                                   "outputs.can.path", config.can.path));
+  SITEPOSE_TRY_STATUS(
+      check_output(config.trajectory.enabled, "outputs.trajectory.path", config.trajectory.path));
+  return ok_status();
 }
 
 Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,

@@ -1,11 +1,15 @@
 #include "sitepose/daemon/outputs.hpp"
 
+#include <charconv>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <numbers>
 
 #include <fmt/format.h>
 
+#include "sitepose/core/log.hpp"
 #include "sitepose/output/j1939.hpp"
 
 namespace sitepose::daemon {
@@ -80,15 +84,70 @@ const geo::SitePose* Anchoring::site_pose(const pipeline::PosePacket& packet) {
 
 // --------------------------------------------------------- TrajectoryOutput
 
+namespace {
+
+// Time of the last line of a TUM file (its first field), in ns; nullopt
+// for an empty file or one whose last line does not start with a number.
+std::optional<std::int64_t> last_tum_time_ns(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  const std::streamoff tail = std::min<std::streamoff>(size, 4096);
+  in.seekg(size - tail);
+  std::string text(static_cast<std::size_t>(tail), '\0');
+  in.read(text.data(), tail);
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  const std::size_t begin = text.rfind('\n') == std::string::npos ? 0 : text.rfind('\n') + 1;
+  double t_s = 0.0;
+  const auto result = std::from_chars(text.data() + begin, text.data() + text.size(), t_s);
+  if (result.ec != std::errc() || !std::isfinite(t_s) || std::abs(t_s) > 9e9) return std::nullopt;
+  return std::llround(t_s * 1e9);
+}
+
+}  // namespace
+
 Expected<std::unique_ptr<TrajectoryOutput>> TrajectoryOutput::open(const std::string& path, bool append) {
   auto file = io::LineFile::open(path, append);
   if (!file) return make_error(file.error().code, "outputs.trajectory.path: " + file.error().message);
-  return std::unique_ptr<TrajectoryOutput>(new TrajectoryOutput(std::move(*file)));
+  std::unique_ptr<TrajectoryOutput> out(new TrajectoryOutput(std::move(*file), path));
+  if (append) out->last_t_ns_ = last_tum_time_ns(path);
+  return out;
+}
+
+Status TrajectoryOutput::rotate() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  std::string moved;
+  for (int n = 1; n <= 100000; ++n) {
+    moved = path_ + "." + std::to_string(n);
+    if (!fs::exists(fs::symlink_status(moved, ec))) break;
+  }
+  fs::rename(path_, moved, ec);
+  if (ec)
+    return make_error(ErrorCode::kIoError,
+                      "outputs.trajectory.path: cannot move " + path_ + " to " + moved + ": " + ec.message());
+  auto file = io::LineFile::open(path_, false);
+  if (!file) {
+    fs::rename(moved, path_, ec);  // keep writing where we were
+    return make_error(file.error().code, "outputs.trajectory.path: " + file.error().message);
+  }
+  file_ = std::move(*file);
+  spdlog::warn(
+      "outputs.trajectory.path: a pose time not after the file's last line (the time base started "
+      "again: a restarted replay, or a clock stepped back); earlier lines moved to {}",
+      moved);
+  return ok_status();
 }
 
 Status TrajectoryOutput::write_pending() {
+  if (last_t_ns_ && pending_t_ns_ <= *last_t_ns_) {
+    SITEPOSE_TRY_STATUS(rotate());
+    last_t_ns_.reset();
+  }
   SITEPOSE_TRY_STATUS(file_.write(pending_));
   pending_.clear();
+  last_t_ns_ = pending_t_ns_;
   ++lines_written_;
   return ok_status();
 }
@@ -101,6 +160,7 @@ Status TrajectoryOutput::publish(const pipeline::PosePacket& packet) {
   const auto& q = p.T_world_cam.rotation();
   pending_ = fmt::format("{:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f}\n",
                          static_cast<double>(p.t_ns) * 1e-9, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+  pending_t_ns_ = p.t_ns;
   return write_pending();
 }
 

@@ -53,7 +53,8 @@ Expected<PoseEstimate> SlamPoseTracker::track_with_objects(const FramePacket& pa
   objects.boxes = *boxes;
   const cv::Mat& pixel_mask = packet.detected ? packet.instance_mask : cv::Mat();
   const cv::Size size = frame.left.size();
-  objects.segment = [this, &pixel_mask, size](const std::vector<dynamic::ObjectBox>& wanted) -> Expected<cv::Mat> {
+  objects.segment = [this, &pixel_mask,
+                     size](const std::vector<dynamic::ObjectBox>& wanted) -> Expected<cv::Mat> {
     if (!pixel_mask.empty()) return pixel_mask;
     box_mask_for_pixel_mask_.fetch_add(1, std::memory_order_relaxed);
     return dynamic::box_instance_labels(wanted, size);
@@ -62,9 +63,13 @@ Expected<PoseEstimate> SlamPoseTracker::track_with_objects(const FramePacket& pa
   return std::move(report.pose);
 }
 
+std::size_t SlamPoseTracker::keyframe_count() const { return system_->keyframe_count(); }
+std::size_t SlamPoseTracker::point_count() const { return system_->point_count(); }
+
 TrackerFallbackCounters SlamPoseTracker::fallback_counters() const {
   return {box_mask_for_pixel_mask_.load(std::memory_order_relaxed),
-          reused_detections_.load(std::memory_order_relaxed), tracked_unmasked_.load(std::memory_order_relaxed)};
+          reused_detections_.load(std::memory_order_relaxed),
+          tracked_unmasked_.load(std::memory_order_relaxed)};
 }
 
 void SlamPoseTracker::finish() {

@@ -40,6 +40,15 @@ struct CameraAccess {
 Expected<std::unique_ptr<pipeline::FrameSource>> open_source(const DaemonConfig& config,
                                                              const CameraAccess& access = {});
 
+// What --check-config checks: everything a start checks but the camera and
+// the LCM network (they may not be up yet while the unit is being set up):
+// the replay sequence opens, the detector (plugin .so) loads with the mode's
+// inputs (labels of the sequence), the site anchoring and NMEA file, the
+// LCM URL parses, the output files can be written (folders exist and are
+// writable). Opens nothing that stays open and writes nothing.
+// kInvalidArgument (exit 2) naming the key.
+Status check_startable(const DaemonConfig& config);
+
 class Daemon {
  public:
   // Opens everything the config names; errors name the key or file

@@ -62,7 +62,10 @@ class Anchoring {
 // TUM lines "t x y z qx qy qz qw" (T_world_cam, SLAM frame, FORMATS.md) of
 // every published pose that is not LOST, through an io::LineFile: a failed
 // or short write (full disk) is cut back, so the file holds whole lines
-// only, and a retry writes the line again, never a duplicate.
+// only, and a retry writes the line again, never a duplicate. The times of
+// a file always increase: with append, a restart whose first pose is not
+// after the file's last line (a replay started again, a clock stepped back)
+// moves the file to <path>.N (the first free N >= 1) and starts a new one.
 class TrajectoryOutput final : public pipeline::PoseOutput {
  public:
   static Expected<std::unique_ptr<TrajectoryOutput>> open(const std::string& path, bool append);
@@ -72,10 +75,14 @@ class TrajectoryOutput final : public pipeline::PoseOutput {
   std::uint64_t lines_written() const { return lines_written_; }
 
  private:
-  explicit TrajectoryOutput(io::LineFile file) : file_(std::move(file)) {}
+  TrajectoryOutput(io::LineFile file, std::string path) : file_(std::move(file)), path_(std::move(path)) {}
   Status write_pending();
+  Status rotate();
   io::LineFile file_;
+  std::string path_;
   std::string pending_;  // the line not written yet
+  std::int64_t pending_t_ns_ = 0;
+  std::optional<std::int64_t> last_t_ns_;  // time of the file's last line
   std::uint64_t lines_written_ = 0;
 };
 

@@ -25,10 +25,17 @@ struct LcmOptions {
   std::string gnss_channel = "SITEPOSE_GNSS";
   int max_send_attempts = 3;  // per message and call, first attempt included
 
-  // Channels non-empty and distinct, max_send_attempts in 1..10; the message
-  // names the key under `prefix`.
+  // The URL parses (check_lcm_url), channels non-empty and distinct,
+  // max_send_attempts in 1..10; the message names the key under `prefix`.
   Status validate(const std::string& prefix = "lcm") const;
 };
+
+// Ok when LCM would parse `url` (empty: the default): a known provider
+// (udpm, memq, file, tcpq), for udpm a multicast IPv4 address and a port in
+// 1..65535, options as key=value joined by &, ttl 0..255. Nothing is
+// opened, so it holds while the network is not up yet. kInvalidArgument
+// naming `key` and the (capped) URL.
+Status check_lcm_url(const std::string& url, const std::string& key);
 
 // kIoError naming the URL when LCM cannot open it (e.g. udpm without a
 // multicast route: see PLATFORM.md).

@@ -48,6 +48,9 @@ class SlamPoseTracker final : public PoseTracker {
   Expected<PoseEstimate> track(const FramePacket& packet) override;
   void finish() override;
   TrackerFallbackCounters fallback_counters() const;
+  // Map size, from any thread (the map's own lock).
+  std::size_t keyframe_count() const;
+  std::size_t point_count() const;
 
  private:
   explicit SlamPoseTracker(std::unique_ptr<slam::SlamSystem> system) : system_(std::move(system)) {}

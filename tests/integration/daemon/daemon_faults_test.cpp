@@ -26,7 +26,8 @@ using pipeline::SourceEventKind;
 // delivers the rest.
 class StallingSource final : public pipeline::FrameSource {
  public:
-  StallingSource(std::unique_ptr<pipeline::ReplaySource> replay, int stall_after, std::chrono::milliseconds stall)
+  StallingSource(std::unique_ptr<pipeline::ReplaySource> replay, int stall_after,
+                 std::chrono::milliseconds stall)
       : replay_(std::move(replay)), stall_after_(stall_after), stall_(stall) {}
   const StereoCamera& camera() const override { return replay_->camera(); }
   std::string describe() const override { return "stalling " + replay_->describe(); }
@@ -64,12 +65,19 @@ TEST(DaemonFaults, StalledSourceStopsTheWatchdogAndPublishesLost) {
   ASSERT_FALSE(seq.empty());
   TempDir dir("stall");
   const std::string text =
-      "source:\n  replay: {sequence: \"" + seq + "\", rate: max, max_frames: 16}\n"
+      "source:\n  replay: {sequence: \"" + seq +
+      "\", rate: max, max_frames: 16}\n"
       "pipeline: {stall_timeout_s: 0.3}\n"
       "supervisor: {status_interval_s: 0.2}\n"
-      "outputs:\n  trajectory: {path: \"" + (dir / "traj.tum") + "\", append: false}\n"
-      "  can: {path: \"" + (dir / "can.log") + "\"}\n"
-      "  lcm: {url: \"file://" + (dir / "poses.lcmlog") + "?mode=w\"}\n"
+      "outputs:\n  trajectory: {path: \"" +
+      (dir / "traj.tum") +
+      "\", append: false}\n"
+      "  can: {path: \"" +
+      (dir / "can.log") +
+      "\"}\n"
+      "  lcm: {url: \"file://" +
+      (dir / "poses.lcmlog") +
+      "?mode=w\"}\n"
       "geo:\n  mode: fixed\n  origin: {latitude_deg: 48.137, longitude_deg: 11.575, height_m: 520.0}\n"
       "  T_site_slam: {translation_m: [0, 0, 2], rotation_wxyz: [0.5, -0.5, 0.5, -0.5]}\n"
       "dynamic: {mode: none}\n";
@@ -107,9 +115,12 @@ TEST(DaemonFaults, StalledSourceStopsTheWatchdogAndPublishesLost) {
   // the frames already in the pipeline were tracked), pinged again after.
   int before = 0, during = 0, after = 0;
   for (const auto& m : notify.with("WATCHDOG=1")) {
-    if (m.t < stall_begin) ++before;
-    else if (m.t > stall_begin + 600ms && m.t < stall_end) ++during;
-    else if (m.t > stall_end + 200ms) ++after;
+    if (m.t < stall_begin)
+      ++before;
+    else if (m.t > stall_begin + 600ms && m.t < stall_end)
+      ++during;
+    else if (m.t > stall_end + 200ms)
+      ++after;
   }
   EXPECT_GT(before, 0);
   EXPECT_EQ(during, 0);
@@ -122,8 +133,8 @@ TEST(DaemonFaults, StalledSourceStopsTheWatchdogAndPublishesLost) {
   }
   bool lost_status = false;
   for (const auto& m : notify.with("STATUS=LOST")) {
-    lost_status |= m.t > stall_begin && m.t < stall_end + 300ms &&
-                   m.text.find("source stalled") != std::string::npos;
+    lost_status |=
+        m.t > stall_begin && m.t < stall_end + 300ms && m.text.find("source stalled") != std::string::npos;
   }
   EXPECT_TRUE(lost_status);
 
@@ -167,14 +178,16 @@ GeoConfig fixed_geo() {
   return g;
 }
 
-std::unique_ptr<pipeline::Pipeline> fake_pipeline(int frames, std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs) {
+std::unique_ptr<pipeline::Pipeline> fake_pipeline(
+    int frames, std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs) {
   pipeline::PipelineOptions o;
   o.publish_retry_delay_s = 0.0;
   o.publish_max_attempts = 4;
-  auto p = pipeline::Pipeline::create(
-      o, std::make_unique<sitepose::testing::ScriptedSource>(sitepose::testing::ScriptedSource::frames(frames), false),
-      std::make_unique<pipeline::PassThroughDetect>(), std::make_unique<sitepose::testing::FakeTracker>(),
-      std::move(outputs));
+  auto p = pipeline::Pipeline::create(o,
+                                      std::make_unique<sitepose::testing::ScriptedSource>(
+                                          sitepose::testing::ScriptedSource::frames(frames), false),
+                                      std::make_unique<pipeline::PassThroughDetect>(),
+                                      std::make_unique<sitepose::testing::FakeTracker>(), std::move(outputs));
   EXPECT_TRUE(p);
   return p ? std::move(*p) : nullptr;
 }
@@ -266,7 +279,6 @@ TEST(DaemonFaults, CanSinkErrorsAreCountedAndResumedWithoutDuplicates) {
   EXPECT_EQ(quality, 20);
 }
 
-
 // issue 20: on a full disk health said can ok=90 failed=0 while the frames
 // of 28 poses were lost. Now a pose whose frames could not be written is
 // counted failed, and the sink's count is what the log holds.
@@ -336,7 +348,52 @@ TEST(DaemonFaults, FullDiskLeavesNoHalfTrajectoryLine) {
   ASSERT_TRUE(tum) << tum.error().message;
   ASSERT_EQ(tum->size(), 4u);
   const double expected_x[] = {0.0, 0.5, 1.5, 2.0};  // poses 0, 1, 3, 4
-  for (std::size_t i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ((*tum)[i].T_world_cam.translation().x(), expected_x[i]);
+  for (std::size_t i = 0; i < 4; ++i)
+    EXPECT_DOUBLE_EQ((*tum)[i].T_world_cam.translation().x(), expected_x[i]);
+}
+
+std::vector<std::int64_t> tum_times_ns(const std::string& path) {
+  auto tum = io::read_tum_trajectory(path);
+  EXPECT_TRUE(tum) << tum.error().message;
+  std::vector<std::int64_t> out;
+  if (tum) {
+    for (const auto& p : *tum) out.push_back(std::llround(p.t_s * 1e9));
+  }
+  return out;
+}
+
+// issue 20: a restart with append: true wrote times from 0 again into the
+// same trajectory (a replay restarts its time base), which eval rejects.
+TEST(DaemonFaults, RestartAppendsWhileTimesContinueAndMovesTheFileWhenTheyGoBack) {
+  TempDir dir("restart");
+  const std::string path = dir / "traj.tum";
+  {
+    auto output = TrajectoryOutput::open(path, false);
+    ASSERT_TRUE(output) << output.error().message;
+    for (int seq = 0; seq < 3; ++seq) ASSERT_TRUE((*output)->publish(ok_pose(seq)));
+  }
+  {  // times continue (a camera clock): appended to the same file
+    auto output = TrajectoryOutput::open(path, true);
+    ASSERT_TRUE(output) << output.error().message;
+    ASSERT_TRUE((*output)->publish(ok_pose(3)));
+  }
+  EXPECT_EQ(read_lines(path).size(), 4u);
+  EXPECT_FALSE(fs::exists(path + ".1"));
+  {  // the replay starts again at its first time: a new file, the old one kept whole
+    auto output = TrajectoryOutput::open(path, true);
+    ASSERT_TRUE(output) << output.error().message;
+    for (int seq = 0; seq < 2; ++seq) ASSERT_TRUE((*output)->publish(ok_pose(seq)));
+  }
+  const std::int64_t t0 = ok_pose(0).pose.t_ns, dt = ok_pose(1).pose.t_ns - t0;
+  EXPECT_EQ(tum_times_ns(path + ".1"), (std::vector<std::int64_t>{t0, t0 + dt, t0 + 2 * dt, t0 + 3 * dt}));
+  EXPECT_EQ(tum_times_ns(path), (std::vector<std::int64_t>{t0, t0 + dt}));
+  {  // once more: the next free name
+    auto output = TrajectoryOutput::open(path, true);
+    ASSERT_TRUE(output) << output.error().message;
+    ASSERT_TRUE((*output)->publish(ok_pose(0)));
+  }
+  EXPECT_EQ(tum_times_ns(path + ".2").size(), 2u);
+  EXPECT_EQ(tum_times_ns(path).size(), 1u);
 }
 
 }  // namespace

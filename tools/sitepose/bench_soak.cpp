@@ -1,0 +1,241 @@
+// `sitepose bench soak`: the daemon's pipeline (capture -> detect -> track
+// -> publish threads, SLAM with its mapper thread) on a recorded sequence
+// held in memory and looped, with continuing frame numbers and times, for
+// --frames frames at the pipeline's own pace (lossless back-pressure). Every
+// --sample-every published frames one CSV row: RSS, keyframes, map points,
+// drops, track errors and the frame-to-publish latency p99 of the window.
+// The sequence should end where it starts (the backforth scenario, one
+// pass: `sitepose sim --scenario backforth --frames 216`), or every loop is
+// a jump the tracker must relocalise from.
+// With --max-rss-growth PCT it is a check: exit 1 when the last RSS exceeds
+// the RSS at the end of the warm-up (--warmup-frames) by more than PCT %.
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "command_config.hpp"
+#include "command_registry.hpp"
+#include "sitepose/config/config.hpp"
+#include "sitepose/detect/create_detector.hpp"
+#include "sitepose/io/sequence.hpp"
+#include "sitepose/pipeline/detect_stage.hpp"
+#include "sitepose/pipeline/pipeline.hpp"
+#include "sitepose/pipeline/slam_tracker.hpp"
+#include "sitepose/slam/run_recorder.hpp"
+
+namespace sitepose::cli {
+namespace {
+
+constexpr const char* kCommand = "bench soak";
+using pipeline::SteadyClock;
+
+struct BenchSoakArgs {
+  std::string sequence;
+  std::string config_path;
+  std::string mode = "full";
+  std::string csv;
+  int frames = 20000;
+  int sample_every = 1000;
+  int warmup_frames = 2000;
+  double max_rss_growth_pct = -1.0;  // < 0: no check
+};
+
+// The frames again and again; loop k's times are shifted by k periods. The
+// frame numbers (seq) restart with each loop: the labels detector finds a
+// frame's boxes by them.
+class LoopingSource final : public pipeline::FrameSource {
+ public:
+  LoopingSource(const std::vector<StereoFrame>& frames, const StereoCamera& camera, std::size_t total)
+      : frames_(frames), camera_(camera), total_(total) {
+    const std::int64_t span = frames_.back().t_ns() - frames_.front().t_ns();
+    period_ns_ =
+        span + (frames_.size() > 1 ? span / static_cast<std::int64_t>(frames_.size() - 1) : 100'000'000);
+  }
+  const StereoCamera& camera() const override { return camera_; }
+  std::string describe() const override { return "memory (looped)"; }
+  bool live() const override { return false; }
+  Expected<pipeline::SourceEvent> next(std::stop_token stop, pipeline::SteadyTime) override {
+    if (next_ >= total_ || stop.stop_requested())
+      return pipeline::SourceEvent{pipeline::SourceEventKind::kEnd, {}};
+    const std::size_t loop = next_ / frames_.size();  // frame.seq stays the recorded index
+    StereoFrame frame = frames_[next_ % frames_.size()];
+    const std::int64_t shift = static_cast<std::int64_t>(loop) * period_ns_;
+    ++next_;
+    frame.t_left_ns += shift;
+    frame.t_right_ns += shift;
+    return pipeline::SourceEvent{pipeline::SourceEventKind::kFrame, std::move(frame)};
+  }
+
+ private:
+  const std::vector<StereoFrame>& frames_;
+  StereoCamera camera_;
+  std::size_t total_;
+  std::size_t next_ = 0;
+  std::int64_t period_ns_ = 0;
+};
+
+// Latencies of the current window (publish thread adds, main thread takes).
+class WindowOutput final : public pipeline::PoseOutput {
+ public:
+  std::string name() const override { return "soak"; }
+  Status publish(const pipeline::PosePacket& p) override {
+    if (p.from_stall) return ok_status();
+    const double ms = std::chrono::duration<double, std::milli>(SteadyClock::now() - p.captured).count();
+    std::lock_guard lock(mutex_);
+    window_ms_.push_back(ms);
+    ++published_;
+    return ok_status();
+  }
+  Status retry() override { return ok_status(); }
+  std::size_t published() const {
+    std::lock_guard lock(mutex_);
+    return published_;
+  }
+  std::vector<double> take_window() {
+    std::lock_guard lock(mutex_);
+    return std::exchange(window_ms_, {});
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<double> window_ms_;
+  std::size_t published_ = 0;
+};
+
+struct Sample {
+  std::size_t frames = 0;
+  double rss_mb = 0.0;
+  std::size_t keyframes = 0, points = 0;
+  std::uint64_t drops = 0, track_errors = 0;
+  double p99_ms = 0.0;
+};
+
+Expected<std::vector<StereoFrame>> load_frames(const std::string& dir, StereoCamera& camera, double& fps) {
+  SITEPOSE_TRY(auto sequence, io::open_sequence(dir));
+  std::vector<StereoFrame> frames;
+  for (std::size_t i = 0; i < sequence->size(); ++i) {
+    SITEPOSE_TRY(auto f, sequence->read_frame(i));
+    frames.push_back(std::move(f));
+  }
+  if (frames.empty()) return make_error(ErrorCode::kInvalidArgument, dir + ": no frames");
+  camera = sequence->camera();
+  fps = io::mean_frame_rate_hz(*sequence, frames.size());
+  return frames;
+}
+
+Expected<std::vector<Sample>> soak(const BenchSoakArgs& a, const config::SiteposeConfig& config,
+                                   const std::vector<StereoFrame>& frames, const StereoCamera& camera,
+                                   double fps, std::FILE* csv) {
+  SITEPOSE_TRY(auto tracker, pipeline::SlamPoseTracker::create(camera, config, fps));
+  const pipeline::SlamPoseTracker* slam = tracker.get();
+  SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config, {a.sequence, camera}));
+  auto output = std::make_unique<WindowOutput>();
+  WindowOutput* window = output.get();
+  std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
+  outputs.push_back(std::move(output));
+  SITEPOSE_TRY(auto p,
+               pipeline::Pipeline::create(
+                   pipeline::PipelineOptions{},
+                   std::make_unique<LoopingSource>(frames, camera, static_cast<std::size_t>(a.frames)),
+                   std::move(detect_hook), std::move(tracker), std::move(outputs)));
+  std::vector<Sample> samples;
+  auto take = [&](std::size_t published) {
+    const auto h = p->health();
+    Sample s{published,
+             static_cast<double>(slam::current_rss_bytes()) / 1048576.0,
+             slam->keyframe_count(),
+             slam->point_count(),
+             h.total_drops(),
+             h.track_errors,
+             slam::summarize(window->take_window()).p99_ms};
+    std::fprintf(csv, "%zu,%.1f,%zu,%zu,%llu,%llu,%.1f\n", s.frames, s.rss_mb, s.keyframes, s.points,
+                 static_cast<unsigned long long>(s.drops), static_cast<unsigned long long>(s.track_errors),
+                 s.p99_ms);
+    std::fflush(csv);
+    std::printf("frames %zu: RSS %.1f MB, keyframes %zu, points %zu, drops %llu, p99 %.1f ms\n", s.frames,
+                s.rss_mb, s.keyframes, s.points, static_cast<unsigned long long>(s.drops), s.p99_ms);
+    samples.push_back(s);
+  };
+  p->start();
+  std::size_t next_sample = static_cast<std::size_t>(a.sample_every);
+  while (!p->finished()) {
+    const std::size_t published = window->published();
+    if (published >= next_sample) {
+      take(published);
+      next_sample += static_cast<std::size_t>(a.sample_every);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  SITEPOSE_TRY_STATUS(p->wait());
+  if (samples.empty() || samples.back().frames < window->published()) take(window->published());
+  return samples;
+}
+
+int run_bench_soak(const BenchSoakArgs& a) {
+  auto loaded = load_command_config(a.config_path, a.mode);
+  if (!loaded) return fail(kCommand, loaded.error().message, 2);
+  config::SiteposeConfig& config = *loaded;
+  detect::add_inherent_dynamic_classes(config.detector, config.dynamic);
+  StereoCamera camera;
+  double fps = 0.0;
+  auto frames = load_frames(a.sequence, camera, fps);
+  if (!frames) return fail(kCommand, frames.error().message, 2);
+  if (config.camera.stereo) camera = *config.camera.stereo;
+  std::FILE* csv = std::fopen(a.csv.c_str(), "w");
+  if (csv == nullptr) return fail(kCommand, a.csv + ": cannot write", 2);
+  std::fprintf(csv, "frames,rss_mb,keyframes,map_points,drops,track_errors,latency_p99_ms\n");
+  std::printf("soak: %d frames, looping %zu of %s, dynamic.mode %s\n", a.frames, frames->size(),
+              a.sequence.c_str(), config::to_string(config.dynamic.mode));
+  auto samples = soak(a, config, *frames, camera, fps, csv);
+  const bool written = std::ferror(csv) == 0;
+  if (std::fclose(csv) != 0 || !written) return fail(kCommand, a.csv + ": write failed", 1);
+  if (!samples) return fail(kCommand, samples.error().message, 1);
+  if (a.max_rss_growth_pct < 0.0) return 0;
+  const Sample* warm = nullptr;
+  for (const Sample& s : *samples) {
+    if (s.frames >= static_cast<std::size_t>(a.warmup_frames) && warm == nullptr) warm = &s;
+  }
+  if (warm == nullptr || warm == &samples->back()) {
+    return fail(kCommand, "no sample after the warm-up of " + std::to_string(a.warmup_frames) + " frames", 2);
+  }
+  const double growth_pct = 100.0 * (samples->back().rss_mb / warm->rss_mb - 1.0);
+  std::printf(
+      "RSS after warm-up (%zu frames) %.1f MB, at the end (%zu frames) %.1f MB: %+.1f %% (limit %.1f %%)\n",
+      warm->frames, warm->rss_mb, samples->back().frames, samples->back().rss_mb, growth_pct,
+      a.max_rss_growth_pct);
+  return growth_pct <= a.max_rss_growth_pct ? 0 : 1;
+}
+
+const CommandRegistrar kBenchSoak{
+    {"bench", "soak",
+     "Daemon pipeline on a looped sequence for many frames: RSS, map size, drops and latency p99 every "
+     "--sample-every frames to a CSV; with --max-rss-growth a check on memory growth after the warm-up",
+     [](CLI::App& sub) -> CommandAction {
+       auto args = std::make_shared<BenchSoakArgs>();
+       sub.add_option("--sequence", args->sequence,
+                      "Sequence directory that ends where it starts (e.g. `sitepose sim --scenario backforth "
+                      "--frames 216 --out DIR`)")
+           ->required();
+       sub.add_option("--csv", args->csv, "CSV of the samples")->required();
+       sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)");
+       sub.add_option("--mode", args->mode, "Masking mode none|bbox|pixel|hierarchical|full (default full)");
+       sub.add_option("--frames", args->frames, "Frames to run (default 20000)")
+           ->check(CLI::Range(1, 100'000'000));
+       sub.add_option("--sample-every", args->sample_every, "Frames between samples (default 1000)")
+           ->check(CLI::Range(1, 100'000'000));
+       sub.add_option("--warmup-frames", args->warmup_frames,
+                      "Frames before the RSS reference of --max-rss-growth (default 2000)")
+           ->check(CLI::Range(0, 100'000'000));
+       sub.add_option("--max-rss-growth", args->max_rss_growth_pct,
+                      "Exit 1 when RSS grows by more than this many percent after the warm-up")
+           ->check(CLI::Range(0.0, 1000.0));
+       return [args] { return run_bench_soak(*args); };
+     }}};
+
+}  // namespace
+}  // namespace sitepose::cli
