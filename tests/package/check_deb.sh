@@ -88,6 +88,9 @@ export ROOT=$root SEQUENCE=$sequence PRE=$pre
 out=$(unshare --mount --propagation private bash -c '
   set -e
   mount -t tmpfs sitepose-test /var/lib
+  mount -t tmpfs sitepose-test-logs /var/log
+  # What StateDirectory= and LogsDirectory= create before ExecStartPre runs.
+  mkdir -p /var/lib/siteposed /var/log/siteposed
   "$ROOT/usr/bin/sitepose" sim --scenario static --frames 4 --out "$SEQUENCE" > /dev/null
   $PRE' 2>&1) || fail "ExecStartPre failed on the installed default config: $out"
 grep -q "configuration ok" <<< "$out" || fail "no 'configuration ok' from check-config: $out"
