@@ -170,6 +170,30 @@ void Tracker::optimise_pose(const PreparedFrame& frame, const std::vector<PointV
   tracking::optimise_pose(motion_ba_, pyramid_, frame, points, match_of_keypoint, result);
 }
 
+namespace {
+
+// `points` searched by projection from `predicted` (the window doubled when
+// too few match), then the pose refined on the matches: the motion model's
+// step, also used on the reference keyframe's local map.
+bool track_from_prediction(const PreparedFrame& frame, const StereoCamera& camera,
+                           const map::ScalePyramid& pyramid, const optim::MotionOnlyBa& motion_ba,
+                           const SE3& predicted, const std::vector<PointView>& points,
+                           const std::vector<std::uint8_t>& usable, SearchParams params,
+                           std::vector<int>& match, PassResult& result) {
+  int n = search_by_projection(frame, camera, pyramid, predicted, points, usable, params, match, nullptr);
+  if (n < kMinMatchesMotionModel) {
+    std::fill(match.begin(), match.end(), -1);
+    params.radius_px *= 2.0;
+    n = search_by_projection(frame, camera, pyramid, predicted, points, usable, params, match, nullptr);
+  }
+  if (n < kMinMatchesMotionModel) return false;
+  result.T_cam_world = predicted;
+  optimise_pose(motion_ba, pyramid, frame, points, match, result);
+  return result.n_inliers >= kMinInliersMotionModel;
+}
+
+}  // namespace
+
 bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                                  const SE3& predicted, PassResult& result) const {
   if (last_matches_.empty()) return false;
@@ -187,16 +211,8 @@ bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<s
   SearchParams params;
   params.radius_px = kMotionModelRadiusPx;
   std::vector<int> match(frame.size(), -1);
-  int n = search_by_projection(frame, camera_, pyramid_, predicted, points, usable, params, match, nullptr);
-  if (n < kMinMatchesMotionModel) {
-    std::fill(match.begin(), match.end(), -1);
-    params.radius_px *= 2.0;
-    n = search_by_projection(frame, camera_, pyramid_, predicted, points, usable, params, match, nullptr);
-  }
-  if (n < kMinMatchesMotionModel) return false;
-  result.T_cam_world = predicted;
-  optimise_pose(frame, points, match, result);
-  return result.n_inliers >= kMinInliersMotionModel;
+  return track_from_prediction(frame, camera_, pyramid_, motion_ba_, predicted, points, usable, params, match,
+                               result);
 }
 
 bool Tracker::track_reference_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -205,16 +221,8 @@ bool Tracker::track_reference_map(const PreparedFrame& frame, const std::vector<
   const std::vector<map::PointId> none(frame.size(), map::kNoPoint);
   const std::vector<PointView> points = local_points(frame, none, false, match);
   SearchParams params = local_map_search(kMotionModelRadiusPx);
-  int n = search_by_projection(frame, camera_, pyramid_, predicted, points, usable, params, match, nullptr);
-  if (n < kMinMatchesMotionModel) {
-    std::fill(match.begin(), match.end(), -1);
-    params.radius_px *= 2.0;
-    n = search_by_projection(frame, camera_, pyramid_, predicted, points, usable, params, match, nullptr);
-  }
-  if (n < kMinMatchesMotionModel) return false;
-  result.T_cam_world = predicted;
-  optimise_pose(frame, points, match, result);
-  return result.n_inliers >= kMinInliersMotionModel;
+  return track_from_prediction(frame, camera_, pyramid_, motion_ba_, predicted, points, usable, params, match,
+                               result);
 }
 
 std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
