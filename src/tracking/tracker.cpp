@@ -129,12 +129,13 @@ Expected<features::StereoFeatures> Tracker::extract(const StereoFrame& frame, co
   const auto t_left = SteadyClock::now();
   const bool split_budget = !extraction_mask.empty() && cv::countNonZero(extraction_mask) > 0;
   auto left = left_extractor_.extract(frame.left, split_budget ? extraction_mask : cv::Mat());
-  Expected<features::OrbFeatures> objects = features::OrbFeatures{};
-  if (split_budget) {
+  const auto extract_objects = [&]() -> Expected<features::OrbFeatures> {
+    if (!split_budget) return features::OrbFeatures{};
     cv::Mat inverse_mask;
     cv::bitwise_not(extraction_mask, inverse_mask);
-    objects = object_extractor_.extract(frame.left, inverse_mask);
-  }
+    return object_extractor_.extract(frame.left, inverse_mask);
+  };
+  Expected<features::OrbFeatures> objects = extract_objects();
   timings.extract_left_ms = ms_since(t_left);
   auto [right, right_ms] = right_future.get();
   timings.extract_right_ms = right_ms;
