@@ -22,10 +22,8 @@
 #include <thread>
 #include <vector>
 
-#include "sitepose/sim/scenario.hpp"
-#include "sitepose/sim/sequence_writer.hpp"
-#include "sitepose/sim/simulator.hpp"
 #include "sitepose/testing/files.hpp"
+#include "sitepose/testing/simulated.hpp"
 #include "sitepose/testing/wait.hpp"
 
 namespace sitepose {
@@ -33,13 +31,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 std::vector<std::vector<double>> number_rows(const fs::path& path) {
   std::vector<std::vector<double>> rows;
@@ -94,15 +85,8 @@ class InterruptCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir("interrupt_cli");
-    auto scenario = sim::load_scenario("static", std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
-    ASSERT_TRUE(scenario) << scenario.error().message;
-    sim::SimOptions options;
-    options.width = 320;
-    options.height = 180;
-    options.frames = 30;
-    auto simulator = sim::Simulator::create(*scenario, options);
-    ASSERT_TRUE(simulator) << simulator.error().message;
-    auto written = sim::write_sequence(*simulator, seq().string());
+    auto written = testing::write_small_sequence("static", 320, 180, 30, seq().string(),
+                                                 std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
     ASSERT_TRUE(written) << written.error().message;
   }
   static void TearDownTestSuite() {
@@ -128,7 +112,7 @@ testing::TempDir* InterruptCli::dir_ = nullptr;
 // time, in order; `partial` says whether all frames were tracked.
 void expect_complete_outputs(const fs::path& out, const std::vector<std::vector<double>>& times,
                              bool partial) {
-  const nlohmann::json stats = nlohmann::json::parse(slurp(out / "stats.json"));
+  const nlohmann::json stats = nlohmann::json::parse(testing::read_text(out / "stats.json"));
   EXPECT_EQ(stats.at("partial").get<bool>(), partial);
   const auto& states = stats.at("states");
   const std::size_t tracked = states.size();
@@ -159,7 +143,7 @@ TEST_F(InterruptCli, SigintAtRandomFramesOfRunWritesTheFramesTracked) {
   const pid_t first = start_sitepose(run_args(whole), whole / "out.txt", whole / "err.txt");
   ASSERT_TRUE(testing::wait_for([&] { return catches_sigint(first); }, std::chrono::seconds(20)));
   const auto t0 = Clock::now();
-  ASSERT_EQ(exit_status(first), 0) << slurp(whole / "err.txt");
+  ASSERT_EQ(exit_status(first), 0) << testing::read_text(whole / "err.txt");
   const double run_s = std::chrono::duration<double>(Clock::now() - t0).count();
   expect_complete_outputs(whole, times, false);
 
@@ -178,7 +162,7 @@ TEST_F(InterruptCli, SigintAtRandomFramesOfRunWritesTheFramesTracked) {
     std::this_thread::sleep_for(std::chrono::duration<double>(delay_s));
     ::kill(pid, signal);
     const int status = exit_status(pid);
-    const std::string err = slurp(out / "err.txt");
+    const std::string err = testing::read_text(out / "err.txt");
     SCOPED_TRACE("attempt " + std::to_string(attempt) + ", signal after " + std::to_string(delay_s) +
                  " s: " + err);
     if (status == 0) {  // finished before the signal came
@@ -191,7 +175,7 @@ TEST_F(InterruptCli, SigintAtRandomFramesOfRunWritesTheFramesTracked) {
               std::string::npos);
     // Between "tracked all frames" and the exit a signal still reports the
     // run complete but interrupted: then the stats say partial false.
-    const nlohmann::json stats = nlohmann::json::parse(slurp(out / "stats.json"));
+    const nlohmann::json stats = nlohmann::json::parse(testing::read_text(out / "stats.json"));
     expect_complete_outputs(out, times, stats.at("partial").get<bool>());
   }
   // The delays spread over the run: most tries stop it part-way.
@@ -208,9 +192,9 @@ TEST_F(InterruptCli, SigintInSimLeavesACompleteShorterSequence) {
                                 std::chrono::seconds(30)));
   EXPECT_FALSE(fs::exists(out));  // nothing under --out before the end
   ::kill(pid, SIGINT);
-  ASSERT_EQ(exit_status(pid), 130) << slurp(dir_->path() / "sim_stderr.txt");
+  ASSERT_EQ(exit_status(pid), 130) << testing::read_text(dir_->path() / "sim_stderr.txt");
   EXPECT_FALSE(fs::exists(staging));
-  const nlohmann::json meta = nlohmann::json::parse(slurp(out / "meta.json"));
+  const nlohmann::json meta = nlohmann::json::parse(testing::read_text(out / "meta.json"));
   EXPECT_TRUE(meta.at("partial").get<bool>());
   const int frames = meta.at("frames").get<int>();
   EXPECT_GE(frames, 3);
@@ -225,7 +209,7 @@ TEST_F(InterruptCli, SigintInSimLeavesACompleteShorterSequence) {
   const pid_t run = start_sitepose({"run", "--sequence", out.string(), "--mode", "none", "--quiet", "--out",
                                     (run_out / "traj.txt").string()},
                                    run_out / "out.txt", run_out / "err.txt");
-  EXPECT_EQ(exit_status(run), 0) << slurp(run_out / "err.txt");
+  EXPECT_EQ(exit_status(run), 0) << testing::read_text(run_out / "err.txt");
 }
 
 TEST_F(InterruptCli, GlobalOptionsAfterTheSubcommand) {
@@ -234,12 +218,12 @@ TEST_F(InterruptCli, GlobalOptionsAfterTheSubcommand) {
   auto args = run_args(out);
   args.insert(args.end(), {"--frames", "3", "--log-level", "warn"});
   const pid_t pid = start_sitepose(args, out / "out.txt", out / "err.txt");
-  EXPECT_EQ(exit_status(pid), 0) << slurp(out / "err.txt");
+  EXPECT_EQ(exit_status(pid), 0) << testing::read_text(out / "err.txt");
   args.back() = "loud";
   const pid_t bad = start_sitepose(args, out / "out.txt", out / "err.txt");
   EXPECT_EQ(exit_status(bad), 2);
-  EXPECT_NE(slurp(out / "err.txt").find("unknown log level 'loud'"), std::string::npos)
-      << slurp(out / "err.txt");
+  EXPECT_NE(testing::read_text(out / "err.txt").find("unknown log level 'loud'"), std::string::npos)
+      << testing::read_text(out / "err.txt");
 }
 
 // Every JSON file the commands write (sim's meta.json, run's stats, eval's
@@ -248,15 +232,15 @@ TEST_F(InterruptCli, EveryJsonFileParsesWithPython) {
   const fs::path out = dir_->path() / "json";
   fs::create_directories(out);
   const pid_t run = start_sitepose(run_args(out), out / "out.txt", out / "err.txt");
-  ASSERT_EQ(exit_status(run), 0) << slurp(out / "err.txt");
+  ASSERT_EQ(exit_status(run), 0) << testing::read_text(out / "err.txt");
   const pid_t eval =
       start_sitepose({"eval", "--gt", (seq() / "poses.txt").string(), "--times",
                       (seq() / "times.txt").string(), "--est", (out / "traj.txt").string(), "--json"},
                      out / "eval.json", out / "eval_err.txt");
-  ASSERT_EQ(exit_status(eval), 0) << slurp(out / "eval_err.txt");
+  ASSERT_EQ(exit_status(eval), 0) << testing::read_text(out / "eval_err.txt");
   for (const fs::path& json : {seq() / "meta.json", out / "stats.json", out / "eval.json"}) {
     const std::string cmd = "python3 -c 'import json, sys; json.load(open(sys.argv[1]))' " + json.string();
-    EXPECT_EQ(std::system(cmd.c_str()), 0) << json << ":\n" << slurp(json).substr(0, 2000);
+    EXPECT_EQ(std::system(cmd.c_str()), 0) << json << ":\n" << testing::read_text(json).substr(0, 2000);
   }
 }
 
@@ -272,7 +256,7 @@ TEST_F(InterruptCli, RunFormatsScoreTheSameInEval) {
         start_sitepose({"run", "--sequence", seq().string(), "--mode", "none", "--quiet", "--format", format,
                         "--out", traj.string(), "--tracking-out", (out / "tracking.csv").string()},
                        out / "out.txt", out / "err.txt");
-    ASSERT_EQ(exit_status(run), 0) << format << ": " << slurp(out / "err.txt");
+    ASSERT_EQ(exit_status(run), 0) << format << ": " << testing::read_text(out / "err.txt");
     for (const std::vector<std::string>& gt :
          {std::vector<std::string>{"--gt", (seq() / "poses.txt").string(), "--times",
                                    (seq() / "times.txt").string()},
@@ -280,15 +264,16 @@ TEST_F(InterruptCli, RunFormatsScoreTheSameInEval) {
       std::vector<std::string> args{"eval", "--json", "--est", traj.string()};
       args.insert(args.end(), gt.begin(), gt.end());
       const pid_t eval = start_sitepose(args, out / "eval.json", out / "eval_err.txt");
-      ASSERT_EQ(exit_status(eval), 0) << format << " vs " << gt[1] << ": " << slurp(out / "eval_err.txt");
-      const nlohmann::json figures = nlohmann::json::parse(slurp(out / "eval.json"));
+      ASSERT_EQ(exit_status(eval), 0)
+          << format << " vs " << gt[1] << ": " << testing::read_text(out / "eval_err.txt");
+      const nlohmann::json figures = nlohmann::json::parse(testing::read_text(out / "eval.json"));
       EXPECT_EQ(figures.at("associated").get<int>(), figures.at("est_poses").get<int>());
       ates.push_back(figures.at("ate_m").at("rmse").get<double>());
     }
   }
   for (double ate : ates) EXPECT_NEAR(ate, ates.front(), 1e-6);
   // The tracking states sidecar: one row per frame, each a known state.
-  const auto rows = slurp(out / "tracking.csv");
+  const auto rows = testing::read_text(out / "tracking.csv");
   EXPECT_EQ(rows.rfind("frame,t_s,state\n", 0), 0u) << rows;
   EXPECT_EQ(std::count(rows.begin(), rows.end(), '\n'), 31) << rows;
 }

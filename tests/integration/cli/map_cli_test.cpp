@@ -15,10 +15,8 @@
 
 #include "sitepose/eval/evaluate.hpp"
 #include "sitepose/io/trajectory.hpp"
-#include "sitepose/sim/scenario.hpp"
-#include "sitepose/sim/sequence_writer.hpp"
-#include "sitepose/sim/simulator.hpp"
 #include "sitepose/testing/files.hpp"
+#include "sitepose/testing/simulated.hpp"
 
 namespace sitepose {
 namespace {
@@ -54,15 +52,8 @@ std::vector<std::string> states_of(const std::string& stats_json) {
 }
 
 void render(const std::string& scenario_name, int frames, const std::string& out) {
-  auto scenario = sim::load_scenario(scenario_name, std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
-  ASSERT_TRUE(scenario) << scenario.error().message;
-  sim::SimOptions options;
-  options.width = 640;
-  options.height = 360;
-  options.frames = frames;
-  auto simulator = sim::Simulator::create(*scenario, options);
-  ASSERT_TRUE(simulator) << simulator.error().message;
-  auto written = sim::write_sequence(*simulator, out);
+  auto written = testing::write_small_sequence(scenario_name, 640, 360, frames, out,
+                                               std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
   ASSERT_TRUE(written) << written.error().message;
 }
 

@@ -15,9 +15,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "sitepose/sim/scenario.hpp"
-#include "sitepose/sim/sequence_writer.hpp"
-#include "sitepose/sim/simulator.hpp"
+#include "sitepose/testing/files.hpp"
+#include "sitepose/testing/simulated.hpp"
 
 namespace sitepose {
 namespace {
@@ -28,13 +27,6 @@ struct RunResult {
   int exit_status = -1;
   std::string err;
 };
-
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 // Longest line of `text`.
 std::size_t longest_line(const std::string& text) {
@@ -47,20 +39,12 @@ std::size_t longest_line(const std::string& text) {
 class RunCli : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("sitepose_run_cli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("sitepose_run_cli_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    auto scenario = sim::load_scenario("crowded", std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
-    ASSERT_TRUE(scenario) << scenario.error().message;
-    sim::SimOptions options;
-    options.width = 320;
-    options.height = 180;
-    options.frames = 6;
-    auto simulator = sim::Simulator::create(*scenario, options);
-    ASSERT_TRUE(simulator) << simulator.error().message;
-    auto written = sim::write_sequence(*simulator, seq().string());
+    auto written = testing::write_small_sequence("crowded", 320, 180, 6, seq().string(),
+                                                 std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
     ASSERT_TRUE(written) << written.error().message;
   }
   void TearDown() override {
@@ -77,12 +61,13 @@ class RunCli : public ::testing::Test {
     const int raw = std::system(cmd.c_str());
     RunResult r;
     r.exit_status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
-    r.err = slurp(err);
+    r.err = testing::read_text(err);
     return r;
   }
 
   std::string run_args(const std::string& extra) const {
-    return "run --sequence " + seq().string() + " --out " + (dir_ / "traj.txt").string() + " --quiet " + extra;
+    return "run --sequence " + seq().string() + " --out " + (dir_ / "traj.txt").string() + " --quiet " +
+           extra;
   }
 
   fs::path dir_;
@@ -129,8 +114,8 @@ TEST_F(RunCli, UnwritableOutputsExitTwoBeforeTracking) {
 // issue 20: a config camera of another size than the images, and a bad mask,
 // failed mid-run with exit 1.
 TEST_F(RunCli, BadCameraSizeAndMaskExitTwo) {
-  std::ofstream(dir_ / "camera.yaml")
-      << "camera:\n  stereo: {fx: 233.3, fy: 233.3, cx: 150, cy: 80, baseline_m: 1.0, width: 300, height: 170}\n";
+  std::ofstream(dir_ / "camera.yaml") << "camera:\n  stereo: {fx: 233.3, fy: 233.3, cx: 150, cy: 80, "
+                                         "baseline_m: 1.0, width: 300, height: 170}\n";
   const RunResult camera = sitepose(run_args("--mode none --config " + (dir_ / "camera.yaml").string()));
   EXPECT_EQ(camera.exit_status, 2) << camera.err;
   EXPECT_NE(camera.err.find("camera.stereo is 300x170 but the images of"), std::string::npos) << camera.err;
@@ -180,9 +165,11 @@ TEST_F(RunCli, ConfigMessagesQuoteAShortPieceOfABadValue) {
   EXPECT_LT(longest_line(mode.err), 400u) << mode.err.substr(0, 500);
 
   std::ofstream passwd(dir_ / "passwd");
-  for (int i = 0; i < 200; ++i) passwd << "user" << i << ":x:" << 1000 + i << ":100::/home/user" << i << ":/bin/sh\n";
+  for (int i = 0; i < 200; ++i)
+    passwd << "user" << i << ":x:" << 1000 + i << ":100::/home/user" << i << ":/bin/sh\n";
   passwd.close();
-  const RunResult sim = sitepose("sim --scenario " + (dir_ / "passwd").string() + " --out " + (dir_ / "s").string());
+  const RunResult sim =
+      sitepose("sim --scenario " + (dir_ / "passwd").string() + " --out " + (dir_ / "s").string());
   EXPECT_EQ(sim.exit_status, 2) << sim.err;
   EXPECT_EQ(sim.err.find("user199"), std::string::npos) << sim.err.substr(0, 500);
   EXPECT_LT(sim.err.size(), 1000u) << sim.err.substr(0, 500);

@@ -9,6 +9,8 @@
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
 
+#include "sitepose/calib/calibration_file.hpp"
+
 namespace sitepose::drivers::v4l2::testing {
 
 namespace {
@@ -295,6 +297,20 @@ std::vector<std::uint8_t> encode_frame(const cv::Mat& gray, std::uint32_t fourcc
     }
   }
   return bytes;
+}
+
+bool write_ideal_calibration(const std::string& path, cv::Size image_size) {
+  calib::StereoCalibration c;
+  c.image_size = image_size;
+  const double cx = (image_size.width - 1) / 2.0;
+  const double cy = (image_size.height - 1) / 2.0;
+  c.K1 = (cv::Mat_<double>(3, 3) << 70, 0, cx, 0, 70, cy, 0, 0, 1);
+  c.K2 = c.K1.clone();
+  c.D1 = cv::Mat::zeros(1, 5, CV_64F);
+  c.D2 = cv::Mat::zeros(1, 5, CV_64F);
+  c.R = cv::Mat::eye(3, 3, CV_64F);
+  c.T = (cv::Mat_<double>(3, 1) << -0.1, 0, 0);
+  return calib::compute_rectification(c).has_value() && calib::write_stereo_calibration(path, c).has_value();
 }
 
 }  // namespace sitepose::drivers::v4l2::testing

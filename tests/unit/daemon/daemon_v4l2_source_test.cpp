@@ -7,7 +7,6 @@
 #include <string>
 #include <thread>
 
-#include "sitepose/calib/calibration_file.hpp"
 #include "sitepose/daemon/daemon.hpp"
 #include "sitepose/daemon/daemon_config.hpp"
 #include "sitepose/testing/fake_v4l2.hpp"
@@ -40,15 +39,7 @@ std::string load_error(const std::string& text) {
 
 // An ideal pair of kW x kH cameras, as `sitepose calibrate` writes it.
 void write_calibration(const std::string& path) {
-  calib::StereoCalibration c;
-  c.image_size = {kW, kH};
-  c.K1 = (cv::Mat_<double>(3, 3) << 70, 0, 39.5, 0, 70, 29.5, 0, 0, 1);
-  c.K2 = c.K1.clone();
-  c.D1 = cv::Mat::zeros(1, 5, CV_64F);
-  c.D2 = cv::Mat::zeros(1, 5, CV_64F);
-  c.R = cv::Mat::eye(3, 3, CV_64F);
-  c.T = (cv::Mat_<double>(3, 1) << -0.1, 0, 0);
-  ASSERT_TRUE(calib::write_stereo_calibration(path, c));
+  ASSERT_TRUE(drivers::v4l2::testing::write_ideal_calibration(path, {kW, kH}));
 }
 
 // A side-by-side device at /dev/video4 offering `fourcc` at 2kW x kH.

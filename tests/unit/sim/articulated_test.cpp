@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sitepose/sim/simulator.hpp"
+#include "sitepose/testing/simulated.hpp"
 
 namespace sitepose::sim {
 namespace {
@@ -39,26 +40,16 @@ machines:
   return *s;
 }
 
-class ArticulatedTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
+struct WorkingSite {
+  static Scenario scenario() { return working_scenario(); }
+  static SimOptions options() {
     SimOptions o;
     o.width = 320;
     o.height = 180;
-    auto sim = Simulator::create(working_scenario(), o);
-    ASSERT_TRUE(sim) << sim.error().message;
-    sim_ = new Simulator(std::move(*sim));
-    for (int k = 0; k < sim_->frame_count(); ++k) frames_.push_back(sim_->render(k));
+    return o;
   }
-  static void TearDownTestSuite() {
-    delete sim_;
-    frames_.clear();
-  }
-  static Simulator* sim_;
-  static std::vector<SimFrame> frames_;
 };
-Simulator* ArticulatedTest::sim_ = nullptr;
-std::vector<SimFrame> ArticulatedTest::frames_;
+using ArticulatedTest = testing::RenderedScenarioTest<WorkingSite>;
 
 TEST_F(ArticulatedTest, SlewingHouseMakesTheExcavatorMovingWhileItsTracksStand) {
   ASSERT_TRUE(sim_->has_articulated());

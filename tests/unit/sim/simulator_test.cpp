@@ -1,4 +1,5 @@
 #include "sitepose/sim/simulator.hpp"
+#include "sitepose/testing/simulated.hpp"
 
 #include <gtest/gtest.h>
 
@@ -41,23 +42,11 @@ SimOptions small_options() {
   return o;
 }
 
-class SimulatorTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    auto sim = Simulator::create(small_scenario(), small_options());
-    ASSERT_TRUE(sim) << sim.error().message;
-    sim_ = new Simulator(std::move(*sim));
-    for (int k = 0; k < sim_->frame_count(); ++k) frames_.push_back(sim_->render(k));
-  }
-  static void TearDownTestSuite() {
-    delete sim_;
-    frames_.clear();
-  }
-  static Simulator* sim_;
-  static std::vector<SimFrame> frames_;
+struct SmallSite {
+  static Scenario scenario() { return small_scenario(); }
+  static SimOptions options() { return small_options(); }
 };
-Simulator* SimulatorTest::sim_ = nullptr;
-std::vector<SimFrame> SimulatorTest::frames_;
+using SimulatorTest = testing::RenderedScenarioTest<SmallSite>;
 
 TEST_F(SimulatorTest, ImagesHaveTheRequestedSizeAndScaledIntrinsics) {
   EXPECT_EQ(sim_->frame_count(), 18);

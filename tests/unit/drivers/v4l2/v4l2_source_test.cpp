@@ -5,7 +5,6 @@
 
 #include <thread>
 
-#include "sitepose/calib/calibration_file.hpp"
 #include "sitepose/testing/fake_v4l2.hpp"
 #include "sitepose/testing/files.hpp"
 #include "sitepose/testing/wait.hpp"
@@ -23,17 +22,8 @@ constexpr int kH = 60;
 
 // An ideal pair (no distortion, parallel): rectification is nearly the identity.
 std::string write_calibration(const sitepose::testing::TempDir& dir) {
-  calib::StereoCalibration c;
-  c.image_size = {kW, kH};
-  c.K1 = (cv::Mat_<double>(3, 3) << 70, 0, 39.5, 0, 70, 29.5, 0, 0, 1);
-  c.K2 = c.K1.clone();
-  c.D1 = cv::Mat::zeros(1, 5, CV_64F);
-  c.D2 = cv::Mat::zeros(1, 5, CV_64F);
-  c.R = cv::Mat::eye(3, 3, CV_64F);
-  c.T = (cv::Mat_<double>(3, 1) << -0.1, 0, 0);
-  EXPECT_TRUE(calib::compute_rectification(c));
   const std::string path = dir / "stereo.yaml";
-  EXPECT_TRUE(calib::write_stereo_calibration(path, c));
+  EXPECT_TRUE(testing::write_ideal_calibration(path, {kW, kH}));
   return path;
 }
 

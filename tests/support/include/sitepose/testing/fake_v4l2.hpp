@@ -98,4 +98,11 @@ class FakeV4l2Io final : public V4l2Io {
 // MJPEG as a JPEG of quality 95).
 std::vector<std::uint8_t> encode_frame(const cv::Mat& gray, std::uint32_t fourcc);
 
+// Writes, at `path`, the calibration of an ideal pair seeing `image_size`
+// (one camera's image): focal 70 px, principal point at the centre, no
+// distortion, parallel, 0.1 m baseline — rectification is the identity, so a
+// fake frame comes out of a source as it went in. False when it cannot be
+// written.
+bool write_ideal_calibration(const std::string& path, cv::Size image_size);
+
 }  // namespace sitepose::drivers::v4l2::testing
