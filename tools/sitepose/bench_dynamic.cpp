@@ -34,6 +34,63 @@ struct Args {
   std::string debug_out;
 };
 
+// The stage table of the run: mean ms per frame and share of the whole
+// frame for each part of the dynamic layer, the tracker's counters and the
+// frame time's p50/p99.
+void print_stage_shares(const slam::RunRecorder& recorder, const slam::SlamSystem& system,
+                        const std::string& dir, int frames, const config::SiteposeConfig& config,
+                        const std::string& detector) {
+  const double whole = recorder.stage_total_ms("whole_frame");
+  const double detect = recorder.stage_total_ms("detect");
+  const double mask = recorder.stage_total_ms("mask");
+  const double classify = recorder.stage_total_ms("classify");
+  const double pass2 = recorder.stage_total_ms("pass2");
+  const double extract = recorder.stage_total_ms("extract_left");
+  const double dynamic_ms = detect + mask + classify + pass2;
+  std::printf("bench dynamic: %s, %d frames%s, mode %s, detector %s, %d frames OK\n", dir.c_str(), frames,
+              interrupted() ? " (interrupted: partial)" : "", config::to_string(config.dynamic.mode),
+              detector.c_str(), recorder.frames_ok());
+  std::printf("%-22s %10s %10s\n", "stage", "mean ms", "share");
+  const auto row = [&](const char* name, double total) {
+    std::printf("%-22s %10.2f %9.1f %%\n", name, total / std::max(1, frames),
+                whole > 0 ? 100.0 * total / whole : 0.0);
+  };
+  row("detect", detect);
+  row("mask (Algorithm 1)", mask);
+  row("classify (Algorithm 2)", classify);
+  row("pass 2", pass2);
+  row("dynamic layer", dynamic_ms);
+  row("whole frame", whole);
+  std::printf(
+      "dynamic layer share of frame time: %.1f %% (not in it: left ORB extraction, %.1f %% of the "
+      "frame, which includes the masked areas' own feature budget)\n",
+      whole > 0 ? 100.0 * dynamic_ms / whole : 0.0, whole > 0 ? 100.0 * extract / whole : 0.0);
+  print_tracker_counters(system.tracker_counters());
+  const auto stages = recorder.stage_summaries();
+  if (const auto it = stages.find("whole_frame"); it != stages.end()) {
+    std::printf("whole frame p50 %.2f ms, p99 %.2f ms (detect included)\n", it->second.p50_ms,
+                it->second.p99_ms);
+  }
+}
+
+// The record `--debug-out` asks for, as `run --debug-out` writes it.
+Expected<std::unique_ptr<views::DebugRecordWriter>> open_debug_record(const Args& args,
+                                                                      const std::string& dir,
+                                                                      const config::SiteposeConfig& config,
+                                                                      const StereoCamera& camera,
+                                                                      double fps) {
+  views::RunInfo info{"",
+                      "",
+                      dir,
+                      args.source.scenario,
+                      config::to_string(config.dynamic.mode),
+                      args.detector,
+                      camera.width,
+                      camera.height,
+                      fps};
+  return views::DebugRecordWriter::open(args.debug_out, info, config::to_yaml(config));
+}
+
 int run(Args args) {
   install_interrupt_handlers();
   auto loaded = load_command_config(args.config_path, args.mode);
@@ -60,9 +117,7 @@ int run(Args args) {
   options.trace = !args.debug_out.empty();
   std::unique_ptr<views::DebugRecordWriter> debug;
   if (options.trace) {
-    views::RunInfo info{"", "", dir, args.source.scenario, config::to_string(config.dynamic.mode), args.detector,
-                        (*sequence)->camera().width, (*sequence)->camera().height, options.fps};
-    auto opened = views::DebugRecordWriter::open(args.debug_out, info, config::to_yaml(config));
+    auto opened = open_debug_record(args, dir, config, (*sequence)->camera(), options.fps);
     if (!opened) return fail(kCommand, "--debug-out: " + opened.error().message, 2);
     debug = std::move(*opened);
   }
@@ -99,37 +154,8 @@ int run(Args args) {
       std::fprintf(stderr, "bench dynamic: %d/%d frames\n", i + 1, frames);
   }
   (*system)->finish();
+  print_stage_shares(recorder, **system, dir, frames, config, args.detector);
   const double whole = recorder.stage_total_ms("whole_frame");
-  const double detect = recorder.stage_total_ms("detect");
-  const double mask = recorder.stage_total_ms("mask");
-  const double classify = recorder.stage_total_ms("classify");
-  const double pass2 = recorder.stage_total_ms("pass2");
-  const double extract = recorder.stage_total_ms("extract_left");
-  const double dynamic_ms = detect + mask + classify + pass2;
-  std::printf("bench dynamic: %s, %d frames%s, mode %s, detector %s, %d frames OK\n", dir.c_str(), frames,
-              interrupted() ? " (interrupted: partial)" : "", config::to_string(config.dynamic.mode),
-              args.detector.c_str(), recorder.frames_ok());
-  std::printf("%-22s %10s %10s\n", "stage", "mean ms", "share");
-  const auto row = [&](const char* name, double total) {
-    std::printf("%-22s %10.2f %9.1f %%\n", name, total / std::max(1, frames),
-                whole > 0 ? 100.0 * total / whole : 0.0);
-  };
-  row("detect", detect);
-  row("mask (Algorithm 1)", mask);
-  row("classify (Algorithm 2)", classify);
-  row("pass 2", pass2);
-  row("dynamic layer", dynamic_ms);
-  row("whole frame", whole);
-  std::printf(
-      "dynamic layer share of frame time: %.1f %% (not in it: left ORB extraction, %.1f %% of the "
-      "frame, which includes the masked areas' own feature budget)\n",
-      whole > 0 ? 100.0 * dynamic_ms / whole : 0.0, whole > 0 ? 100.0 * extract / whole : 0.0);
-  print_tracker_counters((*system)->tracker_counters());
-  const auto stages = recorder.stage_summaries();
-  if (const auto it = stages.find("whole_frame"); it != stages.end()) {
-    std::printf("whole frame p50 %.2f ms, p99 %.2f ms (detect included)\n", it->second.p50_ms,
-                it->second.p99_ms);
-  }
   if (debug) {
     if (auto st = debug->close(); !st) return fail(kCommand, st.error().message, 1);
     // Filling the trace and writing the record, outside the frame times.

@@ -1,28 +1,28 @@
 // `sitepose run`: track a recorded sequence and write the trajectory
 // (FORMATS.md command contract).
 
+#include <unistd.h>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
-#include <unistd.h>
 
 #include "command_registry.hpp"
 #include "interrupt.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/config/orbslam2_settings.hpp"
+#include "sitepose/core/build_info.hpp"
 #include "sitepose/core/echo.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/dynamic/masking.hpp"
 #include "sitepose/io/json_file.hpp"
 #include "sitepose/io/output_path.hpp"
 #include "sitepose/io/sequence.hpp"
-#include "sitepose/mapfile/map_file.hpp"
 #include "sitepose/io/trajectory.hpp"
+#include "sitepose/mapfile/map_file.hpp"
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"
-#include "sitepose/core/build_info.hpp"
 #include "sitepose/views/debug_record.hpp"
 
 namespace sitepose::cli {
@@ -206,11 +206,17 @@ int resolve_config(const RunArgs& args, config::SiteposeConfig& config) {
   }
   const bool masking = config.dynamic.mode != config::MaskingMode::kNone;
   if (!masking && !args.detector.empty()) {
-    return fail(kCommand, "--detector needs a masking mode (--mode bbox|pixel|hierarchical|full); --mode none uses no detector", 2);
+    return fail(
+        kCommand,
+        "--detector needs a masking mode (--mode bbox|pixel|hierarchical|full); --mode none uses no detector",
+        2);
   }
   if (!args.states_out.empty() && config.dynamic.mode != config::MaskingMode::kFull) {
-    return fail(kCommand, std::string("--states-out needs --mode full (motion states are classified only there); mode is ") +
-                              config::to_string(config.dynamic.mode), 2);
+    return fail(
+        kCommand,
+        std::string("--states-out needs --mode full (motion states are classified only there); mode is ") +
+            config::to_string(config.dynamic.mode),
+        2);
   }
   if (!args.detector.empty()) config.detector.name = args.detector;
   return 0;
@@ -232,51 +238,108 @@ int check_outputs(const RunArgs& args) {
   return 0;
 }
 
+// The camera the run tracks with: the sequence's, or the config's
+// camera.stereo when it matches the images' size. Returns 0 or the exit status.
+int resolve_camera(const RunArgs& args, const config::SiteposeConfig& config, const io::Sequence& sequence,
+                   StereoCamera& camera) {
+  camera = sequence.camera();
+  if (!config.camera.stereo) return 0;
+  camera = *config.camera.stereo;
+  const StereoCamera& images = sequence.camera();
+  if (camera.width != images.width || camera.height != images.height) {
+    return fail(kCommand,
+                "camera.stereo is " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
+                    " but the images of " + args.sequence + " are " + std::to_string(images.width) + "x" +
+                    std::to_string(images.height),
+                2);
+  }
+  return 0;
+}
+
+// The detector a masking mode needs, checked against what the mode asks
+// (labels present, pixel masks). Returns 0 or the exit status.
+int create_run_detector(const RunArgs& args, config::SiteposeConfig& config, const io::Sequence& sequence,
+                        const StereoCamera& camera, std::unique_ptr<detect::Detector>& detector) {
+  if (config.detector.name == "labels" && !sequence.has_labels()) {
+    return fail(kCommand,
+                "--mode " + std::string(config::to_string(config.dynamic.mode)) +
+                    " with detector labels: " + args.sequence +
+                    " has no labels/boxes.csv; choose --detector stereo-geometric or a plugin",
+                2);
+  }
+  detect::DetectorContext context;
+  context.sequence_dir = args.sequence;
+  context.camera = camera;
+  auto created = detect::create_detector(config.detector, context);
+  if (!created)
+    return fail(kCommand, "--detector " + config.detector.name + ": " + created.error().message, 2);
+  detector = std::move(*created);
+  const bool needs_pixels = config.dynamic.mode != config::MaskingMode::kBbox;
+  if (needs_pixels && !detector->capabilities().has_segmentation) {
+    return fail(kCommand,
+                "--mode " + std::string(config::to_string(config.dynamic.mode)) +
+                    " needs pixel masks, but detector " + config.detector.name +
+                    " cannot segment (for labels: the sequence has no labels/masks/); use --mode bbox",
+                2);
+  }
+  for (const std::string& added : detect::add_inherent_dynamic_classes(config.detector, config.dynamic)) {
+    std::fprintf(stderr, "sitepose run: detector %s: class '%s' added to dynamic.dynamic_classes\n",
+                 config.detector.name.c_str(), added.c_str());
+  }
+  return 0;
+}
+
+// After the last frame: the mapper drained, the map saved, every output and
+// the debug record written, and the summary line (or the interrupted note).
+// Returns the exit status.
+int finish_run(const RunArgs& args, const config::SiteposeConfig& config, bool with_detector,
+               slam::SlamSystem& system, const TrackedRun& tracked, std::size_t frames_asked,
+               views::DebugRecordWriter* debug) {
+  system.finish();
+  const bool partial = tracked.recorder.frames() < static_cast<int>(frames_asked);
+  if (!args.map_out.empty()) {
+    if (auto st = save_map_out(args.map_out, system, args.quiet); !st)
+      return fail(kCommand, st.error().message, 1);
+  }
+  if (const int status = write_outputs(args, config, with_detector, system, tracked, partial); status != 0) {
+    return status;
+  }
+  if (debug != nullptr) {
+    if (auto st = debug->close(); !st) return fail(kCommand, st.error().message, 1);
+    const double whole = tracked.recorder.stage_total_ms("whole_frame");
+    const double cost = tracked.trace_ms + debug->write_ms();
+    std::printf("debug record in %s: %.1f ms, %.2f %% of tracking time\n", args.debug_out.c_str(), cost,
+                whole > 0 ? 100.0 * cost / whole : 0.0);
+  }
+  if (partial) {
+    const std::string what = "wrote the " + std::to_string(tracked.recorder.frames()) + " of " +
+                             std::to_string(frames_asked) + " frames tracked" +
+                             (args.stats_out.empty() ? "" : " (stats marked partial)");
+    return report_interrupted(kCommand, what.c_str());
+  }
+  std::printf(
+      "frames %d, tracked OK %d (%.1f %%), %.1f frames/s, keyframes %zu, points %zu\n",
+      tracked.recorder.frames(), tracked.recorder.frames_ok(),
+      tracked.recorder.frames() ? 100.0 * tracked.recorder.frames_ok() / tracked.recorder.frames() : 0.0,
+      tracked.recorder.frames_per_second(), system.keyframe_count(), system.point_count());
+  return 0;
+}
+
 int run(const RunArgs& args) {
   install_interrupt_handlers();
   config::SiteposeConfig config;
   if (const int status = resolve_config(args, config); status != 0) return status;
   if (const int status = check_outputs(args); status != 0) return status;
-  const bool masking = config.dynamic.mode != config::MaskingMode::kNone;
   io::SequenceOptions options;
   options.gt_path = args.gt;
   auto sequence = io::open_sequence(args.sequence, options);
   if (!sequence) return fail(kCommand, sequence.error().message, 2);
-  StereoCamera camera = (*sequence)->camera();
-  if (config.camera.stereo) {
-    camera = *config.camera.stereo;
-    const StereoCamera& images = (*sequence)->camera();
-    if (camera.width != images.width || camera.height != images.height) {
-      return fail(kCommand, "camera.stereo is " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
-                                " but the images of " + args.sequence + " are " + std::to_string(images.width) +
-                                "x" + std::to_string(images.height),
-                  2);
-    }
-  }
-
+  StereoCamera camera;
+  if (const int status = resolve_camera(args, config, **sequence, camera); status != 0) return status;
   std::unique_ptr<detect::Detector> detector;
-  if (masking) {
-    if (config.detector.name == "labels" && !(*sequence)->has_labels()) {
-      return fail(kCommand, "--mode " + std::string(config::to_string(config.dynamic.mode)) +
-                                " with detector labels: " + args.sequence +
-                                " has no labels/boxes.csv; choose --detector stereo-geometric or a plugin", 2);
-    }
-    detect::DetectorContext context;
-    context.sequence_dir = args.sequence;
-    context.camera = camera;
-    auto created = detect::create_detector(config.detector, context);
-    if (!created) return fail(kCommand, "--detector " + config.detector.name + ": " + created.error().message, 2);
-    detector = std::move(*created);
-    const bool needs_pixels = config.dynamic.mode != config::MaskingMode::kBbox;
-    if (needs_pixels && !detector->capabilities().has_segmentation) {
-      return fail(kCommand, "--mode " + std::string(config::to_string(config.dynamic.mode)) +
-                                " needs pixel masks, but detector " + config.detector.name +
-                                " cannot segment (for labels: the sequence has no labels/masks/); use --mode bbox",
-                  2);
-    }
-    for (const std::string& added : detect::add_inherent_dynamic_classes(config.detector, config.dynamic)) {
-      std::fprintf(stderr, "sitepose run: detector %s: class '%s' added to dynamic.dynamic_classes\n",
-                   config.detector.name.c_str(), added.c_str());
+  if (config.dynamic.mode != config::MaskingMode::kNone) {
+    if (const int status = create_run_detector(args, config, **sequence, camera, detector); status != 0) {
+      return status;
     }
   }
   slam::SlamOptions slam_options;
@@ -291,9 +354,15 @@ int run(const RunArgs& args) {
   }
   std::unique_ptr<views::DebugRecordWriter> debug;
   if (!args.debug_out.empty()) {
-    views::RunInfo info{version_string(), git_revision(), std::filesystem::absolute(args.sequence).string(), "",
-                        config::to_string(config.dynamic.mode), detector ? config.detector.name : "",
-                        camera.width, camera.height, slam_options.fps};
+    views::RunInfo info{version_string(),
+                        git_revision(),
+                        std::filesystem::absolute(args.sequence).string(),
+                        "",
+                        config::to_string(config.dynamic.mode),
+                        detector ? config.detector.name : "",
+                        camera.width,
+                        camera.height,
+                        slam_options.fps};
     auto opened = views::DebugRecordWriter::open(args.debug_out, info, config::to_yaml(config));
     if (!opened) return fail(kCommand, "--debug-out: " + opened.error().message, 2);
     debug = std::move(*opened);
@@ -310,98 +379,75 @@ int run(const RunArgs& args) {
                                    ? std::min<std::size_t>(first + args.max_frames, (*sequence)->size())
                                    : (*sequence)->size();
   TrackedRun tracked;
-  if (const int status = track(args, **sequence, first, n_frames, detector.get(), **system, debug.get(), tracked);
+  if (const int status =
+          track(args, **sequence, first, n_frames, detector.get(), **system, debug.get(), tracked);
       status != 0) {
     return status;
   }
-  (*system)->finish();
-  const bool partial = tracked.recorder.frames() < static_cast<int>(n_frames - first);
-  if (!args.map_out.empty()) {
-    if (auto st = save_map_out(args.map_out, **system, args.quiet); !st)
-      return fail(kCommand, st.error().message, 1);
-  }
-  if (const int status = write_outputs(args, config, detector != nullptr, **system, tracked, partial);
-      status != 0) {
-    return status;
-  }
-  if (debug) {
-    if (auto st = debug->close(); !st) return fail(kCommand, st.error().message, 1);
-    const double whole = tracked.recorder.stage_total_ms("whole_frame");
-    const double cost = tracked.trace_ms + debug->write_ms();
-    std::printf("debug record in %s: %.1f ms, %.2f %% of tracking time\n", args.debug_out.c_str(), cost,
-                whole > 0 ? 100.0 * cost / whole : 0.0);
-  }
-  if (partial) {
-    const std::string what = "wrote the " + std::to_string(tracked.recorder.frames()) + " of " +
-                             std::to_string(n_frames - first) + " frames tracked" +
-                             (args.stats_out.empty() ? "" : " (stats marked partial)");
-    return report_interrupted(kCommand, what.c_str());
-  }
-  std::printf(
-      "frames %d, tracked OK %d (%.1f %%), %.1f frames/s, keyframes %zu, points %zu\n",
-      tracked.recorder.frames(), tracked.recorder.frames_ok(),
-      tracked.recorder.frames() ? 100.0 * tracked.recorder.frames_ok() / tracked.recorder.frames() : 0.0,
-      tracked.recorder.frames_per_second(), (*system)->keyframe_count(), (*system)->point_count());
-  return 0;
+  return finish_run(args, config, detector != nullptr, **system, tracked, n_frames - first, debug.get());
 }
 
-const CommandRegistrar kRun{{"", "run", "Track a recorded stereo sequence and write its trajectory",
-                             [](CLI::App& sub) -> CommandAction {
-  auto args = std::make_shared<RunArgs>();
-  sub.add_option("--sequence", args->sequence, "Sequence directory (sitepose/KITTI or EuRoC layout)")
-      ->required();
-  sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)")
-      ->check(CLI::ExistingFile);
-  sub.add_option("--orbslam2-settings", args->orbslam2_settings,
-                 "ORB-SLAM2 stereo settings file: camera and ORB parameters override the config")
-      ->check(CLI::ExistingFile);
-  sub.add_option("--mode", args->mode,
-                 std::string("Masking mode: ") + config::masking_mode_names() +
-                     " (default: the config's dynamic.mode, full; full = hierarchical masks + motion "
-                     "states + two passes)")
-      ->check(CLI::Validator(
-          [](std::string& name) {
-            return config::parse_masking_mode(name) ? std::string()
-                                                    : "'" + echo_value(name) + "' is not one of " +
-                                                          config::masking_mode_names();
-          },
-          "MODE"));
-  sub.add_option("--detector", args->detector,
-                 "Detector for the masking modes: labels (the sequence's labels/), stereo-geometric, "
-                 "opencv-dnn, or a plugin .so path (default: the config's detector.name, labels)");
-  sub.add_option("--out", args->out, "Trajectory output (T_world_cam, left camera; frames not LOST)")
-      ->required();
-  sub.add_option("--format", args->format,
-                 "Trajectory format: tum (t x y z qx qy qz qw), kitti (3x4 rows; times in OUT.times.txt) or "
-                 "euroc (CSV, t in ns)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"tum", "kitti", "euroc"}));
-  sub.add_option("--tracking-out", args->tracking_out,
-                 "Tracking state of every frame, CSV frame,t_s,state (OK, RECOVERING or LOST; "
-                 "docs/run/tracking_states.md)");
-  sub.add_option("--states-out", args->states_out,
-                 "Motion states CSV, frame,instance,class,state,score,points (--mode full only)");
-  sub.add_option("--stats-out", args->stats_out, "Per-run statistics JSON");
-  sub.add_option("--gt", args->gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
-  sub.add_option("--debug-out", args->debug_out,
-                 "Folder for the per-frame debug record that `sitepose view` and `sitepose report` read");
-  sub.add_option("--frames", args->max_frames, "Process at most N frames (default: all)")
-      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
-  sub.add_option("--first-frame", args->first_frame, "Start at frame N (0-based; default 0)")
-      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
-  sub.add_option("--map-in", args->map_in,
-                 "Start in this saved map (sitepose map file): the first frames relocalise in it and the "
-                 "trajectory continues in its frame")
-      ->check(CLI::ExistingFile);
-  sub.add_option(
-      "--map-out", args->map_out,
-      "Save the map here at the end (atomically: a failed save leaves an existing file as it was)");
-  sub.add_flag("--mapper-thread", args->mapper_thread,
-               "Run local mapping on its own thread (as the daemon does); default runs it "
-               "inline after each keyframe so results are reproducible");
-  sub.add_flag("--quiet", args->quiet, "No progress output");
-  return [args] { return run(*args); };
-}}};
+const CommandRegistrar kRun{
+    {"", "run", "Track a recorded stereo sequence and write its trajectory",
+     [](CLI::App& sub) -> CommandAction {
+       auto args = std::make_shared<RunArgs>();
+       sub.add_option("--sequence", args->sequence, "Sequence directory (sitepose/KITTI or EuRoC layout)")
+           ->required();
+       sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)")
+           ->check(CLI::ExistingFile);
+       sub.add_option("--orbslam2-settings", args->orbslam2_settings,
+                      "ORB-SLAM2 stereo settings file: camera and ORB parameters override the config")
+           ->check(CLI::ExistingFile);
+       sub.add_option("--mode", args->mode,
+                      std::string("Masking mode: ") + config::masking_mode_names() +
+                          " (default: the config's dynamic.mode, full; full = hierarchical masks + motion "
+                          "states + two passes)")
+           ->check(CLI::Validator(
+               [](std::string& name) {
+                 return config::parse_masking_mode(name)
+                            ? std::string()
+                            : "'" + echo_value(name) + "' is not one of " + config::masking_mode_names();
+               },
+               "MODE"));
+       sub.add_option("--detector", args->detector,
+                      "Detector for the masking modes: labels (the sequence's labels/), stereo-geometric, "
+                      "opencv-dnn, or a plugin .so path (default: the config's detector.name, labels)");
+       sub.add_option("--out", args->out, "Trajectory output (T_world_cam, left camera; frames not LOST)")
+           ->required();
+       sub.add_option(
+              "--format", args->format,
+              "Trajectory format: tum (t x y z qx qy qz qw), kitti (3x4 rows; times in OUT.times.txt) or "
+              "euroc (CSV, t in ns)")
+           ->capture_default_str()
+           ->check(CLI::IsMember({"tum", "kitti", "euroc"}));
+       sub.add_option("--tracking-out", args->tracking_out,
+                      "Tracking state of every frame, CSV frame,t_s,state (OK, RECOVERING or LOST; "
+                      "docs/run/tracking_states.md)");
+       sub.add_option("--states-out", args->states_out,
+                      "Motion states CSV, frame,instance,class,state,score,points (--mode full only)");
+       sub.add_option("--stats-out", args->stats_out, "Per-run statistics JSON");
+       sub.add_option("--gt", args->gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
+       sub.add_option(
+           "--debug-out", args->debug_out,
+           "Folder for the per-frame debug record that `sitepose view` and `sitepose report` read");
+       sub.add_option("--frames", args->max_frames, "Process at most N frames (default: all)")
+           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+       sub.add_option("--first-frame", args->first_frame, "Start at frame N (0-based; default 0)")
+           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+       sub.add_option(
+              "--map-in", args->map_in,
+              "Start in this saved map (sitepose map file): the first frames relocalise in it and the "
+              "trajectory continues in its frame")
+           ->check(CLI::ExistingFile);
+       sub.add_option(
+           "--map-out", args->map_out,
+           "Save the map here at the end (atomically: a failed save leaves an existing file as it was)");
+       sub.add_flag("--mapper-thread", args->mapper_thread,
+                    "Run local mapping on its own thread (as the daemon does); default runs it "
+                    "inline after each keyframe so results are reproducible");
+       sub.add_flag("--quiet", args->quiet, "No progress output");
+       return [args] { return run(*args); };
+     }}};
 
 }  // namespace
 }  // namespace sitepose::cli
