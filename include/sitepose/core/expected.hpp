@@ -59,8 +59,11 @@ inline Unexpected make_error(ErrorCode code, std::string message) {
     }                                                                               \
   } while (false)
 
+// Its copy and move operations are std::variant's: they throw when T's do
+// (cv::Mat's move is not noexcept), which the exception-escape check flags
+// for every Expected<T> that is move-assigned.
 template <typename T>
-class [[nodiscard]] Expected {
+class [[nodiscard]] Expected {  // NOLINT(bugprone-exception-escape)
  public:
   Expected(T value) : storage_(std::in_place_index<0>, std::move(value)) {}  // NOLINT
   Expected(Unexpected unexpected)                                            // NOLINT
