@@ -141,9 +141,21 @@ TEST(Blackout, TruckInFrontOfTheLensNeverGivesAWrongOkPose) {
 }
 
 // Disabled: open defect (issue 19). The map ends where the truck came
-// (frame ~39) and the view returns ~5.5 m further on; the only
-// relocalisation found is the wrong place above, now RECOVERING to the end,
-// so coverage after the truck is 0 %.
+// (frame ~39) and the view returns ~5.5 m further on, where the map shares
+// only distant points (fence, buildings at ~18 m) with the view, and the
+// scene repeats. Here the first relocalisation (frame 121) is 2.7 m off with
+// a position sigma of 0.04 m: never OK, but tracked RECOVERING to the end,
+// as nothing relocalises again, so coverage after the truck is 0 %. A
+// fresh relocalisation in any of frames 122-155 finds the right place
+// (0.01-0.1 m off, sigma 0.015-0.022 m). Refusing imprecise relocalisations
+// and dropping a hold that stops being precise gives 95.6 % OK and ATE
+// 0.019 m here, but on seeds 1 and 3 the relocalised pose is 0.05-0.11 m off
+// at a sigma below 0.02 m (the distant points' depth errors, which the
+// exact-point sigma does not show), and OK poses > 0.05 m off appear (1 and
+// 30 frames; 4 and 1 before). A map-aware sigma (point depth error
+// propagated) refuses the right places too and still accepts a repeated
+// twin 8.2 m off on seed 3: candidates need an ambiguity test (two distinct
+// precise places -> refuse) and the pose a bias bound before this can pass.
 TEST(Blackout, DISABLED_TruckInFrontOfTheLensRelocalisesWithin5Frames) {
   TruckstopRun t;
   ASSERT_NO_FATAL_FAILURE(run_truckstop(t));
