@@ -1,0 +1,50 @@
+// Issue 19's blind spells over three renderings (seeds) each, beside the
+// scenarios' own in blackout_test.cpp; figures per seed for the note.
+// Minutes: label sweep.
+
+#include <gtest/gtest.h>
+
+#include "blind_spell_run.hpp"
+
+namespace sitepose::experiments {
+namespace {
+
+using blind_spell::BlackoutRun;
+using blind_spell::run_blackout;
+using blind_spell::run_truckstop;
+using blind_spell::TruckstopRun;
+
+constexpr int kSeeds[] = {1, 2, 3};
+
+// Measured on main (7d6f168): back after 0, 0, 1 frames; OK on 97.5, 97.5,
+// 96.2 % of the frames with a view; ATE 0.0092, 0.0138, 0.0096 m; largest
+// OK error 0.026, 0.045, 0.023 m.
+TEST(BlackoutSweep, EverySeedRelocalisesAndNeverReportsAWrongPoseOk) {
+  for (const int seed : kSeeds) {
+    BlackoutRun b;
+    ASSERT_NO_FATAL_FAILURE(run_blackout(b, seed));
+    EXPECT_GE(b.score.frames_to_relocalise, 0) << "seed " << seed << ": never relocalised";
+    EXPECT_LT(b.score.frames_to_relocalise, 5) << "seed " << seed;
+    EXPECT_GE(b.coverage, 0.95) << "seed " << seed;
+    EXPECT_LE(b.run.evaluation->ate_m.rmse, 0.02) << "seed " << seed;
+    EXPECT_EQ(b.score.ok_frames_off, 0) << "seed " << seed << ": largest OK error " << b.score.max_ok_error_m;
+  }
+}
+
+// Disabled: open defect (issue 19; see blackout_test.cpp). Measured on main
+// (7d6f168), seeds 1, 2, 3: OK on 76.5, 98.5, 83.8 % of the frames with a
+// view; ATE 1.387, 0.013, 0.251 m; OK poses > 0.05 m off: 4, 0, 1 (largest
+// 0.053, 0.037, 0.052 m).
+TEST(BlackoutSweep, DISABLED_TruckstopEverySeedComesBackRightOrNotOk) {
+  for (const int seed : kSeeds) {
+    TruckstopRun t;
+    ASSERT_NO_FATAL_FAILURE(run_truckstop(t, seed));
+    EXPECT_EQ(t.score.ok_frames_off, 0) << "seed " << seed << ": largest OK error " << t.score.max_ok_error_m;
+    EXPECT_LT(t.score.frames_to_relocalise, 5) << "seed " << seed;
+    EXPECT_GE(t.coverage, 0.95) << "seed " << seed;
+    EXPECT_LE(t.run.evaluation->ate_m.rmse, 0.02) << "seed " << seed;
+  }
+}
+
+}  // namespace
+}  // namespace sitepose::experiments
