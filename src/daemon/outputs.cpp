@@ -18,6 +18,42 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kDegToRad = std::numbers::pi / 180.0;
 }  // namespace
 
+// ----------------------------------------------------------------- TimeBase
+
+TimeBase::Now TimeBase::system_clock_now() {
+  // Steady first: the system clock read after it is at most as late as the
+  // capture stage's steady stamps, never earlier.
+  Now now;
+  now.steady = pipeline::SteadyClock::now();
+  now.system_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                      std::chrono::system_clock::now().time_since_epoch())
+                      .count();
+  return now;
+}
+
+std::int64_t TimeBase::capture_utc_ns(const pipeline::PosePacket& packet) {
+  if (!offset_ns_) {
+    const Now now = clock_();
+    // A packet without a capture stamp (a test's) counts as captured now.
+    const std::int64_t age_ns =
+        packet.captured == pipeline::SteadyTime{}
+            ? 0
+            : std::max<std::int64_t>(
+                  0,
+                  std::chrono::duration_cast<std::chrono::nanoseconds>(now.steady - packet.captured).count());
+    const std::int64_t offset = now.system_ns - age_ns - packet.pose.t_ns;
+    offset_ns_ = std::abs(offset) < kUtcTolerance_ns ? 0 : offset;
+    spdlog::info("time base: capture stamps + {:.6f} s = UTC{}", static_cast<double>(*offset_ns_) * 1e-9,
+                 *offset_ns_ == 0 ? " (the source stamps in UTC)" : "");
+  }
+  return packet.pose.t_ns + *offset_ns_;
+}
+
+double TimeBase::latency_ms(const pipeline::PosePacket& packet) const {
+  if (packet.captured == pipeline::SteadyTime{}) return 0.0;
+  return std::chrono::duration<double, std::milli>(clock_().steady - packet.captured).count();
+}
+
 // ---------------------------------------------------------------- Anchoring
 
 Expected<std::unique_ptr<Anchoring>> Anchoring::create(const GeoConfig& config) {
@@ -171,8 +207,9 @@ Status TrajectoryOutput::retry() { return pending_.empty() ? ok_status() : write
 Status CanOutput::publish(const pipeline::PosePacket& packet) {
   const PoseEstimate& pose = packet.pose;
   const geo::SitePose* site = anchoring_.site_pose(packet);
+  const std::int64_t utc_ns = anchoring_.time_base().capture_utc_ns(packet);
   output::CanPoseInputs in;
-  in.utc_t_ns = pose.t_ns;
+  in.utc_t_ns = utc_ns;
   in.quality = output::pose_quality_from_estimate(pose);
   if (site == nullptr) {
     in.latitude_deg = in.longitude_deg = in.altitude_m = kNaN;
@@ -202,7 +239,7 @@ Status CanOutput::publish(const pipeline::PosePacket& packet) {
   frames_ = encoder_.encode(in);
   next_frame_ = 0;
   flushed_ = false;
-  frame_t_ns_ = pose.t_ns;
+  frame_t_ns_ = utc_ns;
   return send_pending();
 }
 
@@ -223,7 +260,13 @@ Status CanOutput::retry() { return send_pending(); }
 // ---------------------------------------------------------------- LcmOutput
 
 Status LcmOutput::publish(const pipeline::PosePacket& packet) {
-  return publisher_->publish_pose(packet.pose, anchoring_.site_pose(packet));
+  TimeBase& time = anchoring_.time_base();
+  PoseEstimate pose = packet.pose;
+  pose.t_ns = time.capture_utc_ns(packet);
+  SITEPOSE_TRY_STATUS(publisher_->publish_pose(pose, anchoring_.site_pose(packet)));
+  last_pose_utc_ns_ = pose.t_ns;
+  last_latency_ms_ = time.latency_ms(packet);
+  return ok_status();
 }
 
 output::LcmHealth to_lcm_health(const pipeline::PipelineHealth& h, std::int64_t t_ns) {
@@ -248,9 +291,10 @@ output::LcmHealth to_lcm_health(const pipeline::PipelineHealth& h, std::int64_t 
 }
 
 Status LcmOutput::publish_health(const pipeline::PipelineHealth& health) {
-  const auto now = std::chrono::system_clock::now().time_since_epoch();
-  return publisher_->publish_health(
-      to_lcm_health(health, std::chrono::duration_cast<std::chrono::nanoseconds>(now).count()));
+  output::LcmHealth h = to_lcm_health(health, anchoring_.time_base().now_utc_ns());
+  h.last_pose_t_ns = last_pose_utc_ns_;
+  h.last_pose_latency_ms = last_latency_ms_;
+  return publisher_->publish_health(h);
 }
 
 }  // namespace sitepose::daemon

@@ -38,8 +38,7 @@ sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site
 
   const SE3& T = site ? site->T_site_cam : pose.T_world_cam;
   const Matrix6d covariance =
-      site ? site->covariance_site
-           : geo::site_covariance(SE3::identity(), pose.T_world_cam, pose.covariance);
+      site ? site->covariance_site : geo::site_covariance(SE3::identity(), pose.T_world_cam, pose.covariance);
   m.frame = site ? sitepose::pose_t::FRAME_SITE : sitepose::pose_t::FRAME_SLAM;
   for (int i = 0; i < 3; ++i) m.position[i] = T.translation()(i);
   m.orientation[0] = T.rotation().w();
@@ -74,6 +73,8 @@ sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site
 sitepose::health_t to_lcm_health(const LcmHealth& health) {
   sitepose::health_t m;
   m.utime = utime_of(health.t_ns);
+  m.last_pose_utime = health.last_pose_t_ns < 0 ? -1 : utime_of(health.last_pose_t_ns);
+  m.last_pose_latency_ms = static_cast<float>(health.last_pose_latency_ms);
   m.fps = static_cast<float>(health.fps);
   m.latency_p50_ms = static_cast<float>(health.latency_p50_ms);
   m.latency_p99_ms = static_cast<float>(health.latency_p99_ms);
@@ -119,8 +120,8 @@ Expected<geo::GnssFix> from_lcm_gnss_fix(const sitepose::gnss_fix_t& message) {
   }
   if (message.num_satellites < 0) {
     return make_error(ErrorCode::kInvalidArgument,
-                      fmt::format("gnss_fix_t utime {}: num_satellites = {}: expected >= 0",
-                                  message.utime, message.num_satellites));
+                      fmt::format("gnss_fix_t utime {}: num_satellites = {}: expected >= 0", message.utime,
+                                  message.num_satellites));
   }
   geo::GnssFix fix;
   fix.t_ns = message.utime * 1000;

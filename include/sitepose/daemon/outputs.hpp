@@ -6,6 +6,7 @@
 // hands the fixes over) and the outputs' destructors (after the threads end).
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -22,6 +23,42 @@
 #include "sitepose/pipeline/spsc_ring.hpp"
 
 namespace sitepose::daemon {
+
+// The one time base of every output (docs/daemon/README.md "Time base"):
+// UTC, ns since the Unix epoch. A pose's UTC time is its capture time
+// stamp (PoseEstimate::t_ns, the source's clock) plus one offset, fixed at
+// the first pose: that frame's capture on the system clock (system time now
+// minus how long ago, on the steady clock, the capture stage got it) minus
+// its stamp. So time differences stay the source's (a replay keeps its
+// spacing, shifted to now) and every output stamps one pose alike. A source
+// that already stamps in UTC (offset under kUtcTolerance) keeps its stamps.
+// Used on the publish thread only.
+class TimeBase {
+ public:
+  struct Now {
+    std::int64_t system_ns = 0;  // UTC, ns since the Unix epoch
+    pipeline::SteadyTime steady;
+  };
+  using Clock = std::function<Now()>;
+  static constexpr std::int64_t kUtcTolerance_ns = 1'000'000'000;
+
+  explicit TimeBase(Clock clock = system_clock_now) : clock_(std::move(clock)) {}
+  static Now system_clock_now();
+
+  // UTC of the packet's capture (fixes the offset at the first call).
+  std::int64_t capture_utc_ns(const pipeline::PosePacket& packet);
+  Now now() const { return clock_(); }
+  std::int64_t now_utc_ns() const { return clock_().system_ns; }
+  // Publish latency: steady time now minus the packet's capture (0 for a
+  // packet without a capture stamp). On the steady clock, so it stays true
+  // for a replay at rate max, whose pose times run ahead of the clock.
+  double latency_ms(const pipeline::PosePacket& packet) const;
+  std::optional<std::int64_t> offset_ns() const { return offset_ns_; }
+
+ private:
+  Clock clock_;
+  std::optional<std::int64_t> offset_ns_;
+};
 
 // T_site_slam for the outputs: fixed from the config, or estimated online
 // by geo::SiteAnchor from GNSS fixes (LCM or an NMEA file), or none. Each
@@ -40,6 +77,10 @@ class Anchoring {
   // Fixes known up front (an NMEA file); fed as the poses reach their time.
   void set_scheduled_fixes(std::vector<geo::GnssFix> fixes);
 
+  // The time base of every output (kept here so that each pose is mapped
+  // once, like its site pose).
+  TimeBase& time_base() { return time_base_; }
+
   GeoMode mode() const { return config_.mode; }
   geo::ForwardAxis forward_axis() const { return config_.forward_axis_cam; }
   std::optional<geo::AnchorStatus> anchor_status() const;
@@ -48,6 +89,7 @@ class Anchoring {
   explicit Anchoring(const GeoConfig& config) : config_(config), fixes_(256) {}
 
   GeoConfig config_;
+  TimeBase time_base_;
   std::optional<geo::SiteFrame> fixed_;
   std::optional<geo::SiteAnchor> anchor_;
   pipeline::SpscRing<geo::GnssFix> fixes_;
@@ -86,7 +128,8 @@ class TrajectoryOutput final : public pipeline::PoseOutput {
   std::uint64_t lines_written_ = 0;
 };
 
-// The CAN frame set of each pose (canring's CanPoseEncoder) into a CanSink.
+// The CAN frame set of each pose (canring's CanPoseEncoder) into a CanSink,
+// stamped (candump lines, 129029 date/time) with the pose's UTC capture time.
 // Without a site frame the frames say LOST ("no site anchor"): the ECU
 // needs WGS84 positions. Speed and course come from the last two site
 // positions. A failed frame is resumed by retry() from that frame on, so
@@ -127,9 +170,11 @@ class LcmOutput final : public pipeline::PoseOutput {
  private:
   std::unique_ptr<output::LcmPublisher> publisher_;
   Anchoring& anchoring_;
+  std::int64_t last_pose_utc_ns_ = -1;  // capture time of the last pose sent, UTC
+  double last_latency_ms_ = -1.0;       // its publish latency (TimeBase::latency_ms)
 };
 
-// pipeline health -> LCM health_t contents.
+// pipeline health -> LCM health_t contents; t_ns: the report's time (UTC).
 output::LcmHealth to_lcm_health(const pipeline::PipelineHealth& health, std::int64_t t_ns);
 
 }  // namespace sitepose::daemon

@@ -32,7 +32,11 @@ struct LcmOutputHealth {
   std::int64_t failed = 0;
 };
 struct LcmHealth {
-  std::int64_t t_ns = 0;
+  std::int64_t t_ns = 0;  // time of the report, UTC ns since the Unix epoch
+  // Capture time (UTC) of the last pose sent and its publish time minus
+  // that; -1 before the first pose.
+  std::int64_t last_pose_t_ns = -1;
+  double last_pose_latency_ms = -1.0;
   double fps = 0.0;
   double latency_p50_ms = 0.0;
   double latency_p99_ms = 0.0;
@@ -64,8 +68,7 @@ Expected<std::vector<std::uint8_t>> encode_lcm(const Message& message) {
   const int size = message.getEncodedSize();
   std::vector<std::uint8_t> buffer(static_cast<std::size_t>(size > 0 ? size : 0));
   if (size <= 0 || message.encode(buffer.data(), 0, size) != size) {
-    return make_error(ErrorCode::kRuntime,
-                      std::string("LCM encode failed for ") + Message::getTypeName());
+    return make_error(ErrorCode::kRuntime, std::string("LCM encode failed for ") + Message::getTypeName());
   }
   return buffer;
 }
@@ -76,9 +79,8 @@ Expected<Message> decode_lcm(const void* data, std::size_t size) {
   Message message;
   const int used = message.decode(data, 0, static_cast<int>(size));
   if (used < 0 || static_cast<std::size_t>(used) != size) {
-    return make_error(ErrorCode::kParseError,
-                      std::string("LCM decode failed for ") + Message::getTypeName() + " (" +
-                          std::to_string(size) + " bytes)");
+    return make_error(ErrorCode::kParseError, std::string("LCM decode failed for ") + Message::getTypeName() +
+                                                  " (" + std::to_string(size) + " bytes)");
   }
   return message;
 }
