@@ -56,8 +56,20 @@ double TimeBase::latency_ms(const pipeline::PosePacket& packet) const {
 
 // ---------------------------------------------------------------- Anchoring
 
-Expected<std::unique_ptr<Anchoring>> Anchoring::create(const GeoConfig& config) {
-  std::unique_ptr<Anchoring> a(new Anchoring(config));
+PublishOptions publish_options(const DaemonConfig& config) {
+  PublishOptions p;
+  p.lever_arm_m = config.reference_point.lever_arm_m;
+  p.covariance = config.covariance;
+  return p;
+}
+
+Expected<std::unique_ptr<Anchoring>> Anchoring::create(const GeoConfig& config,
+                                                       const PublishOptions& publish) {
+  std::unique_ptr<Anchoring> a(new Anchoring(config, publish));
+  if (!publish.lever_arm_m.isZero()) {
+    SITEPOSE_TRY(const Eigen::Matrix3d R_cam_machine, output::rotation_cam_machine(config.forward_axis_cam));
+    a->lever_arm_cam_m_ = R_cam_machine * publish.lever_arm_m;
+  }
   if (config.mode == GeoMode::kFixed) {
     SITEPOSE_TRY(geo::SiteFrame frame,
                  geo::SiteFrame::create(config.origin, config.T_site_slam, config.forward_axis_cam));
@@ -84,38 +96,84 @@ std::optional<geo::AnchorStatus> Anchoring::anchor_status() const {
   return anchor_->status();
 }
 
-const geo::SitePose* Anchoring::site_pose(const pipeline::PosePacket& packet) {
+const geo::SiteFrame* Anchoring::site_frame(const pipeline::PosePacket& packet) {
+  const PoseEstimate& pose = packet.pose;
+  if (fixed_) return &*fixed_;
+  if (!anchor_) return nullptr;
+  // Fixes first (those up to this pose's time), then the pose, so a fix
+  // waiting for a later SLAM pose finds it. The anchor pairs the camera.
+  while (auto fix = fixes_.try_pop()) anchor_->add_fix(*fix);
+  while (next_scheduled_ < scheduled_.size() &&
+         scheduled_[next_scheduled_].t_ns + config_.anchor.gnss_clock_offset_ns <= pose.t_ns) {
+    anchor_->add_fix(scheduled_[next_scheduled_++]);
+  }
+  if (pose.state == TrackingState::kOk && !packet.from_stall) {
+    anchor_->add_slam_pose(pose.t_ns, pose.T_world_cam);
+  }
+  return anchor_->site_frame() ? &*anchor_->site_frame() : nullptr;
+}
+
+std::pair<double, double> Anchoring::anchor_std() const {
+  if (fixed_) return {config_.anchor_std.position_m, config_.anchor_std.attitude_deg * kDegToRad};
+  if (!anchor_ || !anchor_->site_frame()) return {0.0, 0.0};
+  // The fit's own uncertainty, to first order: the inliers' RMS over
+  // sqrt(inliers) for the position, over the lateral spread for the
+  // attitude; never below the configured one (survey and antenna errors).
+  const geo::AnchorStatus st = anchor_->status();
+  const double n = std::max(1, st.inliers);
+  const double position_m = st.inlier_rms_m / std::sqrt(n);
+  const double attitude_rad = st.lateral_spread_m > 0.0 ? position_m / st.lateral_spread_m : 0.0;
+  return {std::max(position_m, config_.anchor_std.position_m),
+          std::max(attitude_rad, config_.anchor_std.attitude_deg * kDegToRad)};
+}
+
+const PublishedPose& Anchoring::published(const pipeline::PosePacket& packet) {
   const PoseEstimate& pose = packet.pose;
   if (cache_valid_ && cached_seq_ == pose.seq && cached_t_ns_ == pose.t_ns &&
       cached_stall_ == packet.from_stall) {
-    return cached_ ? &*cached_ : nullptr;
+    return published_;
   }
   cache_valid_ = true;
   cached_seq_ = pose.seq;
   cached_t_ns_ = pose.t_ns;
   cached_stall_ = packet.from_stall;
   cached_.reset();
-  const geo::SiteFrame* frame = nullptr;
-  if (fixed_) {
-    frame = &*fixed_;
-  } else if (anchor_) {
-    // Fixes first (those up to this pose's time), then the pose, so a fix
-    // waiting for a later SLAM pose finds it.
-    while (auto fix = fixes_.try_pop()) anchor_->add_fix(*fix);
-    while (next_scheduled_ < scheduled_.size() &&
-           scheduled_[next_scheduled_].t_ns + config_.anchor.gnss_clock_offset_ns <= pose.t_ns) {
-      anchor_->add_fix(scheduled_[next_scheduled_++]);
-    }
-    if (pose.state == TrackingState::kOk && !packet.from_stall) {
-      anchor_->add_slam_pose(pose.t_ns, pose.T_world_cam);
-    }
-    if (anchor_->site_frame()) frame = &*anchor_->site_frame();
+  published_ = PublishedPose{};
+  published_.utc_ns = time_base_.capture_utc_ns(packet);
+  const geo::SiteFrame* frame = site_frame(packet);
+  const auto [anchor_position_m, anchor_attitude_rad] =
+      frame != nullptr ? anchor_std() : std::pair<double, double>{0.0, 0.0};
+  published_.pose = output::published_pose(pose, lever_arm_cam_m_, publish_.covariance, anchor_position_m,
+                                           anchor_attitude_rad);
+  published_.pose.t_ns = published_.utc_ns;
+  if (frame != nullptr) {
+    // Not finite or outside UTM/UPS: published without a site.
+    if (auto site = frame->to_site(published_.pose)) cached_ = std::move(*site);
   }
-  if (frame == nullptr) return nullptr;
-  auto site = frame->to_site(pose);
-  if (!site) return nullptr;  // not finite or outside UTM/UPS: published without a site
-  cached_ = std::move(*site);
-  return &*cached_;
+  published_.site = cached_ ? &*cached_ : nullptr;
+  update_velocity(packet);
+  return published_;
+}
+
+void Anchoring::update_velocity(const pipeline::PosePacket& packet) {
+  const bool usable = packet.pose.state != TrackingState::kLost && !packet.from_stall;
+  if (!usable) {
+    last_position_.reset();
+    return;
+  }
+  LastPosition now;
+  now.t_ns = published_.utc_ns;
+  now.site = published_.site != nullptr;
+  const Matrix6d covariance = now.site ? published_.site->covariance_site
+                                       : geo::site_covariance(SE3::identity(), published_.pose.T_world_cam,
+                                                              published_.pose.covariance);
+  now.p = now.site ? published_.site->T_site_cam.translation() : published_.pose.T_world_cam.translation();
+  now.covariance = covariance.topLeftCorner<3, 3>();
+  if (last_position_ && last_position_->site == now.site) {
+    published_.velocity = output::finite_difference_velocity(
+        last_position_->p, last_position_->covariance, last_position_->t_ns, now.p, now.covariance, now.t_ns);
+  }
+  last_position_ = now;
 }
 
 // --------------------------------------------------------- TrajectoryOutput
@@ -205,11 +263,11 @@ Status TrajectoryOutput::retry() { return pending_.empty() ? ok_status() : write
 // ---------------------------------------------------------------- CanOutput
 
 Status CanOutput::publish(const pipeline::PosePacket& packet) {
-  const PoseEstimate& pose = packet.pose;
-  const geo::SitePose* site = anchoring_.site_pose(packet);
-  const std::int64_t utc_ns = anchoring_.time_base().capture_utc_ns(packet);
+  const PublishedPose& published = anchoring_.published(packet);
+  const PoseEstimate& pose = published.pose;
+  const geo::SitePose* site = published.site;
   output::CanPoseInputs in;
-  in.utc_t_ns = utc_ns;
+  in.utc_t_ns = published.utc_ns;
   in.quality = output::pose_quality_from_estimate(pose);
   if (site == nullptr) {
     in.latitude_deg = in.longitude_deg = in.altitude_m = kNaN;
@@ -224,22 +282,19 @@ Status CanOutput::publish(const pipeline::PosePacket& packet) {
     const Eigen::Vector3d forward = site->T_site_cam.rotation() * geo::axis_vector(anchoring_.forward_axis());
     in.pitch_rad = std::atan2(forward.z(), std::hypot(forward.x(), forward.y()));
     in.course_over_ground_rad = in.speed_over_ground_mps = kNaN;
-    const Eigen::Vector3d p = site->T_site_cam.translation();
-    if (last_site_position_ && pose.t_ns > last_site_position_->first && pose.state != TrackingState::kLost) {
-      const Eigen::Vector3d d = p - last_site_position_->second;
-      const double dt_s = static_cast<double>(pose.t_ns - last_site_position_->first) * 1e-9;
-      in.speed_over_ground_mps = std::hypot(d.x(), d.y()) / dt_s;
+    if (published.velocity.valid()) {
+      const Eigen::Vector3d& v = published.velocity.mps;
+      in.speed_over_ground_mps = std::hypot(v.x(), v.y());
       if (in.speed_over_ground_mps > 0.01) {  // a course needs motion
-        in.course_over_ground_rad = std::atan2(d.x(), d.y());
+        in.course_over_ground_rad = std::atan2(v.x(), v.y());
         if (in.course_over_ground_rad < 0) in.course_over_ground_rad += 2 * std::numbers::pi;
       }
     }
-    if (pose.state != TrackingState::kLost && !packet.from_stall) last_site_position_ = {pose.t_ns, p};
   }
   frames_ = encoder_.encode(in);
   next_frame_ = 0;
   flushed_ = false;
-  frame_t_ns_ = utc_ns;
+  frame_t_ns_ = published.utc_ns;
   return send_pending();
 }
 
@@ -260,12 +315,10 @@ Status CanOutput::retry() { return send_pending(); }
 // ---------------------------------------------------------------- LcmOutput
 
 Status LcmOutput::publish(const pipeline::PosePacket& packet) {
-  TimeBase& time = anchoring_.time_base();
-  PoseEstimate pose = packet.pose;
-  pose.t_ns = time.capture_utc_ns(packet);
-  SITEPOSE_TRY_STATUS(publisher_->publish_pose(pose, anchoring_.site_pose(packet)));
-  last_pose_utc_ns_ = pose.t_ns;
-  last_latency_ms_ = time.latency_ms(packet);
+  const PublishedPose& published = anchoring_.published(packet);
+  SITEPOSE_TRY_STATUS(publisher_->publish_pose(published.pose, published.site, &published.velocity));
+  last_pose_utc_ns_ = published.utc_ns;
+  last_latency_ms_ = anchoring_.time_base().latency_ms(packet);
   return ok_status();
 }
 

@@ -25,7 +25,7 @@ std::int8_t lcm_state(TrackingState state) {
   return sitepose::pose_t::STATE_LOST;
 }
 
-sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site) {
+sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site, const Velocity* velocity) {
   sitepose::pose_t m;
   m.utime = utime_of(pose.t_ns);
   m.seq = pose.seq;
@@ -47,6 +47,12 @@ sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site
   m.orientation[3] = T.rotation().z();
   for (int r = 0; r < 6; ++r) {
     for (int c = 0; c < 6; ++c) m.covariance[r * 6 + c] = covariance(r, c);
+  }
+  const bool has_velocity = velocity != nullptr && velocity->valid();
+  for (int r = 0; r < 3; ++r) {
+    m.velocity[r] = has_velocity ? velocity->mps(r) : kNaN;
+    for (int c = 0; c < 3; ++c)
+      m.velocity_covariance[r * 3 + c] = has_velocity ? velocity->covariance(r, c) : kNaN;
   }
   if (site) {
     m.latitude_deg = site->geodetic.latitude_deg;

@@ -19,6 +19,7 @@
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/can_sink.hpp"
 #include "sitepose/output/lcm_publisher.hpp"
+#include "sitepose/output/published_pose.hpp"
 #include "sitepose/pipeline/hooks.hpp"
 #include "sitepose/pipeline/spsc_ring.hpp"
 
@@ -60,18 +61,42 @@ class TimeBase {
   std::optional<std::int64_t> offset_ns_;
 };
 
+// How a tracked camera pose becomes the published one
+// (output/published_pose.hpp): outputs.reference_point, outputs.covariance.
+// The default publishes the camera with the tracker's covariance.
+struct PublishOptions {
+  Eigen::Vector3d lever_arm_m = Eigen::Vector3d::Zero();  // machine frame
+  output::CovarianceOptions covariance;
+};
+PublishOptions publish_options(const DaemonConfig& config);
+
+// One pose as every output publishes it.
+struct PublishedPose {
+  std::int64_t utc_ns = 0;              // capture time, UTC (TimeBase)
+  PoseEstimate pose;                    // the reference point: T_world_cam * lever arm, t_ns = utc_ns,
+                                        // covariance scaled, floored and with the anchor's uncertainty
+  const geo::SitePose* site = nullptr;  // the same in the site frame; nullptr without one
+  output::Velocity velocity;            // in the site frame when site, else the SLAM frame
+};
+
 // T_site_slam for the outputs: fixed from the config, or estimated online
 // by geo::SiteAnchor from GNSS fixes (LCM or an NMEA file), or none. Each
 // pose is anchored once and the result shared by every output, so LCM and
 // CAN never disagree about one pose even while the estimate changes.
 class Anchoring {
  public:
-  static Expected<std::unique_ptr<Anchoring>> create(const GeoConfig& config);
+  static Expected<std::unique_ptr<Anchoring>> create(const GeoConfig& config,
+                                                     const PublishOptions& publish = {});
 
-  // The pose in the site frame; nullptr while no site frame is known (mode
-  // none, or online before the first estimate) or when the pose cannot be
-  // converted. Caches the last pose's answer (keyed by seq, t_ns, stall).
-  const geo::SitePose* site_pose(const pipeline::PosePacket& packet);
+  // The pose as published (reference point, UTC time, covariance, site
+  // pose, velocity); cached for the last pose like site_pose().
+  const PublishedPose& published(const pipeline::PosePacket& packet);
+
+  // The published pose in the site frame; nullptr while no site frame is
+  // known (mode none, or online before the first estimate) or when the pose
+  // cannot be converted. Caches the last pose's answer (keyed by seq, t_ns,
+  // stall).
+  const geo::SitePose* site_pose(const pipeline::PosePacket& packet) { return published(packet).site; }
   // Any one thread (the GNSS subscriber): a fix for the online anchor.
   void push_fix(const geo::GnssFix& fix);
   // Fixes known up front (an NMEA file); fed as the poses reach their time.
@@ -86,9 +111,16 @@ class Anchoring {
   std::optional<geo::AnchorStatus> anchor_status() const;
 
  private:
-  explicit Anchoring(const GeoConfig& config) : config_(config), fixes_(256) {}
+  Anchoring(const GeoConfig& config, const PublishOptions& publish)
+      : config_(config), publish_(publish), fixes_(256) {}
+  const geo::SiteFrame* site_frame(const pipeline::PosePacket& packet);
+  // The site anchor's uncertainty as isotropic position / attitude stds.
+  std::pair<double, double> anchor_std() const;
+  void update_velocity(const pipeline::PosePacket& packet);
 
   GeoConfig config_;
+  PublishOptions publish_;
+  Eigen::Vector3d lever_arm_cam_m_ = Eigen::Vector3d::Zero();
   TimeBase time_base_;
   std::optional<geo::SiteFrame> fixed_;
   std::optional<geo::SiteAnchor> anchor_;
@@ -99,6 +131,15 @@ class Anchoring {
   std::int64_t cached_seq_ = -1, cached_t_ns_ = -1;
   bool cached_stall_ = false, cache_valid_ = false;
   std::optional<geo::SitePose> cached_;
+  PublishedPose published_;
+  // The last position published (for the velocity): time, frame, [dp] covariance.
+  struct LastPosition {
+    std::int64_t t_ns = 0;
+    bool site = false;
+    Eigen::Vector3d p;
+    Eigen::Matrix3d covariance;
+  };
+  std::optional<LastPosition> last_position_;
 };
 
 // TUM lines "t x y z qx qy qz qw" (T_world_cam, SLAM frame, FORMATS.md) of
@@ -131,8 +172,8 @@ class TrajectoryOutput final : public pipeline::PoseOutput {
 // The CAN frame set of each pose (canring's CanPoseEncoder) into a CanSink,
 // stamped (candump lines, 129029 date/time) with the pose's UTC capture time.
 // Without a site frame the frames say LOST ("no site anchor"): the ECU
-// needs WGS84 positions. Speed and course come from the last two site
-// positions. A failed frame is resumed by retry() from that frame on, so
+// needs WGS84 positions. Positions are the reference point's; speed and
+// course its velocity (Anchoring::published). A failed frame is resumed by retry() from that frame on, so
 // the ECU never sees a frame twice; the sink is flushed once per pose.
 class CanOutput final : public pipeline::PoseOutput {
  public:
@@ -153,7 +194,6 @@ class CanOutput final : public pipeline::PoseOutput {
   std::size_t next_frame_ = 0;
   bool flushed_ = true;
   std::int64_t frame_t_ns_ = 0;
-  std::optional<std::pair<std::int64_t, Eigen::Vector3d>> last_site_position_;
 };
 
 // pose_t per pose and health_t per health report (geolcm's LcmPublisher).

@@ -14,6 +14,7 @@
 #include "sitepose/geo/site_frame.hpp"
 #include "sitepose/gnss_fix_t.hpp"
 #include "sitepose/health_t.hpp"
+#include "sitepose/output/published_pose.hpp"
 #include "sitepose/pose_t.hpp"
 
 namespace sitepose::output {
@@ -55,7 +56,10 @@ std::int8_t lcm_state(TrackingState state);  // pose_t::STATE_*
 // T_world_cam and covariance converted to [dp; dtheta] in the SLAM frame,
 // geodetic/UTM/heading fields NaN, utm_zone -1. Otherwise FRAME_SITE with
 // everything from the SitePose. utime = t_ns / 1000 (floor).
-sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site);
+// velocity: of the published point in the message's frame; nullptr or
+// invalid: NaN.
+sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site,
+                             const Velocity* velocity = nullptr);
 sitepose::health_t to_lcm_health(const LcmHealth& health);
 sitepose::gnss_fix_t to_lcm_gnss_fix(const geo::GnssFix& fix);
 // Checks quality 0..8, non-negative satellites, and a valid WGS84 position
