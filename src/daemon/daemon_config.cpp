@@ -428,6 +428,7 @@ Section<GeoConfig> geo_section() {
           [](geo::ForwardAxis a) { return geo::to_string(a); })
       .section("T_site_slam", &GeoConfig::T_site_slam, site_slam_section())
       .section("anchor_std", &GeoConfig::anchor_std, anchor_std_section())
+      .key("geoid", &GeoConfig::geoid)
       .group("online", online_group())
       .check([](const ReadKeys& keys, const GeoConfig& g) {
         if (g.mode == GeoMode::kNone) return;
@@ -492,7 +493,7 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text, c
   daemon_sections().read(reader.root(), c);
   SITEPOSE_TRY_STATUS(reader.finish());
   for (std::string* path : {&c.replay.sequence_dir, &c.aravis.calibration, &c.v4l2.options.calibration_file,
-                            &c.trajectory.path, &c.can.path, &c.geo.nmea_file}) {
+                            &c.trajectory.path, &c.can.path, &c.geo.nmea_file, &c.geo.geoid}) {
     *path = resolve(base_dir, *path);
   }
   c.geo.anchor = anchor_options(c.geo);

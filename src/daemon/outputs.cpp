@@ -70,6 +70,11 @@ Expected<std::unique_ptr<Anchoring>> Anchoring::create(const GeoConfig& config,
     SITEPOSE_TRY(const Eigen::Matrix3d R_cam_machine, output::rotation_cam_machine(config.forward_axis_cam));
     a->lever_arm_cam_m_ = R_cam_machine * publish.lever_arm_m;
   }
+  if (config.mode != GeoMode::kNone && !config.geoid.empty()) {
+    auto geoid = geo::GeoidGrid::load(config.geoid);
+    if (!geoid) return make_error(geoid.error().code, "geo.geoid: " + geoid.error().message);
+    a->geoid_ = std::move(*geoid);
+  }
   if (config.mode == GeoMode::kFixed) {
     SITEPOSE_TRY(geo::SiteFrame frame,
                  geo::SiteFrame::create(config.origin, config.T_site_slam, config.forward_axis_cam));
@@ -151,6 +156,11 @@ const PublishedPose& Anchoring::published(const pipeline::PosePacket& packet) {
     if (auto site = frame->to_site(published_.pose)) cached_ = std::move(*site);
   }
   published_.site = cached_ ? &*cached_ : nullptr;
+  if (published_.site != nullptr && geoid_) {
+    const geo::Geodetic& g = published_.site->geodetic;
+    if (auto n = geoid_->height_above_ellipsoid_m(g.latitude_deg, g.longitude_deg))
+      published_.geoid_separation_m = *n;
+  }
   update_velocity(packet);
   return published_;
 }
@@ -277,6 +287,7 @@ Status CanOutput::publish(const pipeline::PosePacket& packet) {
     in.latitude_deg = site->geodetic.latitude_deg;
     in.longitude_deg = site->geodetic.longitude_deg;
     in.altitude_m = site->geodetic.height_m;
+    in.geoidal_separation_m = published.geoid_separation_m;
     in.heading_rad = site->heading_deg * kDegToRad;  // NaN stays NaN: "not available"
     in.quality.position_std_m = site->position_std_m;
     const Eigen::Vector3d forward = site->T_site_cam.rotation() * geo::axis_vector(anchoring_.forward_axis());

@@ -24,6 +24,7 @@
 #include "sitepose/core/se3.hpp"
 #include "sitepose/drivers/aravis/aravis_source.hpp"
 #include "sitepose/drivers/v4l2/v4l2_source.hpp"
+#include "sitepose/geo/geoid.hpp"
 #include "sitepose/geo/site_anchor.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/j1939_network.hpp"
@@ -88,6 +89,9 @@ struct AnchorStd {
 struct GeoConfig {
   GeoMode mode = GeoMode::kNone;
   AnchorStd anchor_std;
+  // GTX geoid grid (geo::GeoidGrid) for heights above mean sea level; ""
+  // = none (J1939 SPN 580 and 129029's geoidal separation not available).
+  std::string geoid = geo::kDefaultGeoidPath;
   geo::Geodetic origin;
   geo::ForwardAxis forward_axis_cam = geo::ForwardAxis::kMinusX;
   SE3 T_site_slam;  // mode fixed

@@ -7,12 +7,14 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "sitepose/daemon/daemon_config.hpp"
+#include "sitepose/geo/geoid.hpp"
 #include "sitepose/geo/site_anchor.hpp"
 #include "sitepose/geo/site_frame.hpp"
 #include "sitepose/io/line_file.hpp"
@@ -77,6 +79,9 @@ struct PublishedPose {
                                         // covariance scaled, floored and with the anchor's uncertainty
   const geo::SitePose* site = nullptr;  // the same in the site frame; nullptr without one
   output::Velocity velocity;            // in the site frame when site, else the SLAM frame
+  // Geoid height above the ellipsoid at the site position (geo.geoid);
+  // NaN without a site position or a geoid.
+  double geoid_separation_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 // T_site_slam for the outputs: fixed from the config, or estimated online
@@ -122,6 +127,7 @@ class Anchoring {
   PublishOptions publish_;
   Eigen::Vector3d lever_arm_cam_m_ = Eigen::Vector3d::Zero();
   TimeBase time_base_;
+  std::optional<geo::GeoidGrid> geoid_;
   std::optional<geo::SiteFrame> fixed_;
   std::optional<geo::SiteAnchor> anchor_;
   pipeline::SpscRing<geo::GnssFix> fixes_;

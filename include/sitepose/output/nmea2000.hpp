@@ -87,7 +87,7 @@ struct GnssPositionData {
   int satellites = -1;  // < 0 = n/a
   double hdop = kNan;
   double pdop = kNan;
-  double geoidal_separation_m = kNan;  // n/a unless a geoid model is wired
+  double geoidal_separation_m = kNan;  // geoid above the ellipsoid; NaN = n/a
 
   static constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 };

@@ -275,5 +275,47 @@ TEST(DaemonOutputs, TheFirstPoseIsNeverPublishedWithAZeroCovariance) {
   EXPECT_NEAR(out.lcm[0].position_std_m, std::sqrt(3 * (0.005 * 0.005 + 0.02 * 0.02)), 1e-9);
 }
 
+TEST(DaemonOutputs, J1939AltitudeIsAboveMeanSeaLevelAnd129029CarriesTheGeoidalSeparation) {
+  // EGM96 at the shipped origin (48.137 N, 11.575 E): 45.534 m (PROJ's
+  // vgridshift on the same grid, geo/geoid_test.cpp); the camera sits at
+  // the origin, 520 m above the ellipsoid.
+  const Published out = publish_all(shipped_geo(), PublishOptions{},
+                                    {camera_at({0, 0, 0}, 1'000'000'000, 0, Matrix6d::Identity() * 1e-6)});
+  std::vector<std::uint8_t> payload;
+  double msl_m = NAN;
+  for (const output::CanFrame& f : out.can) {
+    const std::uint32_t pgn = (f.id >> 8) & 0x3FFFF;
+    if (pgn == output::kPgnGnssPositionData) {
+      payload.insert(payload.end(), f.data.begin() + ((f.data[0] & 0x1F) == 0 ? 2 : 1), f.data.end());
+    }
+    if (pgn == output::kPgnVehicleDirectionSpeed) msl_m = (f.data[6] | (f.data[7] << 8)) * 0.125 - 2500.0;
+  }
+  ASSERT_GE(payload.size(), 42u);
+  const std::int32_t separation_cm =
+      static_cast<std::int32_t>(payload[38] | (payload[39] << 8) | (payload[40] << 16) |
+                                (static_cast<std::uint32_t>(payload[41]) << 24));
+  EXPECT_NEAR(separation_cm * 0.01, 45.534, 0.01);
+  EXPECT_NEAR(msl_m, 520.0 - 45.534, 0.0625 + 0.01);
+
+  GeoConfig no_geoid = shipped_geo();
+  no_geoid.geoid.clear();
+  const Published without = publish_all(
+      no_geoid, PublishOptions{}, {camera_at({0, 0, 0}, 1'000'000'000, 0, Matrix6d::Identity() * 1e-6)});
+  for (const output::CanFrame& f : without.can) {
+    if (((f.id >> 8) & 0x3FFFF) == output::kPgnVehicleDirectionSpeed) {
+      EXPECT_EQ(f.data[6], 0xFF);  // SPN 580 not available: no geoid, no MSL height
+      EXPECT_EQ(f.data[7], 0xFF);
+    }
+  }
+}
+
+TEST(DaemonOutputs, AGeoidGridThatDoesNotLoadIsRefusedNamingTheKey) {
+  GeoConfig geo = shipped_geo();
+  geo.geoid = "/nonexistent/egm.gtx";
+  auto anchoring = Anchoring::create(geo);
+  ASSERT_FALSE(anchoring);
+  EXPECT_NE(anchoring.error().message.find("geo.geoid"), std::string::npos) << anchoring.error().message;
+}
+
 }  // namespace
 }  // namespace sitepose::daemon
