@@ -320,13 +320,20 @@ Section<output::CovarianceOptions> covariance_section() {
   return s;
 }
 
+Section<DaemonConfig> integrity_group() {
+  Section<DaemonConfig> s;
+  s.key("alert_limit_m", &DaemonConfig::integrity_alert_limit_m, in_range(0.0, 1000.0));
+  return s;
+}
+
 Section<DaemonConfig> outputs_group() {
   Section<DaemonConfig> s;
   s.section("trajectory", &DaemonConfig::trajectory, trajectory_section())
       .section("can", &DaemonConfig::can, can_section())
       .section("lcm", &DaemonConfig::lcm, lcm_section())
       .section("reference_point", &DaemonConfig::reference_point, reference_point_section())
-      .section("covariance", &DaemonConfig::covariance, covariance_section());
+      .section("covariance", &DaemonConfig::covariance, covariance_section())
+      .group("integrity", integrity_group());
   return s;
 }
 

@@ -60,6 +60,7 @@ PublishOptions publish_options(const DaemonConfig& config) {
   PublishOptions p;
   p.lever_arm_m = config.reference_point.lever_arm_m;
   p.covariance = config.covariance;
+  p.alert_limit_m = config.integrity_alert_limit_m;
   return p;
 }
 
@@ -162,6 +163,12 @@ const PublishedPose& Anchoring::published(const pipeline::PosePacket& packet) {
       published_.geoid_separation_m = *n;
   }
   update_velocity(packet);
+  const Matrix6d covariance =
+      published_.site
+          ? published_.site->covariance_site
+          : geo::site_covariance(SE3::identity(), published_.pose.T_world_cam, published_.pose.covariance);
+  published_.protection_level_m = output::position_bound_3sigma_m(covariance.topLeftCorner<3, 3>());
+  published_.integrity_alert = output::integrity_alert(published_.protection_level_m, publish_.alert_limit_m);
   return published_;
 }
 
@@ -279,6 +286,7 @@ Status CanOutput::publish(const pipeline::PosePacket& packet) {
   output::CanPoseInputs in;
   in.utc_t_ns = published.utc_ns;
   in.quality = output::pose_quality_from_estimate(pose);
+  in.quality.integrity_alert = published.integrity_alert;
   if (site == nullptr) {
     in.latitude_deg = in.longitude_deg = in.altitude_m = kNaN;
     in.heading_rad = in.course_over_ground_rad = in.speed_over_ground_mps = in.pitch_rad = kNaN;
@@ -327,7 +335,8 @@ Status CanOutput::retry() { return send_pending(); }
 
 Status LcmOutput::publish(const pipeline::PosePacket& packet) {
   const PublishedPose& published = anchoring_.published(packet);
-  SITEPOSE_TRY_STATUS(publisher_->publish_pose(published.pose, published.site, &published.velocity));
+  SITEPOSE_TRY_STATUS(publisher_->publish_pose(published.pose, published.site, &published.velocity,
+                                               anchoring_.alert_limit_m()));
   last_pose_utc_ns_ = published.utc_ns;
   last_latency_ms_ = anchoring_.time_base().latency_ms(packet);
   return ok_status();

@@ -86,7 +86,9 @@ std::vector<CanFrame> CanPoseEncoder::encode(const CanPoseInputs& in) {
     g.geoidal_separation_m = separation;
     g.type = GnssType::kIntegrated;
     g.method = lost ? GnssMethod::kNoFix : GnssMethod::kEstimated;
-    g.integrity = state == TrackingState::kRecovering ? GnssIntegrity::kCaution : GnssIntegrity::kNoChecking;
+    g.integrity = state == TrackingState::kRecovering || in.quality.integrity_alert
+                      ? GnssIntegrity::kCaution
+                      : GnssIntegrity::kNoChecking;
     const auto fp = encode_n2k_gnss_position_data(g, fast_packet_sequence_, sa);
     fast_packet_sequence_ = static_cast<std::uint8_t>((fast_packet_sequence_ + 1) & 0x7);
     frames.insert(frames.end(), fp.begin(), fp.end());

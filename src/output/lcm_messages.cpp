@@ -25,7 +25,8 @@ std::int8_t lcm_state(TrackingState state) {
   return sitepose::pose_t::STATE_LOST;
 }
 
-sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site, const Velocity* velocity) {
+sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site, const Velocity* velocity,
+                             double alert_limit_m) {
   sitepose::pose_t m;
   m.utime = utime_of(pose.t_ns);
   m.seq = pose.seq;
@@ -48,6 +49,8 @@ sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site
   for (int r = 0; r < 6; ++r) {
     for (int c = 0; c < 6; ++c) m.covariance[r * 6 + c] = covariance(r, c);
   }
+  m.protection_level_m = position_bound_3sigma_m(covariance.topLeftCorner<3, 3>());
+  m.integrity_alert = integrity_alert(m.protection_level_m, alert_limit_m) ? 1 : 0;
   const bool has_velocity = velocity != nullptr && velocity->valid();
   for (int r = 0; r < 3; ++r) {
     m.velocity[r] = has_velocity ? velocity->mps(r) : kNaN;

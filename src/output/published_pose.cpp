@@ -1,6 +1,9 @@
 #include "sitepose/output/published_pose.hpp"
 
 #include <cmath>
+#include <limits>
+
+#include <Eigen/Eigenvalues>
 #include <numbers>
 
 namespace sitepose::output {
@@ -50,6 +53,13 @@ PoseEstimate published_pose(const PoseEstimate& camera, const Eigen::Vector3d& l
   out.covariance = covariance.scale * tracker + isotropic_point_covariance(out.T_world_cam.translation(),
                                                                            position_std_m, attitude_std_rad);
   return out;
+}
+
+double position_bound_3sigma_m(const Eigen::Matrix3d& position_covariance) {
+  if (!position_covariance.allFinite()) return std::numeric_limits<double>::infinity();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(
+      0.5 * (position_covariance + position_covariance.transpose()), Eigen::EigenvaluesOnly);
+  return 3.0 * std::sqrt(std::max(eig.eigenvalues().maxCoeff(), 0.0));
 }
 
 Velocity finite_difference_velocity(const Eigen::Vector3d& p0, const Eigen::Matrix3d& covariance0,

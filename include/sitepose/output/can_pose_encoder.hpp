@@ -9,7 +9,8 @@
 // Tracking state policy: LOST -> position, heading, speed, pitch and altitude
 // fields are sent as "not available" and 129029 method "no fix"; RECOVERING
 // -> values are sent, 129029 integrity "caution"; OK -> integrity "no
-// checking" (a visual fix is not GNSS-integrity-monitored). The pose/quality
+// checking" (a visual fix is not GNSS-integrity-monitored), "caution" when
+// the integrity alert is set (PoseQuality::integrity_alert). The pose/quality
 // frame always carries the state, so the ECU can tell the three apart.
 
 #include <cstdint>

@@ -44,8 +44,8 @@ class LcmPublisher {
   static Expected<std::unique_ptr<LcmPublisher>> create_with_sender(const LcmOptions& options, SendFn send);
 
   // site: nullptr while the site anchor is unknown (see to_lcm_pose).
-  Status publish_pose(const PoseEstimate& pose, const geo::SitePose* site,
-                      const Velocity* velocity = nullptr);
+  Status publish_pose(const PoseEstimate& pose, const geo::SitePose* site, const Velocity* velocity = nullptr,
+                      double alert_limit_m = 0.0);
   Status publish_health(const LcmHealth& health);
   // Sends the pose of the last failed publish_pose again (same attempts
   // rule). Ok and nothing sent when no pose is pending.

@@ -62,6 +62,14 @@ PoseEstimate published_pose(const PoseEstimate& camera, const Eigen::Vector3d& l
                             const CovarianceOptions& covariance, double extra_position_std_m,
                             double extra_attitude_std_rad);
 
+// Integrity: the position's 3-sigma bound, 3 sqrt(largest eigenvalue of
+// the 3x3 [dp] covariance) (infinite when not finite), and the alert when
+// it exceeds the alert limit (0 = never).
+double position_bound_3sigma_m(const Eigen::Matrix3d& position_covariance);
+inline bool integrity_alert(double bound_m, double alert_limit_m) {
+  return alert_limit_m > 0.0 && !(bound_m <= alert_limit_m);
+}
+
 // Velocity of a point from two positions (same frame) and their [dp]
 // covariances; errors of the two treated as independent (an upper bound:
 // successive poses of one track are positively correlated).

@@ -257,7 +257,7 @@ TEST(DaemonEndToEnd, FullModeKeepsThePoseWhereMachinesPullPlainSlamAlong) {
 }
 
 // Counts the pose/quality frames (PGN 65296 = 0xFF10) of a candump log and
-// those whose TrackingState (data byte 1, high nibble) is not LOST.
+// those whose TrackingState (data byte 1, bits 4-5) is not LOST.
 std::pair<int, int> count_quality_frames(const std::string& path) {
   int all = 0, not_lost = 0;
   for (const auto& line : read_lines(path)) {
@@ -266,7 +266,7 @@ std::pair<int, int> count_quality_frames(const std::string& path) {
     const std::string id = line.substr(hash - 8, 8);
     if (id.substr(2, 4) != "FF10") continue;
     ++all;
-    const int state = std::stoi(line.substr(hash + 3, 2), nullptr, 16) >> 4;
+    const int state = (std::stoi(line.substr(hash + 3, 2), nullptr, 16) >> 4) & 0x3;
     not_lost += state != 2;
   }
   return {all, not_lost};

@@ -317,5 +317,37 @@ TEST(DaemonOutputs, AGeoidGridThatDoesNotLoadIsRefusedNamingTheKey) {
   EXPECT_NE(anchoring.error().message.find("geo.geoid"), std::string::npos) << anchoring.error().message;
 }
 
+TEST(DaemonOutputs, IntegrityAlertOnLcmAndCanWhenTheThreeSigmaBoundExceedsTheLimit) {
+  PublishOptions options;
+  options.alert_limit_m = 0.10;
+  // Position std 1 cm (bound 3 cm) and 5 cm (bound 15 cm) per axis.
+  for (const double std_m : {0.01, 0.05}) {
+    Matrix6d covariance = Matrix6d::Identity() * 1e-8;
+    covariance.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * std_m * std_m;
+    const Published out =
+        publish_all(shipped_geo(), options, {camera_at({0, 0, 0}, 1'000'000'000, 0, covariance)});
+    ASSERT_EQ(out.lcm.size(), 1u);
+    const bool alert = std_m > 0.03;
+    EXPECT_NEAR(out.lcm[0].protection_level_m, 3 * std_m, 1e-6);
+    EXPECT_EQ(out.lcm[0].integrity_alert != 0, alert) << std_m;
+    std::vector<std::uint8_t> payload;
+    int quality_frames = 0;
+    for (const output::CanFrame& f : out.can) {
+      const std::uint32_t pgn = (f.id >> 8) & 0x3FFFF;
+      if (pgn == output::kPgnGnssPositionData) {
+        payload.insert(payload.end(), f.data.begin() + ((f.data[0] & 0x1F) == 0 ? 2 : 1), f.data.end());
+      }
+      if (pgn == output::kPgnSiteposePoseQuality) {
+        ++quality_frames;
+        EXPECT_EQ((f.data[1] >> 6) & 1, alert ? 1 : 0) << std_m;  // IntegrityAlert
+        EXPECT_EQ((f.data[1] >> 4) & 3, 0) << std_m;              // state OK all the same
+      }
+    }
+    EXPECT_EQ(quality_frames, 1);
+    ASSERT_GE(payload.size(), 33u);
+    EXPECT_EQ(payload[32] & 0x3, alert ? 2 : 0) << std_m;  // 129029 integrity: caution / no checking
+  }
+}
+
 }  // namespace
 }  // namespace sitepose::daemon
