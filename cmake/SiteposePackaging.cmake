@@ -75,6 +75,8 @@ set(CPACK_DEBIAN_PACKAGE_PRIORITY optional)
 set(CPACK_DEBIAN_COMPRESSION_TYPE gzip)
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_NAME sitepose)
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_SUGGESTS "python3-can")
+# siteposed reads the EGM96 geoid grid (geo.geoid); shlibdeps adds the libraries.
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_DEPENDS "proj-data")
 # CPack indents the extended description itself.
 set(CPACK_DEBIAN_RUNTIME_DESCRIPTION
   "stereo visual positioning service for construction machines

@@ -16,6 +16,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # geodesy
   libgeographiclib-dev
+  # the EGM96 geoid grid (egm96_15.gtx) for heights above mean sea level
+  proj-data
   # middleware and devices
   liblcm-dev liblcm-bin libaravis-dev aravis-tools libusb-1.0-0-dev
   libsystemd-dev systemd libv4l-dev

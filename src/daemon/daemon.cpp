@@ -100,7 +100,9 @@ Status check_startable(const DaemonConfig& config) {
     camera = (*source)->camera();
   }
   SITEPOSE_TRY_STATUS(check_detector(config, camera));
-  if (auto anchoring = Anchoring::create(config.geo); !anchoring) return Unexpected{anchoring.error()};
+  if (auto anchoring = Anchoring::create(config.geo, publish_options(config)); !anchoring) {
+    return Unexpected{anchoring.error()};
+  }
   if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kNmeaFile) {
     if (auto fixes = geo::read_nmea_file(config.geo.nmea_file, {}); !fixes) return Unexpected{fixes.error()};
   }
@@ -136,7 +138,7 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
   spdlog::info("detect stage: {}, dynamic.mode {}", detect_hook->name(),
                config::to_string(config.sitepose.dynamic.mode));
 
-  SITEPOSE_TRY(d->anchoring_, Anchoring::create(config.geo));
+  SITEPOSE_TRY(d->anchoring_, Anchoring::create(config.geo, publish_options(config)));
   if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kNmeaFile) {
     SITEPOSE_TRY(geo::NmeaReadResult fixes, geo::read_nmea_file(config.geo.nmea_file, {}));
     spdlog::info("geo: {} GNSS fixes from {}", fixes.fixes.size(), config.geo.nmea_file);

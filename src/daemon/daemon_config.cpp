@@ -302,11 +302,38 @@ Section<LcmOutputConfig> lcm_section() {
   return s;
 }
 
+Section<output::ReferencePointOptions> reference_point_section() {
+  using R = output::ReferencePointOptions;
+  Section<R> s;
+  s.computed(
+      "lever_arm_m", [](const R& r) { return as_list(r.lever_arm_m); },
+      [](R& r, const std::vector<double>& v) { r.lever_arm_m = as_vector3(v); }, three_numbers());
+  return s;
+}
+
+Section<output::CovarianceOptions> covariance_section() {
+  using C = output::CovarianceOptions;
+  Section<C> s;
+  s.key("scale", &C::scale, in_range(1e-6, 1e6))
+      .key("floor_position_m", &C::floor_position_m, in_range(0.0, 100.0))
+      .key("floor_attitude_deg", &C::floor_attitude_deg, in_range(0.0, 90.0));
+  return s;
+}
+
+Section<DaemonConfig> integrity_group() {
+  Section<DaemonConfig> s;
+  s.key("alert_limit_m", &DaemonConfig::integrity_alert_limit_m, in_range(0.0, 1000.0));
+  return s;
+}
+
 Section<DaemonConfig> outputs_group() {
   Section<DaemonConfig> s;
   s.section("trajectory", &DaemonConfig::trajectory, trajectory_section())
       .section("can", &DaemonConfig::can, can_section())
-      .section("lcm", &DaemonConfig::lcm, lcm_section());
+      .section("lcm", &DaemonConfig::lcm, lcm_section())
+      .section("reference_point", &DaemonConfig::reference_point, reference_point_section())
+      .section("covariance", &DaemonConfig::covariance, covariance_section())
+      .group("integrity", integrity_group());
   return s;
 }
 
@@ -375,6 +402,13 @@ Section<geo::SiteAnchorOptions> anchor_section() {
   return s;
 }
 
+Section<AnchorStd> anchor_std_section() {
+  Section<AnchorStd> s;
+  s.key("position_m", &AnchorStd::position_m, in_range(0.0, 100.0))
+      .key("attitude_deg", &AnchorStd::attitude_deg, in_range(0.0, 90.0));
+  return s;
+}
+
 Section<GeoConfig> online_group() {
   Section<GeoConfig> s;
   s.choice("gnss_input", &GeoConfig::gnss_input,
@@ -400,6 +434,8 @@ Section<GeoConfig> geo_section() {
           [](const std::string& t) { return geo::parse_forward_axis(t); },
           [](geo::ForwardAxis a) { return geo::to_string(a); })
       .section("T_site_slam", &GeoConfig::T_site_slam, site_slam_section())
+      .section("anchor_std", &GeoConfig::anchor_std, anchor_std_section())
+      .key("geoid", &GeoConfig::geoid)
       .group("online", online_group())
       .check([](const ReadKeys& keys, const GeoConfig& g) {
         if (g.mode == GeoMode::kNone) return;
@@ -433,6 +469,11 @@ Section<DaemonConfig> make_daemon_sections() {
               .map("detector")
               .report("name", "\"labels\" reads a recorded sequence's labels: needs source.type replay");
         }
+        if (!c.reference_point.lever_arm_m.isZero()) {
+          if (auto r = output::rotation_cam_machine(c.geo.forward_axis_cam); !r) {
+            keys.map().map("outputs").map("reference_point").report("lever_arm_m", r.error().message);
+          }
+        }
       });
   return s;
 }
@@ -459,7 +500,7 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text, c
   daemon_sections().read(reader.root(), c);
   SITEPOSE_TRY_STATUS(reader.finish());
   for (std::string* path : {&c.replay.sequence_dir, &c.aravis.calibration, &c.v4l2.options.calibration_file,
-                            &c.trajectory.path, &c.can.path, &c.geo.nmea_file}) {
+                            &c.trajectory.path, &c.can.path, &c.geo.nmea_file, &c.geo.geoid}) {
     *path = resolve(base_dir, *path);
   }
   c.geo.anchor = anchor_options(c.geo);

@@ -18,10 +18,64 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kDegToRad = std::numbers::pi / 180.0;
 }  // namespace
 
+// ----------------------------------------------------------------- TimeBase
+
+TimeBase::Now TimeBase::system_clock_now() {
+  // Steady first: the system clock read after it is at most as late as the
+  // capture stage's steady stamps, never earlier.
+  Now now;
+  now.steady = pipeline::SteadyClock::now();
+  now.system_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                      std::chrono::system_clock::now().time_since_epoch())
+                      .count();
+  return now;
+}
+
+std::int64_t TimeBase::capture_utc_ns(const pipeline::PosePacket& packet) {
+  if (!offset_ns_) {
+    const Now now = clock_();
+    // A packet without a capture stamp (a test's) counts as captured now.
+    const std::int64_t age_ns =
+        packet.captured == pipeline::SteadyTime{}
+            ? 0
+            : std::max<std::int64_t>(
+                  0,
+                  std::chrono::duration_cast<std::chrono::nanoseconds>(now.steady - packet.captured).count());
+    const std::int64_t offset = now.system_ns - age_ns - packet.pose.t_ns;
+    offset_ns_ = std::abs(offset) < kUtcTolerance_ns ? 0 : offset;
+    spdlog::info("time base: capture stamps + {:.6f} s = UTC{}", static_cast<double>(*offset_ns_) * 1e-9,
+                 *offset_ns_ == 0 ? " (the source stamps in UTC)" : "");
+  }
+  return packet.pose.t_ns + *offset_ns_;
+}
+
+double TimeBase::latency_ms(const pipeline::PosePacket& packet) const {
+  if (packet.captured == pipeline::SteadyTime{}) return 0.0;
+  return std::chrono::duration<double, std::milli>(clock_().steady - packet.captured).count();
+}
+
 // ---------------------------------------------------------------- Anchoring
 
-Expected<std::unique_ptr<Anchoring>> Anchoring::create(const GeoConfig& config) {
-  std::unique_ptr<Anchoring> a(new Anchoring(config));
+PublishOptions publish_options(const DaemonConfig& config) {
+  PublishOptions p;
+  p.lever_arm_m = config.reference_point.lever_arm_m;
+  p.covariance = config.covariance;
+  p.alert_limit_m = config.integrity_alert_limit_m;
+  return p;
+}
+
+Expected<std::unique_ptr<Anchoring>> Anchoring::create(const GeoConfig& config,
+                                                       const PublishOptions& publish) {
+  std::unique_ptr<Anchoring> a(new Anchoring(config, publish));
+  if (!publish.lever_arm_m.isZero()) {
+    SITEPOSE_TRY(const Eigen::Matrix3d R_cam_machine, output::rotation_cam_machine(config.forward_axis_cam));
+    a->lever_arm_cam_m_ = R_cam_machine * publish.lever_arm_m;
+  }
+  if (config.mode != GeoMode::kNone && !config.geoid.empty()) {
+    auto geoid = geo::GeoidGrid::load(config.geoid);
+    if (!geoid) return make_error(geoid.error().code, "geo.geoid: " + geoid.error().message);
+    a->geoid_ = std::move(*geoid);
+  }
   if (config.mode == GeoMode::kFixed) {
     SITEPOSE_TRY(geo::SiteFrame frame,
                  geo::SiteFrame::create(config.origin, config.T_site_slam, config.forward_axis_cam));
@@ -48,38 +102,95 @@ std::optional<geo::AnchorStatus> Anchoring::anchor_status() const {
   return anchor_->status();
 }
 
-const geo::SitePose* Anchoring::site_pose(const pipeline::PosePacket& packet) {
+const geo::SiteFrame* Anchoring::site_frame(const pipeline::PosePacket& packet) {
+  const PoseEstimate& pose = packet.pose;
+  if (fixed_) return &*fixed_;
+  if (!anchor_) return nullptr;
+  // Fixes first (those up to this pose's time), then the pose, so a fix
+  // waiting for a later SLAM pose finds it. The anchor pairs the camera.
+  while (auto fix = fixes_.try_pop()) anchor_->add_fix(*fix);
+  while (next_scheduled_ < scheduled_.size() &&
+         scheduled_[next_scheduled_].t_ns + config_.anchor.gnss_clock_offset_ns <= pose.t_ns) {
+    anchor_->add_fix(scheduled_[next_scheduled_++]);
+  }
+  if (pose.state == TrackingState::kOk && !packet.from_stall) {
+    anchor_->add_slam_pose(pose.t_ns, pose.T_world_cam);
+  }
+  return anchor_->site_frame() ? &*anchor_->site_frame() : nullptr;
+}
+
+std::pair<double, double> Anchoring::anchor_std() const {
+  if (fixed_) return {config_.anchor_std.position_m, config_.anchor_std.attitude_deg * kDegToRad};
+  if (!anchor_ || !anchor_->site_frame()) return {0.0, 0.0};
+  // The fit's own uncertainty, to first order: the inliers' RMS over
+  // sqrt(inliers) for the position, over the lateral spread for the
+  // attitude; never below the configured one (survey and antenna errors).
+  const geo::AnchorStatus st = anchor_->status();
+  const double n = std::max(1, st.inliers);
+  const double position_m = st.inlier_rms_m / std::sqrt(n);
+  const double attitude_rad = st.lateral_spread_m > 0.0 ? position_m / st.lateral_spread_m : 0.0;
+  return {std::max(position_m, config_.anchor_std.position_m),
+          std::max(attitude_rad, config_.anchor_std.attitude_deg * kDegToRad)};
+}
+
+const PublishedPose& Anchoring::published(const pipeline::PosePacket& packet) {
   const PoseEstimate& pose = packet.pose;
   if (cache_valid_ && cached_seq_ == pose.seq && cached_t_ns_ == pose.t_ns &&
       cached_stall_ == packet.from_stall) {
-    return cached_ ? &*cached_ : nullptr;
+    return published_;
   }
   cache_valid_ = true;
   cached_seq_ = pose.seq;
   cached_t_ns_ = pose.t_ns;
   cached_stall_ = packet.from_stall;
   cached_.reset();
-  const geo::SiteFrame* frame = nullptr;
-  if (fixed_) {
-    frame = &*fixed_;
-  } else if (anchor_) {
-    // Fixes first (those up to this pose's time), then the pose, so a fix
-    // waiting for a later SLAM pose finds it.
-    while (auto fix = fixes_.try_pop()) anchor_->add_fix(*fix);
-    while (next_scheduled_ < scheduled_.size() &&
-           scheduled_[next_scheduled_].t_ns + config_.anchor.gnss_clock_offset_ns <= pose.t_ns) {
-      anchor_->add_fix(scheduled_[next_scheduled_++]);
-    }
-    if (pose.state == TrackingState::kOk && !packet.from_stall) {
-      anchor_->add_slam_pose(pose.t_ns, pose.T_world_cam);
-    }
-    if (anchor_->site_frame()) frame = &*anchor_->site_frame();
+  published_ = PublishedPose{};
+  published_.utc_ns = time_base_.capture_utc_ns(packet);
+  const geo::SiteFrame* frame = site_frame(packet);
+  const auto [anchor_position_m, anchor_attitude_rad] =
+      frame != nullptr ? anchor_std() : std::pair<double, double>{0.0, 0.0};
+  published_.pose = output::published_pose(pose, lever_arm_cam_m_, publish_.covariance, anchor_position_m,
+                                           anchor_attitude_rad);
+  published_.pose.t_ns = published_.utc_ns;
+  if (frame != nullptr) {
+    // Not finite or outside UTM/UPS: published without a site.
+    if (auto site = frame->to_site(published_.pose)) cached_ = std::move(*site);
   }
-  if (frame == nullptr) return nullptr;
-  auto site = frame->to_site(pose);
-  if (!site) return nullptr;  // not finite or outside UTM/UPS: published without a site
-  cached_ = std::move(*site);
-  return &*cached_;
+  published_.site = cached_ ? &*cached_ : nullptr;
+  if (published_.site != nullptr && geoid_) {
+    const geo::Geodetic& g = published_.site->geodetic;
+    if (auto n = geoid_->height_above_ellipsoid_m(g.latitude_deg, g.longitude_deg))
+      published_.geoid_separation_m = *n;
+  }
+  update_velocity(packet);
+  const Matrix6d covariance =
+      published_.site
+          ? published_.site->covariance_site
+          : geo::site_covariance(SE3::identity(), published_.pose.T_world_cam, published_.pose.covariance);
+  published_.protection_level_m = output::position_bound_3sigma_m(covariance.topLeftCorner<3, 3>());
+  published_.integrity_alert = output::integrity_alert(published_.protection_level_m, publish_.alert_limit_m);
+  return published_;
+}
+
+void Anchoring::update_velocity(const pipeline::PosePacket& packet) {
+  const bool usable = packet.pose.state != TrackingState::kLost && !packet.from_stall;
+  if (!usable) {
+    last_position_.reset();
+    return;
+  }
+  LastPosition now;
+  now.t_ns = published_.utc_ns;
+  now.site = published_.site != nullptr;
+  const Matrix6d covariance = now.site ? published_.site->covariance_site
+                                       : geo::site_covariance(SE3::identity(), published_.pose.T_world_cam,
+                                                              published_.pose.covariance);
+  now.p = now.site ? published_.site->T_site_cam.translation() : published_.pose.T_world_cam.translation();
+  now.covariance = covariance.topLeftCorner<3, 3>();
+  if (last_position_ && last_position_->site == now.site) {
+    published_.velocity = output::finite_difference_velocity(
+        last_position_->p, last_position_->covariance, last_position_->t_ns, now.p, now.covariance, now.t_ns);
+  }
+  last_position_ = now;
 }
 
 // --------------------------------------------------------- TrajectoryOutput
@@ -169,11 +280,13 @@ Status TrajectoryOutput::retry() { return pending_.empty() ? ok_status() : write
 // ---------------------------------------------------------------- CanOutput
 
 Status CanOutput::publish(const pipeline::PosePacket& packet) {
-  const PoseEstimate& pose = packet.pose;
-  const geo::SitePose* site = anchoring_.site_pose(packet);
+  const PublishedPose& published = anchoring_.published(packet);
+  const PoseEstimate& pose = published.pose;
+  const geo::SitePose* site = published.site;
   output::CanPoseInputs in;
-  in.utc_t_ns = pose.t_ns;
+  in.utc_t_ns = published.utc_ns;
   in.quality = output::pose_quality_from_estimate(pose);
+  in.quality.integrity_alert = published.integrity_alert;
   if (site == nullptr) {
     in.latitude_deg = in.longitude_deg = in.altitude_m = kNaN;
     in.heading_rad = in.course_over_ground_rad = in.speed_over_ground_mps = in.pitch_rad = kNaN;
@@ -182,27 +295,25 @@ Status CanOutput::publish(const pipeline::PosePacket& packet) {
     in.latitude_deg = site->geodetic.latitude_deg;
     in.longitude_deg = site->geodetic.longitude_deg;
     in.altitude_m = site->geodetic.height_m;
+    in.geoidal_separation_m = published.geoid_separation_m;
     in.heading_rad = site->heading_deg * kDegToRad;  // NaN stays NaN: "not available"
     in.quality.position_std_m = site->position_std_m;
     const Eigen::Vector3d forward = site->T_site_cam.rotation() * geo::axis_vector(anchoring_.forward_axis());
     in.pitch_rad = std::atan2(forward.z(), std::hypot(forward.x(), forward.y()));
     in.course_over_ground_rad = in.speed_over_ground_mps = kNaN;
-    const Eigen::Vector3d p = site->T_site_cam.translation();
-    if (last_site_position_ && pose.t_ns > last_site_position_->first && pose.state != TrackingState::kLost) {
-      const Eigen::Vector3d d = p - last_site_position_->second;
-      const double dt_s = static_cast<double>(pose.t_ns - last_site_position_->first) * 1e-9;
-      in.speed_over_ground_mps = std::hypot(d.x(), d.y()) / dt_s;
+    if (published.velocity.valid()) {
+      const Eigen::Vector3d& v = published.velocity.mps;
+      in.speed_over_ground_mps = std::hypot(v.x(), v.y());
       if (in.speed_over_ground_mps > 0.01) {  // a course needs motion
-        in.course_over_ground_rad = std::atan2(d.x(), d.y());
+        in.course_over_ground_rad = std::atan2(v.x(), v.y());
         if (in.course_over_ground_rad < 0) in.course_over_ground_rad += 2 * std::numbers::pi;
       }
     }
-    if (pose.state != TrackingState::kLost && !packet.from_stall) last_site_position_ = {pose.t_ns, p};
   }
   frames_ = encoder_.encode(in);
   next_frame_ = 0;
   flushed_ = false;
-  frame_t_ns_ = pose.t_ns;
+  frame_t_ns_ = published.utc_ns;
   return send_pending();
 }
 
@@ -223,7 +334,12 @@ Status CanOutput::retry() { return send_pending(); }
 // ---------------------------------------------------------------- LcmOutput
 
 Status LcmOutput::publish(const pipeline::PosePacket& packet) {
-  return publisher_->publish_pose(packet.pose, anchoring_.site_pose(packet));
+  const PublishedPose& published = anchoring_.published(packet);
+  SITEPOSE_TRY_STATUS(publisher_->publish_pose(published.pose, published.site, &published.velocity,
+                                               anchoring_.alert_limit_m()));
+  last_pose_utc_ns_ = published.utc_ns;
+  last_latency_ms_ = anchoring_.time_base().latency_ms(packet);
+  return ok_status();
 }
 
 output::LcmHealth to_lcm_health(const pipeline::PipelineHealth& h, std::int64_t t_ns) {
@@ -248,9 +364,10 @@ output::LcmHealth to_lcm_health(const pipeline::PipelineHealth& h, std::int64_t 
 }
 
 Status LcmOutput::publish_health(const pipeline::PipelineHealth& health) {
-  const auto now = std::chrono::system_clock::now().time_since_epoch();
-  return publisher_->publish_health(
-      to_lcm_health(health, std::chrono::duration_cast<std::chrono::nanoseconds>(now).count()));
+  output::LcmHealth h = to_lcm_health(health, anchoring_.time_base().now_utc_ns());
+  h.last_pose_t_ns = last_pose_utc_ns_;
+  h.last_pose_latency_ms = last_latency_ms_;
+  return publisher_->publish_health(h);
 }
 
 }  // namespace sitepose::daemon

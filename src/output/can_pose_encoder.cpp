@@ -19,11 +19,10 @@ Status check_can_output_options(const CanOutputOptions& o) {
                       "can.source_address = " + std::to_string(o.source_address) +
                           ": must be 0..253 (254 is the null address, 255 global)");
   }
-  if (!(o.j1939_vehicle_position || o.j1939_vehicle_direction_speed ||
-        o.n2k_position_rapid_update || o.n2k_cog_sog_rapid_update || o.n2k_gnss_position_data ||
-        o.n2k_vessel_heading || o.sitepose_pose_quality)) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "can: every frame is disabled; enable at least one");
+  if (!(o.j1939_vehicle_position || o.j1939_vehicle_direction_speed || o.n2k_position_rapid_update ||
+        o.n2k_cog_sog_rapid_update || o.n2k_gnss_position_data || o.n2k_vessel_heading ||
+        o.sitepose_pose_quality)) {
+    return make_error(ErrorCode::kInvalidArgument, "can: every frame is disabled; enable at least one");
   }
   return ok_status();
 }
@@ -56,6 +55,7 @@ std::vector<CanFrame> CanPoseEncoder::encode(const CanPoseInputs& in) {
   const double lat = lost ? kNan : in.latitude_deg;
   const double lon = lost ? kNan : in.longitude_deg;
   const double alt = lost ? kNan : in.altitude_m;
+  const double separation = lost ? kNan : in.geoidal_separation_m;
   const double heading = lost ? kNan : in.heading_rad;
   const std::uint8_t sa = options_.source_address;
   const std::uint8_t sid = sid_;
@@ -73,8 +73,8 @@ std::vector<CanFrame> CanPoseEncoder::encode(const CanPoseInputs& in) {
         sa));
   }
   if (options_.n2k_vessel_heading) {
-    frames.push_back(encode_n2k_vessel_heading(
-        VesselHeading{sid, heading, kNan, kNan, HeadingReference::kTrue}, sa));
+    frames.push_back(
+        encode_n2k_vessel_heading(VesselHeading{sid, heading, kNan, kNan, HeadingReference::kTrue}, sa));
   }
   if (options_.n2k_gnss_position_data) {
     GnssPositionData g;
@@ -83,10 +83,12 @@ std::vector<CanFrame> CanPoseEncoder::encode(const CanPoseInputs& in) {
     g.latitude_deg = lat;
     g.longitude_deg = lon;
     g.altitude_m = alt;
+    g.geoidal_separation_m = separation;
     g.type = GnssType::kIntegrated;
     g.method = lost ? GnssMethod::kNoFix : GnssMethod::kEstimated;
-    g.integrity =
-        state == TrackingState::kRecovering ? GnssIntegrity::kCaution : GnssIntegrity::kNoChecking;
+    g.integrity = state == TrackingState::kRecovering || in.quality.integrity_alert
+                      ? GnssIntegrity::kCaution
+                      : GnssIntegrity::kNoChecking;
     const auto fp = encode_n2k_gnss_position_data(g, fast_packet_sequence_, sa);
     fast_packet_sequence_ = static_cast<std::uint8_t>((fast_packet_sequence_ + 1) & 0x7);
     frames.insert(frames.end(), fp.begin(), fp.end());
@@ -96,8 +98,8 @@ std::vector<CanFrame> CanPoseEncoder::encode(const CanPoseInputs& in) {
   }
   if (options_.j1939_vehicle_direction_speed) {
     frames.push_back(encode_j1939_vehicle_direction_speed(
-        VehicleDirectionSpeed{heading, lost ? kNan : in.speed_over_ground_mps,
-                              lost ? kNan : in.pitch_rad, alt},
+        VehicleDirectionSpeed{heading, lost ? kNan : in.speed_over_ground_mps, lost ? kNan : in.pitch_rad,
+                              alt - separation},
         sa));
   }
   if (options_.sitepose_pose_quality) {

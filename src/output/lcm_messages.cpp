@@ -25,7 +25,8 @@ std::int8_t lcm_state(TrackingState state) {
   return sitepose::pose_t::STATE_LOST;
 }
 
-sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site) {
+sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site, const Velocity* velocity,
+                             double alert_limit_m) {
   sitepose::pose_t m;
   m.utime = utime_of(pose.t_ns);
   m.seq = pose.seq;
@@ -38,8 +39,7 @@ sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site
 
   const SE3& T = site ? site->T_site_cam : pose.T_world_cam;
   const Matrix6d covariance =
-      site ? site->covariance_site
-           : geo::site_covariance(SE3::identity(), pose.T_world_cam, pose.covariance);
+      site ? site->covariance_site : geo::site_covariance(SE3::identity(), pose.T_world_cam, pose.covariance);
   m.frame = site ? sitepose::pose_t::FRAME_SITE : sitepose::pose_t::FRAME_SLAM;
   for (int i = 0; i < 3; ++i) m.position[i] = T.translation()(i);
   m.orientation[0] = T.rotation().w();
@@ -48,6 +48,14 @@ sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site
   m.orientation[3] = T.rotation().z();
   for (int r = 0; r < 6; ++r) {
     for (int c = 0; c < 6; ++c) m.covariance[r * 6 + c] = covariance(r, c);
+  }
+  m.protection_level_m = position_bound_3sigma_m(covariance.topLeftCorner<3, 3>());
+  m.integrity_alert = integrity_alert(m.protection_level_m, alert_limit_m) ? 1 : 0;
+  const bool has_velocity = velocity != nullptr && velocity->valid();
+  for (int r = 0; r < 3; ++r) {
+    m.velocity[r] = has_velocity ? velocity->mps(r) : kNaN;
+    for (int c = 0; c < 3; ++c)
+      m.velocity_covariance[r * 3 + c] = has_velocity ? velocity->covariance(r, c) : kNaN;
   }
   if (site) {
     m.latitude_deg = site->geodetic.latitude_deg;
@@ -74,6 +82,8 @@ sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site
 sitepose::health_t to_lcm_health(const LcmHealth& health) {
   sitepose::health_t m;
   m.utime = utime_of(health.t_ns);
+  m.last_pose_utime = health.last_pose_t_ns < 0 ? -1 : utime_of(health.last_pose_t_ns);
+  m.last_pose_latency_ms = static_cast<float>(health.last_pose_latency_ms);
   m.fps = static_cast<float>(health.fps);
   m.latency_p50_ms = static_cast<float>(health.latency_p50_ms);
   m.latency_p99_ms = static_cast<float>(health.latency_p99_ms);
@@ -119,8 +129,8 @@ Expected<geo::GnssFix> from_lcm_gnss_fix(const sitepose::gnss_fix_t& message) {
   }
   if (message.num_satellites < 0) {
     return make_error(ErrorCode::kInvalidArgument,
-                      fmt::format("gnss_fix_t utime {}: num_satellites = {}: expected >= 0",
-                                  message.utime, message.num_satellites));
+                      fmt::format("gnss_fix_t utime {}: num_satellites = {}: expected >= 0", message.utime,
+                                  message.num_satellites));
   }
   geo::GnssFix fix;
   fix.t_ns = message.utime * 1000;

@@ -24,8 +24,9 @@ Expected<std::unique_ptr<LcmPublisher>> LcmPublisher::create_with_sender(const L
   return std::unique_ptr<LcmPublisher>(new LcmPublisher(options, std::move(send), nullptr));
 }
 
-Status LcmPublisher::publish_pose(const PoseEstimate& pose, const geo::SitePose* site) {
-  SITEPOSE_TRY(std::vector<std::uint8_t> bytes, encode_lcm(to_lcm_pose(pose, site)));
+Status LcmPublisher::publish_pose(const PoseEstimate& pose, const geo::SitePose* site,
+                                  const Velocity* velocity, double alert_limit_m) {
+  SITEPOSE_TRY(std::vector<std::uint8_t> bytes, encode_lcm(to_lcm_pose(pose, site, velocity, alert_limit_m)));
   return send({options_.pose_channel, std::move(bytes), true});
 }
 
@@ -46,11 +47,9 @@ Status LcmPublisher::send(Message message) {
   if (message.is_pose) pending_pose_ = Message{};
   for (int attempt = 0; attempt < options_.max_send_attempts; ++attempt) {
     if (attempt > 0) retries_.fetch_add(1, std::memory_order_relaxed);
-    const int rc = send_(message.channel, message.bytes.data(),
-                         static_cast<unsigned>(message.bytes.size()));
+    const int rc = send_(message.channel, message.bytes.data(), static_cast<unsigned>(message.bytes.size()));
     if (rc == 0) {
-      (message.is_pose ? poses_published_ : health_published_)
-          .fetch_add(1, std::memory_order_relaxed);
+      (message.is_pose ? poses_published_ : health_published_).fetch_add(1, std::memory_order_relaxed);
       return ok_status();
     }
     send_failures_.fetch_add(1, std::memory_order_relaxed);
@@ -59,9 +58,8 @@ Status LcmPublisher::send(Message message) {
   const std::string channel = message.channel;
   const std::size_t size = message.bytes.size();
   if (message.is_pose) pending_pose_ = std::move(message);
-  return make_error(ErrorCode::kIoError,
-                    fmt::format("LCM publish on {} ({} bytes) failed {} time(s)", channel, size,
-                                options_.max_send_attempts));
+  return make_error(ErrorCode::kIoError, fmt::format("LCM publish on {} ({} bytes) failed {} time(s)",
+                                                     channel, size, options_.max_send_attempts));
 }
 
 LcmPublisherStats LcmPublisher::stats() const {

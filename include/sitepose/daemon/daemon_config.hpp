@@ -24,10 +24,12 @@
 #include "sitepose/core/se3.hpp"
 #include "sitepose/drivers/aravis/aravis_source.hpp"
 #include "sitepose/drivers/v4l2/v4l2_source.hpp"
+#include "sitepose/geo/geoid.hpp"
 #include "sitepose/geo/site_anchor.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/j1939_network.hpp"
 #include "sitepose/output/lcm_bus.hpp"
+#include "sitepose/output/published_pose.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
 #include "sitepose/pipeline/replay_source.hpp"
 #include "sitepose/pipeline/supervisor.hpp"
@@ -76,8 +78,20 @@ struct LcmOutputConfig {
 enum class GeoMode { kNone, kFixed, kOnline };
 enum class GnssInput { kLcm, kNmeaFile };
 
+// The site anchor's own uncertainty (isotropic position / attitude std):
+// mode fixed, that of the commissioned T_site_slam; mode online, the least
+// added to the fit's.
+struct AnchorStd {
+  double position_m = 0.02;
+  double attitude_deg = 0.05;
+};
+
 struct GeoConfig {
   GeoMode mode = GeoMode::kNone;
+  AnchorStd anchor_std;
+  // GTX geoid grid (geo::GeoidGrid) for heights above mean sea level; ""
+  // = none (J1939 SPN 580 and 129029's geoidal separation not available).
+  std::string geoid = geo::kDefaultGeoidPath;
   geo::Geodetic origin;
   geo::ForwardAxis forward_axis_cam = geo::ForwardAxis::kMinusX;
   SE3 T_site_slam;  // mode fixed
@@ -109,6 +123,9 @@ struct DaemonConfig {
   TrajectoryOutputConfig trajectory;
   CanOutputConfig can;
   LcmOutputConfig lcm;
+  output::ReferencePointOptions reference_point;           // outputs.reference_point
+  output::CovarianceOptions covariance{1.0, 0.005, 0.02};  // outputs.covariance
+  double integrity_alert_limit_m = 0.10;                   // outputs.integrity.alert_limit_m
   GeoConfig geo;
   config::SiteposeConfig sitepose;
 };

@@ -9,10 +9,12 @@
 // Tracking state policy: LOST -> position, heading, speed, pitch and altitude
 // fields are sent as "not available" and 129029 method "no fix"; RECOVERING
 // -> values are sent, 129029 integrity "caution"; OK -> integrity "no
-// checking" (a visual fix is not GNSS-integrity-monitored). The pose/quality
+// checking" (a visual fix is not GNSS-integrity-monitored), "caution" when
+// the integrity alert is set (PoseQuality::integrity_alert). The pose/quality
 // frame always carries the state, so the ECU can tell the three apart.
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "sitepose/core/expected.hpp"
@@ -47,7 +49,11 @@ struct CanPoseInputs {
   std::int64_t utc_t_ns = 0;  // capture time, ns since the Unix epoch (UTC)
   double latitude_deg = 0.0;  // WGS84
   double longitude_deg = 0.0;
-  double altitude_m = 0.0;   // above the WGS84 ellipsoid
+  double altitude_m = 0.0;  // above the WGS84 ellipsoid
+  // Geoid height above the ellipsoid (geo::GeoidGrid): 129029's geoidal
+  // separation, and J1939 SPN 580 gets the height above mean sea level
+  // altitude_m - it. NaN (no geoid): both "not available".
+  double geoidal_separation_m = std::numeric_limits<double>::quiet_NaN();
   double heading_rad = 0.0;  // of the machine, clockwise from true north
   double course_over_ground_rad = 0.0;
   double speed_over_ground_mps = 0.0;

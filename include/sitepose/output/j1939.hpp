@@ -22,8 +22,7 @@ inline constexpr std::uint8_t kDefaultPriorityJ1939 = 6;          // J1939-71 de
 
 // PGN 65267 Vehicle Position: SPN 584 latitude, SPN 585 longitude, each u32
 // 1e-7 deg/bit with offset -210 deg (valid -210 .. 211.1008 deg).
-CanFrame encode_j1939_vehicle_position(double latitude_deg, double longitude_deg,
-                                       std::uint8_t source_address,
+CanFrame encode_j1939_vehicle_position(double latitude_deg, double longitude_deg, std::uint8_t source_address,
                                        std::uint8_t priority = kDefaultPriorityJ1939);
 
 // PGN 65256 Vehicle Direction/Speed. Inputs: heading clockwise from true
@@ -38,14 +37,14 @@ struct VehicleDirectionSpeed {
   double pitch_rad = 0.0;
   double altitude_m = 0.0;
 };
-CanFrame encode_j1939_vehicle_direction_speed(const VehicleDirectionSpeed& v,
-                                              std::uint8_t source_address,
+CanFrame encode_j1939_vehicle_direction_speed(const VehicleDirectionSpeed& v, std::uint8_t source_address,
                                               std::uint8_t priority = kDefaultPriorityJ1939);
 
 // The sitepose pose/quality frame (PGN 0xFF10), 8 bytes:
 //   byte 0      CRC-8 SAE J1850 over [data id low, data id high, bytes 1..7]
-//   byte 1      bits 0-3 alive counter (0..15), bits 4-7 tracking state
-//               (0 OK, 1 RECOVERING, 2 LOST)
+//   byte 1      bits 0-3 alive counter (0..15), bits 4-5 tracking state
+//               (0 OK, 1 RECOVERING, 2 LOST), bit 6 integrity alert (the
+//               3-sigma position bound exceeds the alert limit), bit 7 0
 //   bytes 2-3   features used in the final pose, u16 1/bit (0..64255)
 //   bytes 4-5   position std = sqrt(trace of the 3x3 position covariance),
 //               u16 0.001 m/bit (0..64.255 m)
@@ -63,6 +62,7 @@ struct PoseQuality {
   double position_std_m = 0.0;
   double rotation_std_rad = 0.0;
   double masked_area_ratio = 0.0;  // [0, 1]
+  bool integrity_alert = false;    // 3-sigma position bound over the alert limit
 };
 
 // The figures of a tracker's answer (covariance of the [translation;
@@ -75,7 +75,6 @@ CanFrame encode_sitepose_pose_quality(const PoseQuality& quality, std::uint8_t a
                                       std::uint16_t data_id = kPoseQualityDataId);
 
 // Checks CRC of a received pose/quality frame (for tests and monitors).
-bool check_sitepose_pose_quality_crc(const CanFrame& frame,
-                                     std::uint16_t data_id = kPoseQualityDataId);
+bool check_sitepose_pose_quality_crc(const CanFrame& frame, std::uint16_t data_id = kPoseQualityDataId);
 
 }  // namespace sitepose::output

@@ -14,6 +14,7 @@
 #include "sitepose/geo/site_frame.hpp"
 #include "sitepose/gnss_fix_t.hpp"
 #include "sitepose/health_t.hpp"
+#include "sitepose/output/published_pose.hpp"
 #include "sitepose/pose_t.hpp"
 
 namespace sitepose::output {
@@ -32,7 +33,11 @@ struct LcmOutputHealth {
   std::int64_t failed = 0;
 };
 struct LcmHealth {
-  std::int64_t t_ns = 0;
+  std::int64_t t_ns = 0;  // time of the report, UTC ns since the Unix epoch
+  // Capture time (UTC) of the last pose sent and its publish time minus
+  // that; -1 before the first pose.
+  std::int64_t last_pose_t_ns = -1;
+  double last_pose_latency_ms = -1.0;
   double fps = 0.0;
   double latency_p50_ms = 0.0;
   double latency_p99_ms = 0.0;
@@ -51,7 +56,11 @@ std::int8_t lcm_state(TrackingState state);  // pose_t::STATE_*
 // T_world_cam and covariance converted to [dp; dtheta] in the SLAM frame,
 // geodetic/UTM/heading fields NaN, utm_zone -1. Otherwise FRAME_SITE with
 // everything from the SitePose. utime = t_ns / 1000 (floor).
-sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site);
+// velocity: of the published point in the message's frame; nullptr or
+// invalid: NaN.
+// alert_limit_m: outputs.integrity.alert_limit_m (0 = never alert).
+sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site,
+                             const Velocity* velocity = nullptr, double alert_limit_m = 0.0);
 sitepose::health_t to_lcm_health(const LcmHealth& health);
 sitepose::gnss_fix_t to_lcm_gnss_fix(const geo::GnssFix& fix);
 // Checks quality 0..8, non-negative satellites, and a valid WGS84 position
@@ -64,8 +73,7 @@ Expected<std::vector<std::uint8_t>> encode_lcm(const Message& message) {
   const int size = message.getEncodedSize();
   std::vector<std::uint8_t> buffer(static_cast<std::size_t>(size > 0 ? size : 0));
   if (size <= 0 || message.encode(buffer.data(), 0, size) != size) {
-    return make_error(ErrorCode::kRuntime,
-                      std::string("LCM encode failed for ") + Message::getTypeName());
+    return make_error(ErrorCode::kRuntime, std::string("LCM encode failed for ") + Message::getTypeName());
   }
   return buffer;
 }
@@ -76,9 +84,8 @@ Expected<Message> decode_lcm(const void* data, std::size_t size) {
   Message message;
   const int used = message.decode(data, 0, static_cast<int>(size));
   if (used < 0 || static_cast<std::size_t>(used) != size) {
-    return make_error(ErrorCode::kParseError,
-                      std::string("LCM decode failed for ") + Message::getTypeName() + " (" +
-                          std::to_string(size) + " bytes)");
+    return make_error(ErrorCode::kParseError, std::string("LCM decode failed for ") + Message::getTypeName() +
+                                                  " (" + std::to_string(size) + " bytes)");
   }
   return message;
 }

@@ -28,8 +28,8 @@ namespace sitepose::output {
 struct LcmPublisherStats {
   std::int64_t poses_published = 0;
   std::int64_t health_published = 0;
-  std::int64_t send_failures = 0;  // failed attempts, retries included
-  std::int64_t retries = 0;        // attempts after a failed one
+  std::int64_t send_failures = 0;    // failed attempts, retries included
+  std::int64_t retries = 0;          // attempts after a failed one
   std::int64_t messages_failed = 0;  // messages given up (kIoError returned)
 };
 
@@ -41,11 +41,11 @@ class LcmPublisher {
 
   static Expected<std::unique_ptr<LcmPublisher>> create(const LcmOptions& options,
                                                         std::shared_ptr<lcm::LCM> lcm);
-  static Expected<std::unique_ptr<LcmPublisher>> create_with_sender(const LcmOptions& options,
-                                                                    SendFn send);
+  static Expected<std::unique_ptr<LcmPublisher>> create_with_sender(const LcmOptions& options, SendFn send);
 
   // site: nullptr while the site anchor is unknown (see to_lcm_pose).
-  Status publish_pose(const PoseEstimate& pose, const geo::SitePose* site);
+  Status publish_pose(const PoseEstimate& pose, const geo::SitePose* site, const Velocity* velocity = nullptr,
+                      double alert_limit_m = 0.0);
   Status publish_health(const LcmHealth& health);
   // Sends the pose of the last failed publish_pose again (same attempts
   // rule). Ok and nothing sent when no pose is pending.

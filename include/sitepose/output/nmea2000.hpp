@@ -87,17 +87,15 @@ struct GnssPositionData {
   int satellites = -1;  // < 0 = n/a
   double hdop = kNan;
   double pdop = kNan;
-  double geoidal_separation_m = kNan;  // n/a unless a geoid model is wired
+  double geoidal_separation_m = kNan;  // geoid above the ellipsoid; NaN = n/a
 
   static constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 };
 // The 43-byte payload (reassembled view, as the DBC describes it).
 std::vector<std::uint8_t> encode_n2k_gnss_position_payload(const GnssPositionData& v);
 // The payload cut into fast-packet frames. Priority 3.
-std::vector<CanFrame> encode_n2k_gnss_position_data(const GnssPositionData& v,
-                                                    std::uint8_t sequence_counter,
-                                                    std::uint8_t source_address,
-                                                    std::uint8_t priority = 3);
+std::vector<CanFrame> encode_n2k_gnss_position_data(const GnssPositionData& v, std::uint8_t sequence_counter,
+                                                    std::uint8_t source_address, std::uint8_t priority = 3);
 
 // PGN 126993 Heartbeat, 8 bytes, priority 7: data transmit offset (the
 // interval until the next heartbeat; <= 0: not available) u16 0.01 s; sequence counter u8 (0..252,
@@ -120,7 +118,7 @@ inline constexpr std::size_t kProductInformationBytes = 134;
 inline constexpr std::size_t kProductInformationStringBytes = 32;
 struct N2kProductInformation {
   std::uint16_t database_version = 2100;  // 2.100
-  std::uint16_t product_code = 0xFFFF;     // not available unless one is assigned
+  std::uint16_t product_code = 0xFFFF;    // not available unless one is assigned
   std::string model_id = "sitepose";
   std::string software_version;
   std::string model_version;

@@ -97,11 +97,19 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
 
   NotifySocket notify(dir / "notify.sock");
   ASSERT_TRUE(notify.ok());
+  // The one clock every time field is checked against (UTC microseconds).
+  auto utc_now_us = [] {
+    return std::chrono::duration_cast<std::chrono::microseconds>(
+               std::chrono::system_clock::now().time_since_epoch())
+        .count();
+  };
+  const std::int64_t started_us = utc_now_us();
   Child daemon(
       {SITEPOSED_EXE, "--config", dir / "siteposed.yaml"},
       {{"NOTIFY_SOCKET", dir / "notify.sock"}, {"WATCHDOG_USEC", "2000000"}, {"WATCHDOG_PID", "self"}},
       dir / "stderr.txt");
   const int status = daemon.wait(90s);
+  const std::int64_t ended_us = utc_now_us();
   // The daemon sent everything before it exited. Wait until every pose and
   // a health report are in and a receive that began after the exit found
   // nothing more (so an extra pose is counted too); STOPPING=1 is the last
@@ -123,16 +131,22 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
   }();
   ASSERT_EQ(status, 0) << log;
 
-  // LCM: every frame's pose once, in order, stamped with the frame's time.
+  // LCM: every frame's pose once, in order, stamped with the frame's
+  // capture time in UTC: the replay's times shifted to now, so within this
+  // run on the test's clock and spaced as times.txt.
   const auto times = io::read_times(seq + "/times.txt");
   ASSERT_TRUE(times);
   std::lock_guard lock(capture.mutex);
   ASSERT_EQ(capture.poses.size(), static_cast<std::size_t>(kSequenceFrames)) << log;
   int ok = 0;
+  const std::int64_t first_us = capture.poses.front().utime;
   for (std::size_t i = 0; i < capture.poses.size(); ++i) {
     const auto& p = capture.poses[i];
     EXPECT_EQ(p.seq, static_cast<std::int64_t>(i));
-    EXPECT_NEAR(static_cast<double>(p.utime), (*times)[i] * 1e6, 1.0) << i;  // us, floored
+    // At rate max the replay runs ahead of the clock by up to its length.
+    EXPECT_GE(p.utime, started_us) << i;
+    EXPECT_LE(p.utime, ended_us + static_cast<std::int64_t>(((*times).back() - (*times)[0]) * 1e6)) << i;
+    EXPECT_NEAR(static_cast<double>(p.utime - first_us), ((*times)[i] - (*times)[0]) * 1e6, 1.0) << i;
     EXPECT_EQ(p.frame, sitepose::pose_t::FRAME_SITE);
     EXPECT_NEAR(p.latitude_deg, 48.137, 0.001);
     ok += p.state == sitepose::pose_t::STATE_OK;
@@ -140,6 +154,18 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
   EXPECT_GE(ok, kSequenceFrames - 2);
   ASSERT_FALSE(capture.health.empty());
   EXPECT_EQ(capture.health.back().num_stages, 4);
+  // health_t on the same clock: reports within the run, naming a pose
+  // published before them and its latency; the last names the last pose.
+  for (const auto& h : capture.health) {
+    EXPECT_GE(h.utime, started_us);
+    EXPECT_LE(h.utime, ended_us);
+    if (h.last_pose_utime >= 0) {
+      EXPECT_GE(h.last_pose_utime, first_us);
+      EXPECT_GE(h.last_pose_latency_ms, 0.0f);
+      EXPECT_LE(h.last_pose_latency_ms, 1e-3 * static_cast<double>(ended_us - started_us));
+    }
+  }
+  EXPECT_EQ(capture.health.back().last_pose_utime, capture.poses.back().utime);
 
   // Trajectory: one complete line per pose that is not LOST; ATE within the
   // SLAM accuracy (2 cm).
@@ -160,16 +186,24 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
   auto decoded = parser.parse();
   ASSERT_TRUE(decoded.has_value()) << parser.error();
   EXPECT_TRUE((*decoded)["errors"].array().empty());
-  std::vector<const sitepose::testing::Json*> rapid, quality;
+  std::vector<const sitepose::testing::Json*> rapid, quality, gnss;
   for (const auto& m : (*decoded)["messages"].array()) {
     if (m["name"].string() == "N2kPositionRapidUpdate") rapid.push_back(&m);
     if (m["name"].string() == "SiteposePoseQuality") quality.push_back(&m);
+    if (m["name"].string() == "N2kGnssPositionData") gnss.push_back(&m);
   }
   ASSERT_EQ(rapid.size(), capture.poses.size());
   ASSERT_EQ(quality.size(), capture.poses.size());
+  ASSERT_EQ(gnss.size(), capture.poses.size());
   for (std::size_t i = 0; i < rapid.size(); ++i) {
     const auto& p = capture.poses[i];
+    // candump line times and 129029's date (days) + time of day (1e-4 s):
+    // the pose's utime.
     EXPECT_NEAR((*rapid[i])["t"].number(), p.utime * 1e-6, 2e-6) << i;
+    EXPECT_NEAR((*gnss[i])["t"].number(), p.utime * 1e-6, 2e-6) << i;
+    const double n2k_s =
+        (*gnss[i])["signals"]["Date"].number() * 86400.0 + (*gnss[i])["signals"]["Time"].number();
+    EXPECT_NEAR(n2k_s, p.utime * 1e-6, 1.01e-4) << i;
     EXPECT_NEAR((*rapid[i])["signals"]["Latitude"].number(), p.latitude_deg, 0.5e-7 + 1e-12) << i;
     EXPECT_NEAR((*rapid[i])["signals"]["Longitude"].number(), p.longitude_deg, 0.5e-7 + 1e-12) << i;
     EXPECT_EQ((*quality[i])["signals"]["TrackingState"].number(), p.state) << i;
@@ -223,7 +257,7 @@ TEST(DaemonEndToEnd, FullModeKeepsThePoseWhereMachinesPullPlainSlamAlong) {
 }
 
 // Counts the pose/quality frames (PGN 65296 = 0xFF10) of a candump log and
-// those whose TrackingState (data byte 1, high nibble) is not LOST.
+// those whose TrackingState (data byte 1, bits 4-5) is not LOST.
 std::pair<int, int> count_quality_frames(const std::string& path) {
   int all = 0, not_lost = 0;
   for (const auto& line : read_lines(path)) {
@@ -232,7 +266,7 @@ std::pair<int, int> count_quality_frames(const std::string& path) {
     const std::string id = line.substr(hash - 8, 8);
     if (id.substr(2, 4) != "FF10") continue;
     ++all;
-    const int state = std::stoi(line.substr(hash + 3, 2), nullptr, 16) >> 4;
+    const int state = (std::stoi(line.substr(hash + 3, 2), nullptr, 16) >> 4) & 0x3;
     not_lost += state != 2;
   }
   return {all, not_lost};

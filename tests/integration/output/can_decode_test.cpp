@@ -10,16 +10,17 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <sstream>
 #include <string>
 #include <vector>
 
-#include "sitepose/testing/files.hpp"
-#include "sitepose/testing/mini_json.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/can_sink.hpp"
 #include "sitepose/output/candump.hpp"
+#include "sitepose/testing/files.hpp"
+#include "sitepose/testing/mini_json.hpp"
 
 namespace sitepose::output {
 namespace {
@@ -42,6 +43,8 @@ CanPoseInputs pose(int k) {
   in.latitude_deg = 48.1 + k * 1.1e-5 + 0.123456789e-7;
   in.longitude_deg = 11.5 - k * 2.3e-5;
   in.altitude_m = 500.0 + k * 0.37;
+  // A geoid height, or none (every tenth pose): then n/a in 129029 and SPN 580.
+  in.geoidal_separation_m = k % 10 == 5 ? std::numeric_limits<double>::quiet_NaN() : 47.0 + k * 0.013;
   in.heading_rad = k * 0.3 - 1.0;  // negative and > 2 pi values wrap
   in.course_over_ground_rad = in.heading_rad + 0.01;
   in.speed_over_ground_mps = k * 0.25;
@@ -72,8 +75,7 @@ class CanDecodeTest : public ::testing::Test {
     CanPoseEncoder encoder(CanOutputOptions{});
     for (int k = 0; k < kPoses; ++k) {
       const CanPoseInputs in = pose(k);
-      for (const CanFrame& f : encoder.encode(in))
-        EXPECT_TRUE((*sink)->send(in.utc_t_ns, f).has_value());
+      for (const CanFrame& f : encoder.encode(in)) EXPECT_TRUE((*sink)->send(in.utc_t_ns, f).has_value());
       EXPECT_TRUE((*sink)->flush().has_value());
     }
     return path;
@@ -82,9 +84,8 @@ class CanDecodeTest : public ::testing::Test {
   // Runs the decoder; returns its exit status and fills `out`.
   int decode(const std::string& log, Json& out) {
     const std::string json_path = (dir_ / "decoded.json").string();
-    const std::string cmd =
-        std::string(kPython) + " " SITEPOSE_SOURCE_DIR "/tools/can_decode.py --dbc " +
-        SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + log + " > " + json_path;
+    const std::string cmd = std::string(kPython) + " " SITEPOSE_SOURCE_DIR "/tools/can_decode.py --dbc " +
+                            SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + log + " > " + json_path;
     const int rc = std::system(cmd.c_str());
     const std::string json = sitepose::testing::read_text(json_path);  // the parser keeps a view of it
     JsonParser parser(json);
@@ -113,9 +114,8 @@ TEST_F(CanDecodeTest, DecodedValuesMatchThePosesWithinResolution) {
   ASSERT_EQ(decode(write_log(), out), 0);
   ASSERT_TRUE(out["errors"].array().empty());
   const auto& msgs = out["messages"].array();
-  const char* order[] = {"N2kPositionRapidUpdate", "N2kCogSogRapidUpdate",
-                         "N2kVesselHeading",       "N2kGnssPositionData",
-                         "J1939VehiclePosition",   "J1939VehicleDirectionSpeed",
+  const char* order[] = {"N2kPositionRapidUpdate", "N2kCogSogRapidUpdate", "N2kVesselHeading",
+                         "N2kGnssPositionData",    "J1939VehiclePosition", "J1939VehicleDirectionSpeed",
                          "SiteposePoseQuality"};
   ASSERT_EQ(msgs.size(), static_cast<std::size_t>(7 * kPoses));
   for (int k = 0; k < kPoses; ++k) {
@@ -130,22 +130,18 @@ TEST_F(CanDecodeTest, DecodedValuesMatchThePosesWithinResolution) {
       EXPECT_NEAR(msg["t"].number(), (in.utc_t_ns / 1000) * 1e-6, 2e-6) << at;
     }
     const Json& rapid = msgs[7 * k]["signals"];
-    expect_near_or_null(rapid["Latitude"], lost, in.latitude_deg, 0.5e-7 + 1e-12,
-                        at + " 129025 lat");
-    expect_near_or_null(rapid["Longitude"], lost, in.longitude_deg, 0.5e-7 + 1e-12,
-                        at + " 129025 lon");
+    expect_near_or_null(rapid["Latitude"], lost, in.latitude_deg, 0.5e-7 + 1e-12, at + " 129025 lat");
+    expect_near_or_null(rapid["Longitude"], lost, in.longitude_deg, 0.5e-7 + 1e-12, at + " 129025 lon");
 
     const Json& cog = msgs[7 * k + 1]["signals"];
     EXPECT_EQ(cog["Sid"].number(), k % 253) << at;
     EXPECT_EQ(cog["CogReference"].number(), 0) << at;
-    expect_near_or_null(cog["Cog"], lost, wrap_two_pi(in.course_over_ground_rad), 0.5e-4 + 1e-9,
-                        at + " cog");
+    expect_near_or_null(cog["Cog"], lost, wrap_two_pi(in.course_over_ground_rad), 0.5e-4 + 1e-9, at + " cog");
     expect_near_or_null(cog["Sog"], lost, in.speed_over_ground_mps, 0.005 + 1e-9, at + " sog");
 
     const Json& hdg = msgs[7 * k + 2]["signals"];
     EXPECT_EQ(hdg["Sid"].number(), k % 253) << at;
-    expect_near_or_null(hdg["Heading"], lost, wrap_two_pi(in.heading_rad), 0.5e-4 + 1e-9,
-                        at + " heading");
+    expect_near_or_null(hdg["Heading"], lost, wrap_two_pi(in.heading_rad), 0.5e-4 + 1e-9, at + " heading");
     EXPECT_TRUE(hdg["Deviation"].is_null()) << at;
     EXPECT_TRUE(hdg["Variation"].is_null()) << at;
     EXPECT_EQ(hdg["Reference"].number(), 0) << at;
@@ -159,11 +155,12 @@ TEST_F(CanDecodeTest, DecodedValuesMatchThePosesWithinResolution) {
     expect_near_or_null(gnss["Altitude"], lost, in.altitude_m, 0.5e-6 + 1e-9, at + " 129029 alt");
     EXPECT_EQ(gnss["GnssType"].number(), 6) << at;
     EXPECT_EQ(gnss["Method"].number(), lost ? 0 : 6) << at;
-    EXPECT_EQ(gnss["Integrity"].number(), in.quality.state == TrackingState::kRecovering ? 2 : 0)
-        << at;
+    EXPECT_EQ(gnss["Integrity"].number(), in.quality.state == TrackingState::kRecovering ? 2 : 0) << at;
     EXPECT_TRUE(gnss["NumberOfSvs"].is_null()) << at;
     EXPECT_TRUE(gnss["Hdop"].is_null()) << at;
-    EXPECT_TRUE(gnss["GeoidalSeparation"].is_null()) << at;
+    const bool no_geoid = std::isnan(in.geoidal_separation_m);
+    expect_near_or_null(gnss["GeoidalSeparation"], lost || no_geoid, in.geoidal_separation_m, 0.005 + 1e-9,
+                        at + " 129029 separation");
     EXPECT_EQ(gnss["ReferenceStations"].number(), 0) << at;
 
     const Json& vp = msgs[7 * k + 4]["signals"];
@@ -175,9 +172,10 @@ TEST_F(CanDecodeTest, DecodedValuesMatchThePosesWithinResolution) {
                         0.5 / 128 + 1e-9, at + " bearing");
     expect_near_or_null(vds["NavigationBasedVehicleSpeed"], lost, in.speed_over_ground_mps * 3.6,
                         0.5 / 256 + 1e-9, at + " speed");
-    expect_near_or_null(vds["Pitch"], lost, in.pitch_rad * 180 / kPi, 0.5 / 128 + 1e-9,
-                        at + " pitch");
-    expect_near_or_null(vds["Altitude"], lost, in.altitude_m, 0.0625 + 1e-9, at + " altitude");
+    expect_near_or_null(vds["Pitch"], lost, in.pitch_rad * 180 / kPi, 0.5 / 128 + 1e-9, at + " pitch");
+    // SPN 580 is above mean sea level.
+    expect_near_or_null(vds["Altitude"], lost || no_geoid, in.altitude_m - in.geoidal_separation_m,
+                        0.0625 + 1e-9, at + " altitude");
 
     const Json& pq = msgs[7 * k + 6];
     EXPECT_TRUE(pq["e2e"]["crc_ok"].boolean()) << at;
@@ -185,13 +183,10 @@ TEST_F(CanDecodeTest, DecodedValuesMatchThePosesWithinResolution) {
     const int state_code = lost ? 2 : (in.quality.state == TrackingState::kRecovering ? 1 : 0);
     EXPECT_EQ(pq["signals"]["TrackingState"].number(), state_code) << at;
     EXPECT_EQ(pq["signals"]["FeaturesUsed"].number(), in.quality.features_used) << at;
-    EXPECT_NEAR(pq["signals"]["PositionStd"].number(), in.quality.position_std_m, 0.0005 + 1e-9)
+    EXPECT_NEAR(pq["signals"]["PositionStd"].number(), in.quality.position_std_m, 0.0005 + 1e-9) << at;
+    EXPECT_NEAR(pq["signals"]["RotationStd"].number(), in.quality.rotation_std_rad * 180 / kPi, 0.05 + 1e-9)
         << at;
-    EXPECT_NEAR(pq["signals"]["RotationStd"].number(), in.quality.rotation_std_rad * 180 / kPi,
-                0.05 + 1e-9)
-        << at;
-    EXPECT_NEAR(pq["signals"]["MaskedAreaRatio"].number(), in.quality.masked_area_ratio * 100,
-                0.2 + 1e-9)
+    EXPECT_NEAR(pq["signals"]["MaskedAreaRatio"].number(), in.quality.masked_area_ratio * 100, 0.2 + 1e-9)
         << at;
   }
 }
@@ -224,8 +219,7 @@ TEST_F(CanDecodeTest, CorruptionAndMissingFramesAreDetected) {
   int crc_failures = 0;
   int gnss = 0;
   for (const Json& m : out["messages"].array()) {
-    if (m["name"].string() == "SiteposePoseQuality" && !m["e2e"]["crc_ok"].boolean())
-      ++crc_failures;
+    if (m["name"].string() == "SiteposePoseQuality" && !m["e2e"]["crc_ok"].boolean()) ++crc_failures;
     if (m["name"].string() == "N2kGnssPositionData") ++gnss;
   }
   EXPECT_EQ(crc_failures, 1);
