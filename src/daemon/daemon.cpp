@@ -114,6 +114,7 @@ Status check_startable(const DaemonConfig& config) {
                                    "outputs.can.path", config.can.path));
   SITEPOSE_TRY_STATUS(
       check_output(config.trajectory.enabled, "outputs.trajectory.path", config.trajectory.path));
+  SITEPOSE_TRY_STATUS(check_output(!config.map.map_file.empty(), "mapping.map_file", config.map.map_file));
   return ok_status();
 }
 
@@ -129,6 +130,16 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
   SITEPOSE_TRY(auto tracker,
                pipeline::SlamPoseTracker::create(camera, config.sitepose, source->frame_rate_hz()));
   d->tracker_ = tracker.get();
+  if (!config.map.map_file.empty()) {
+    pipeline::SlamPoseTracker* t = tracker.get();
+    const auto anchor = site_anchor_record(config.geo);
+    const MapLoadOutcome loaded = load_site_map(
+        config.map.map_file, anchor, [t](map::MapData map) { return t->load_map(std::move(map)); });
+    d->map_store_ = std::make_unique<MapStore>(config.map, anchor, [t] { return t->copy_map(); });
+    if (!loaded.refused_why.empty() && loaded.moved_to.empty()) {
+      d->map_store_->disable("not saving over the refused map file " + config.map.map_file);
+    }
+  }
   detect::DetectorContext context;
   if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
   context.camera = camera;
@@ -190,7 +201,8 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
 }
 
 Daemon::~Daemon() {
-  gnss_thread_ = {};  // stop and join before the anchoring goes
+  gnss_thread_ = {};                   // stop and join before the anchoring goes
+  if (map_store_) map_store_->stop();  // before the tracker it copies from
   pipeline_.reset();
 }
 
@@ -222,8 +234,24 @@ void Daemon::log_health(const pipeline::PipelineHealth& h) const {
     can_bus =
         " can_bus[" + drivers::socketcan::format_stats(config_.can.interface, socketcan_->stats()) + "]";
   }
-  spdlog::info("health: {} captured={} stalls={} track_errors={} |{} |{}{}{}{}", pipeline::format_status(h),
-               h.frames_captured, h.stalls, h.track_errors, stages, outputs, anchor, fallbacks, can_bus);
+  const std::string map =
+      map_store_ ? " " + format_map_stats(map_store_->stats(), pipeline::SteadyClock::now()) : std::string();
+  spdlog::info("health: {} captured={} stalls={} track_errors={} |{} |{}{}{}{}{}", pipeline::format_status(h),
+               h.frames_captured, h.stalls, h.track_errors, stages, outputs, anchor, fallbacks, can_bus, map);
+}
+
+// After the pipeline has stopped (the mapper finished): the last word of the
+// map, whatever stopped the run.
+void Daemon::save_map_at_stop() {
+  if (!map_store_) return;
+  map_store_->stop();
+  if (auto st = map_store_->save_now(); !st) {
+    spdlog::error("map: save at stop failed: {}", st.error().message);
+    return;
+  }
+  const MapStoreStats s = map_store_->stats();
+  spdlog::info("map: saved {} at stop: {} keyframes, {} points, copy {:.1f} ms, write {:.1f} ms ({} saves)",
+               config_.map.map_file, s.keyframes, s.points, s.last_copy_ms, s.last_write_ms, s.saves);
 }
 
 int Daemon::run(const sigset_t& stop_signals) {
@@ -251,6 +279,7 @@ int Daemon::run(const sigset_t& stop_signals) {
     }
   };
   pipeline_->start();
+  if (map_store_) map_store_->start();
   const auto tick = supervisor.tick_interval();
   bool stopped_by_signal = false;
   for (;;) {
@@ -281,6 +310,7 @@ int Daemon::run(const sigset_t& stop_signals) {
     if (pipeline_->finished()) break;
   }
   const Status st = pipeline_->wait();
+  save_map_at_stop();
   const pipeline::PipelineHealth h = pipeline_->health();
   log_health(h);
   if (!stopped_by_signal) notify(notifier_.stopping(st ? "source ended" : "source failed"));

@@ -412,6 +412,18 @@ Section<GeoConfig> geo_section() {
   return s;
 }
 
+// ---- siteposed's keys in sitepose sections -----------------------------------
+
+Section<MapPersistenceConfig> map_persistence_section() {
+  using M = MapPersistenceConfig;
+  Section<M> s;
+  s.key("map_file", &M::map_file)
+      .key("checkpoint_interval_s", &M::checkpoint_interval_s,
+           make_rule([](double v) { return v == 0.0 || (v >= 0.1 && v <= 86400.0); },
+                     "must be 0 (only at stop) or in [0.1, 86400]"));
+  return s;
+}
+
 // ---- the file ---------------------------------------------------------------
 
 Section<DaemonConfig> make_daemon_sections() {
@@ -422,6 +434,8 @@ Section<DaemonConfig> make_daemon_sections() {
       .group("outputs", outputs_group())
       .section("geo", &DaemonConfig::geo, geo_section())
       .embed(&DaemonConfig::sitepose, config::sitepose_sections())
+      // After the sitepose sections: written into their `mapping` (YamlWriter reopens it).
+      .section("mapping", &DaemonConfig::map, map_persistence_section())
       .check([](const ReadKeys& keys, const DaemonConfig& c) {
         if (c.can.enabled && c.geo.mode == GeoMode::kNone) {
           keys.map().map("outputs").map("can").report(
@@ -459,7 +473,7 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text, c
   daemon_sections().read(reader.root(), c);
   SITEPOSE_TRY_STATUS(reader.finish());
   for (std::string* path : {&c.replay.sequence_dir, &c.aravis.calibration, &c.v4l2.options.calibration_file,
-                            &c.trajectory.path, &c.can.path, &c.geo.nmea_file}) {
+                            &c.trajectory.path, &c.can.path, &c.geo.nmea_file, &c.map.map_file}) {
     *path = resolve(base_dir, *path);
   }
   c.geo.anchor = anchor_options(c.geo);

@@ -96,6 +96,15 @@ struct V4l2SourceConfig {
   double pair_tolerance_ms = 5.0;
 };
 
+// mapping.map_file, mapping.checkpoint_interval_s: siteposed's own keys in
+// the sitepose `mapping` section (MapStore, map_store.hpp).
+struct MapPersistenceConfig {
+  // The site map kept between runs; empty: none (each start a new map).
+  // The shipped file sets /var/lib/siteposed/site.map (StateDirectory=).
+  std::string map_file;
+  double checkpoint_interval_s = 300.0;  // periodic save while running; 0 = only at stop
+};
+
 struct DaemonConfig {
   std::string source_type = "replay";  // replay | aravis | v4l2
   // A camera source: how long to wait at start for an absent camera (0:
@@ -111,6 +120,7 @@ struct DaemonConfig {
   LcmOutputConfig lcm;
   GeoConfig geo;
   config::SiteposeConfig sitepose;
+  MapPersistenceConfig map;
 };
 
 // The V4L2 source's options from source.v4l2 and source.wait_for_camera_s.
