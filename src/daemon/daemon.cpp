@@ -144,8 +144,20 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
   if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
   context.camera = camera;
   SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config.sitepose, context));
-  spdlog::info("detect stage: {}, dynamic.mode {}", detect_hook->name(),
-               config::to_string(config.sitepose.dynamic.mode));
+  std::string deadline_text;
+  if (config.sitepose.dynamic.mode != config::MaskingMode::kNone) {
+    const double fps = source->frame_rate_hz() > 0.0 ? source->frame_rate_hz() : 30.0;
+    const double deadline_ms = config.detect_deadline.detector_deadline_ms > 0.0
+                                   ? config.detect_deadline.detector_deadline_ms
+                                   : 1000.0 / fps;
+    auto bounded = std::make_unique<pipeline::DeadlineDetect>(
+        std::move(detect_hook), std::chrono::nanoseconds(std::llround(deadline_ms * 1e6)));
+    d->deadline_detect_ = bounded.get();
+    detect_hook = std::move(bounded);
+    deadline_text = fmt::format(", deadline {:.1f} ms", deadline_ms);
+  }
+  spdlog::info("detect stage: {}, dynamic.mode {}{}", detect_hook->name(),
+               config::to_string(config.sitepose.dynamic.mode), deadline_text);
 
   SITEPOSE_TRY(d->anchoring_, Anchoring::create(config.geo));
   if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kNmeaFile) {
@@ -225,9 +237,13 @@ void Daemon::log_health(const pipeline::PipelineHealth& h) const {
   std::string fallbacks;
   if (tracker_ != nullptr && config_.sitepose.dynamic.mode != config::MaskingMode::kNone) {
     const pipeline::TrackerFallbackCounters f = tracker_->fallback_counters();
-    fallbacks =
-        fmt::format(" dynamic[detect_errors={} reused_boxes={} unmasked={} box_for_pixel_mask={}]",
-                    h.detect_errors, f.reused_detections, f.tracked_unmasked, f.box_mask_for_pixel_mask);
+    const pipeline::DetectDeadlineCounters d =
+        deadline_detect_ != nullptr ? deadline_detect_->counters() : pipeline::DetectDeadlineCounters{};
+    fallbacks = fmt::format(
+        " dynamic[detect_errors={} reused_boxes={} unmasked={} box_for_pixel_mask={} detect_timeouts={} "
+        "detect_skipped={} detect_late={}]",
+        h.detect_errors, f.reused_detections, f.tracked_unmasked, f.box_mask_for_pixel_mask, d.timeouts,
+        d.skipped_busy, d.late_returns);
   }
   std::string can_bus;
   if (socketcan_ != nullptr) {

@@ -424,6 +424,12 @@ Section<MapPersistenceConfig> map_persistence_section() {
   return s;
 }
 
+Section<DetectDeadlineConfig> detect_deadline_section() {
+  Section<DetectDeadlineConfig> s;
+  s.key("detector_deadline_ms", &DetectDeadlineConfig::detector_deadline_ms, in_range(0.0, 60000.0));
+  return s;
+}
+
 // ---- the file ---------------------------------------------------------------
 
 Section<DaemonConfig> make_daemon_sections() {
@@ -436,6 +442,7 @@ Section<DaemonConfig> make_daemon_sections() {
       .embed(&DaemonConfig::sitepose, config::sitepose_sections())
       // After the sitepose sections: written into their `mapping` (YamlWriter reopens it).
       .section("mapping", &DaemonConfig::map, map_persistence_section())
+      .section("dynamic", &DaemonConfig::detect_deadline, detect_deadline_section())
       .check([](const ReadKeys& keys, const DaemonConfig& c) {
         if (c.can.enabled && c.geo.mode == GeoMode::kNone) {
           keys.map().map("outputs").map("can").report(

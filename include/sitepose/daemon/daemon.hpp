@@ -21,6 +21,7 @@
 #include "sitepose/daemon/outputs.hpp"
 #include "sitepose/drivers/socketcan/socketcan_sink.hpp"
 #include "sitepose/output/lcm_gnss_subscriber.hpp"
+#include "sitepose/pipeline/detect_deadline.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"
 #include "sitepose/pipeline/systemd_notify.hpp"
@@ -80,6 +81,7 @@ class Daemon {
   std::unique_ptr<pipeline::Pipeline> pipeline_;                  // owns source, tracker, outputs
   const pipeline::SlamPoseTracker* tracker_ = nullptr;            // owned by pipeline_ (counters only)
   const drivers::socketcan::SocketCanSink* socketcan_ = nullptr;  // owned by pipeline_ (stats only)
+  const pipeline::DeadlineDetect* deadline_detect_ = nullptr;     // owned by pipeline_ (counters only)
   std::unique_ptr<MapStore> map_store_;                           // copies from tracker_: stopped first
   std::jthread gnss_thread_;                                      // joined first (declared last)
 };

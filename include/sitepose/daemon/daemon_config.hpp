@@ -105,6 +105,12 @@ struct MapPersistenceConfig {
   double checkpoint_interval_s = 300.0;  // periodic save while running; 0 = only at stop
 };
 
+// dynamic.detector_deadline_ms: siteposed's own key in the sitepose
+// `dynamic` section (pipeline::DeadlineDetect).
+struct DetectDeadlineConfig {
+  double detector_deadline_ms = 0.0;  // 0: one frame period of the source
+};
+
 struct DaemonConfig {
   std::string source_type = "replay";  // replay | aravis | v4l2
   // A camera source: how long to wait at start for an absent camera (0:
@@ -121,6 +127,7 @@ struct DaemonConfig {
   GeoConfig geo;
   config::SiteposeConfig sitepose;
   MapPersistenceConfig map;
+  DetectDeadlineConfig detect_deadline;
 };
 
 // The V4L2 source's options from source.v4l2 and source.wait_for_camera_s.

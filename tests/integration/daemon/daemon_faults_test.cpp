@@ -2,8 +2,11 @@
 // watchdog stops, LOST reaches every output, tracking resumes), LCM sends
 // that fail (counted, retried, nothing lost or doubled), a CAN sink that
 // fails (counted, resumed at the failed frame: no frame twice), a full disk
-// under the trajectory (never a half line).
+// under the trajectory (never a half line). And siteposed as a process:
+// a detector plugin that hangs (abandoned at its deadline, tracking goes
+// on).
 
+#include <cstdio>
 #include <lcm/lcm-cpp.hpp>
 
 #include "daemon_test_util.hpp"
@@ -11,6 +14,7 @@
 #include "sitepose/output/candump.hpp"
 #include "sitepose/output/lcm_messages.hpp"
 #include "sitepose/pipeline/replay_source.hpp"
+#include "sitepose/pose_t.hpp"
 #include "sitepose/testing/file_size_limit.hpp"
 #include "sitepose/testing/pipeline_fakes.hpp"
 
@@ -394,6 +398,93 @@ TEST(DaemonFaults, RestartAppendsWhileTimesContinueAndMovesTheFileWhenTheyGoBack
   }
   EXPECT_EQ(tum_times_ns(path + ".2").size(), 2u);
   EXPECT_EQ(tum_times_ns(path).size(), 1u);
+}
+
+// A counter "key=value" from the last line holding it.
+long last_counter(const std::string& log_path, const std::string& key) {
+  long value = -1;
+  for (const std::string& line : read_lines(log_path)) {
+    const std::size_t at = line.find(" " + key + "=");
+    if (at != std::string::npos) std::sscanf(line.c_str() + at + key.size() + 2, "%ld", &value);
+  }
+  return value;
+}
+
+std::string faults_config(const std::string& seq, const std::string& rate, const std::string& traj,
+                          const std::string& lcm_url, const std::string& extra) {
+  return "source:\n  replay: {sequence: \"" + seq + "\", rate: " + rate +
+         "}\n"
+         "pipeline: {stall_timeout_s: 2.0, publish_retry_delay_s: 0.01}\n"
+         "supervisor: {log_interval_s: 0.25}\n"
+         "outputs:\n  trajectory: {path: \"" +
+         traj + "\", append: false}\n  can: {enabled: false}\n" +
+         (lcm_url.empty() ? "  lcm: {enabled: false}\n" : "  lcm: {url: \"" + lcm_url + "\"}\n") + extra;
+}
+
+// issue 20: a detector plugin that stops returning. The call is abandoned at
+// its deadline (default: one frame period), counted; later frames are not
+// given to the busy detector; every frame is still tracked and published
+// (unmasked once the last boxes are 0.5 s old, so at most RECOVERING), the
+// detect stage never holds a frame much longer than the deadline, and the
+// daemon still ends cleanly.
+TEST(DaemonFaults, HangingDetectorIsAbandonedAtItsDeadlineAndTrackingGoesOn) {
+  const std::string seq = shared_sequence();  // 30 frames at 6 fps: deadline 166.7 ms
+  ASSERT_FALSE(seq.empty());
+  TempDir dir("hangingdetector");
+  const std::string config =
+      dir.write("d.yaml", faults_config(seq, "recorded", dir / "traj.tum",
+                                        "file://" + (dir / "poses.lcmlog") + "?mode=w",
+                                        "dynamic: {mode: bbox}\n"
+                                        "detector: {name: \"" SITEPOSE_SLOW_PLUGIN "\", model_config: "
+                                        "\"slow_from=6 slow_to=1000000 sleep_ms=-1\"}\n"));
+  Child child({SITEPOSED_EXE, "--config", config}, {}, dir / "stderr.txt");
+  const int status = child.wait(40s);
+  const std::string log = read_text(dir / "stderr.txt");
+  ASSERT_EQ(status, 0) << log;
+  EXPECT_NE(log.find("deadline 166.7 ms"), std::string::npos) << log;
+  EXPECT_EQ(last_counter(dir / "stderr.txt", "detect_timeouts"), 1) << log;
+  EXPECT_GE(last_counter(dir / "stderr.txt", "detect_skipped"), kSequenceFrames - 8) << log;
+  // Every frame captured went on: the rings before the track stage never
+  // overflowed behind the detect stage (capture -> detect drops 0); frames
+  // the tracker was too slow for on this machine are dropped and counted at
+  // the detect -> track ring; every tracked frame was published, in order.
+  long drops[3] = {-1, -1, -1};
+  for (const std::string& line : read_lines(dir / "stderr.txt")) {
+    const std::size_t at = line.find(" drops ");
+    if (line.find("health:") != std::string::npos && at != std::string::npos) {
+      std::sscanf(line.c_str() + at, " drops %ld/%ld/%ld", &drops[0], &drops[1], &drops[2]);
+    }
+  }
+  EXPECT_EQ(drops[0], 0) << log;
+  lcm::LogFile lcm_log(dir / "poses.lcmlog", "r");
+  ASSERT_TRUE(lcm_log.good());
+  std::vector<std::int64_t> seqs;
+  int after_hang = 0, not_ok_after_hang = 0;
+  while (const lcm::LogEvent* ev = lcm_log.readNextEvent()) {
+    if (ev->channel != "SITEPOSE_POSE") continue;
+    auto pose = output::decode_lcm<sitepose::pose_t>(ev->data, ev->datalen);
+    ASSERT_TRUE(pose);
+    EXPECT_TRUE(seqs.empty() || pose->seq > seqs.back());
+    seqs.push_back(pose->seq);
+    if (pose->seq < 10) continue;
+    ++after_hang;
+    if (pose->state != sitepose::pose_t::STATE_OK) ++not_ok_after_hang;
+  }
+  EXPECT_EQ(static_cast<long>(seqs.size()) + drops[1], kSequenceFrames) << log;
+  EXPECT_GT(after_hang, 10);
+  EXPECT_EQ(not_ok_after_hang, after_hang) << "unmasked frames are at most RECOVERING";
+  // The detect stage's slowest frames: the deadline, not the hang.
+  double detect_p99_ms = -1.0;
+  for (const std::string& line : read_lines(dir / "stderr.txt")) {
+    const std::size_t at = line.find(" detect[n=");
+    const std::size_t p99 = at == std::string::npos ? at : line.find("p99=", at);
+    if (p99 != std::string::npos) std::sscanf(line.c_str() + p99, "p99=%lfms", &detect_p99_ms);
+  }
+  std::printf("hanging detector: detect stage p99 %.1f ms (deadline 166.7 ms), timeouts %ld, skipped %ld\n",
+              detect_p99_ms, last_counter(dir / "stderr.txt", "detect_timeouts"),
+              last_counter(dir / "stderr.txt", "detect_skipped"));
+  EXPECT_GT(detect_p99_ms, 0.0);
+  EXPECT_LT(detect_p99_ms, 166.7 + 60.0);
 }
 
 }  // namespace

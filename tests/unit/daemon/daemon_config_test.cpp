@@ -84,7 +84,7 @@ TEST(DaemonConfig, DocumentedFileAgreesWithTheTable) {
           << entry.path << " = " << d.value << " (default " << entry.value << ")";
     }
   }
-  EXPECT_EQ(own, 2);  // mapping.map_file, mapping.checkpoint_interval_s
+  EXPECT_EQ(own, 3);  // mapping.map_file, mapping.checkpoint_interval_s, dynamic.detector_deadline_ms
 }
 
 TEST(DaemonConfig, ShippedFileLoadsAndWritesWhatReadsBackTheSame) {
