@@ -4,7 +4,13 @@
 // fails (counted, resumed at the failed frame: no frame twice), a full disk
 // under the trajectory (never a half line). And siteposed as a process:
 // a detector plugin that hangs (abandoned at its deadline, tracking goes
-// on).
+// on), LCM lost mid-run (the multicast route removed and restored in a
+// network namespace), the trajectory's disk full mid-run (a small tmpfs in
+// a mount namespace) - each counted in health, the daemon running on, and
+// resuming.
+
+#include <sched.h>
+#include <sys/mount.h>
 
 #include <cstdio>
 #include <lcm/lcm-cpp.hpp>
@@ -400,6 +406,37 @@ TEST(DaemonFaults, RestartAppendsWhileTimesContinueAndMovesTheFileWhenTheyGoBack
   EXPECT_EQ(tum_times_ns(path).size(), 1u);
 }
 
+// One output's counters from the last health line of a daemon log:
+// "name[ok=.. errors=.. retries=.. failed=..]".
+struct OutputCounts {
+  long ok = -1, errors = -1, retries = -1, failed = -1;
+};
+OutputCounts last_output_counts(const std::string& log_path, const std::string& name) {
+  OutputCounts c;
+  for (const std::string& line : read_lines(log_path)) {
+    if (line.find("health:") == std::string::npos) continue;
+    const std::size_t at = line.find(" " + name + "[ok=");
+    if (at == std::string::npos) continue;
+    std::sscanf(line.c_str() + at + name.size() + 1, "[ok=%ld errors=%ld retries=%ld failed=%ld]", &c.ok,
+                &c.errors, &c.retries, &c.failed);
+  }
+  return c;
+}
+
+// Poses that reached the publish stage: the frames captured less those
+// dropped at the rings ("drops a/b/c" of the last health line), e.g. when
+// this machine tracks slower than the live replay.
+long frames_published(const std::string& log_path, long captured) {
+  long drops[3] = {0, 0, 0};
+  for (const std::string& line : read_lines(log_path)) {
+    const std::size_t at = line.find(" drops ");
+    if (line.find("health:") != std::string::npos && at != std::string::npos) {
+      std::sscanf(line.c_str() + at, " drops %ld/%ld/%ld", &drops[0], &drops[1], &drops[2]);
+    }
+  }
+  return captured - drops[0] - drops[1] - drops[2];
+}
+
 // A counter "key=value" from the last line holding it.
 long last_counter(const std::string& log_path, const std::string& key) {
   long value = -1;
@@ -485,6 +522,128 @@ TEST(DaemonFaults, HangingDetectorIsAbandonedAtItsDeadlineAndTrackingGoesOn) {
               last_counter(dir / "stderr.txt", "detect_skipped"));
   EXPECT_GT(detect_p99_ms, 0.0);
   EXPECT_LT(detect_p99_ms, 166.7 + 60.0);
+}
+
+// issue 20: LCM lost mid-run. In a network namespace the multicast route
+// goes away for a while (sends fail: no route), then comes back. The
+// publish stage counts the errors and the poses it gave up on, the daemon
+// runs on, and poses arrive again after the route is back.
+TEST(DaemonFaults, LcmLostMidRunIsCountedAndPublishingResumes) {
+  const std::string seq = shared_sequence();
+  ASSERT_FALSE(seq.empty());
+  if (unshare(CLONE_NEWNET) != 0) GTEST_SKIP() << "unshare(CLONE_NEWNET): " << std::strerror(errno);
+  ASSERT_EQ(std::system("ip link set lo up && ip route add 224.0.0.0/4 dev lo"), 0);
+  TempDir dir("lcmlost");
+  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  lcm::LCM lcm(url);
+  ASSERT_TRUE(lcm.good());
+  std::mutex mutex;
+  std::vector<std::int64_t> received;
+  struct Handler {
+    std::mutex* mutex;
+    std::vector<std::int64_t>* received;
+    void on_pose(const lcm::ReceiveBuffer*, const std::string&, const sitepose::pose_t* m) {
+      std::lock_guard lock(*mutex);
+      received->push_back(m->seq);
+    }
+  } handler{&mutex, &received};
+  lcm.subscribe("SITEPOSE_POSE", &Handler::on_pose, &handler);
+  std::jthread receiver([&](const std::stop_token& stop) {
+    while (!stop.stop_requested()) lcm.handleTimeout(50);
+  });
+  auto count = [&] {
+    std::lock_guard lock(mutex);
+    return received.size();
+  };
+  const std::string config = dir.write("d.yaml", faults_config(seq, "recorded", dir / "traj.tum", url, ""));
+  Child child({SITEPOSED_EXE, "--config", config}, {}, dir / "stderr.txt");
+  ASSERT_TRUE(wait_for([&] { return count() >= 6; }, 30s, 20ms)) << read_text(dir / "stderr.txt");
+  ASSERT_EQ(std::system("ip route del 224.0.0.0/4 dev lo"), 0);
+  const std::size_t before = count();
+  std::this_thread::sleep_for(1500ms);  // the outage: about 9 frames
+  const std::size_t during = count() - before;
+  ASSERT_EQ(std::system("ip route add 224.0.0.0/4 dev lo"), 0);
+  const int status = child.wait(30s);
+  const std::string log = read_text(dir / "stderr.txt");
+  ASSERT_EQ(status, 0) << log;
+  receiver = {};
+  std::int64_t last = -1;
+  {
+    std::lock_guard lock(mutex);
+    if (!received.empty()) last = received.back();
+  }
+  const OutputCounts lcm_counts = last_output_counts(dir / "stderr.txt", "lcm");
+  const std::size_t total = count();
+  std::printf(
+      "LCM lost for 1.5 s: %zu poses received before, %zu during, %zu in all of %d; lcm[ok=%ld errors=%ld "
+      "failed=%ld]\n",
+      before, during, total, kSequenceFrames, lcm_counts.ok, lcm_counts.errors, lcm_counts.failed);
+  EXPECT_LE(during, 1u);  // at most one in flight when the route went
+  EXPECT_GE(lcm_counts.failed, 5);
+  EXPECT_GE(lcm_counts.errors, lcm_counts.failed);
+  const long published = frames_published(dir / "stderr.txt", kSequenceFrames);
+  EXPECT_EQ(lcm_counts.ok + lcm_counts.failed, published);
+  EXPECT_EQ(static_cast<long>(total), lcm_counts.ok);
+  EXPECT_EQ(last, kSequenceFrames - 1) << "publishing resumed up to the last frame";
+  expect_complete_tum_lines(read_lines(dir / "traj.tum"));
+  EXPECT_GE(static_cast<long>(read_lines(dir / "traj.tum").size()), published - 2)
+      << "the trajectory is not held up by LCM";
+}
+
+// issue 20: the trajectory's disk full mid-run, for real: ENOSPC on a small
+// tmpfs in a mount namespace of this test, filled up but one page before the
+// daemon starts, so the trajectory fills it after about 50 lines. The daemon
+// runs on, health counts the poses it could not write, the file never holds
+// a half line, and writing resumes when space returns.
+TEST(DaemonFaults, TrajectoryDiskFullIsCountedAndWritingResumesWithWholeLines) {
+  constexpr int kFrames = 60;  // 10 s live; about 85 bytes a line
+  const std::string seq = simulated_sequence("static", kFrames);
+  ASSERT_FALSE(seq.empty());
+  TempDir dir("diskfull");
+  const std::string mnt = dir / "fs";
+  fs::create_directories(mnt);
+  if (unshare(CLONE_NEWNS) != 0) GTEST_SKIP() << "unshare(CLONE_NEWNS): " << std::strerror(errno);
+  ASSERT_EQ(mount("none", "/", nullptr, MS_REC | MS_PRIVATE, nullptr), 0) << std::strerror(errno);
+  ASSERT_EQ(mount("sitepose-test", mnt.c_str(), "tmpfs", 0, "size=64k"), 0) << std::strerror(errno);
+  const std::string filler = mnt + "/filler";
+  {  // every page but one taken
+    const int fd = open(filler.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ASSERT_GE(fd, 0);
+    const std::string block(4096, 'x');
+    off_t size = 0;
+    for (ssize_t n; (n = write(fd, block.data(), block.size())) > 0;) size += n;
+    ASSERT_GE(size, 4096);
+    ASSERT_EQ(ftruncate(fd, size - 4096), 0);
+    close(fd);
+  }
+  const std::string traj = mnt + "/traj.tum";
+  const std::string config = dir.write("d.yaml", faults_config(seq, "recorded", traj, "", ""));
+  Child child({SITEPOSED_EXE, "--config", config}, {}, dir / "stderr.txt");
+  // Full: poses fail (counted in health) and the file stops growing.
+  ASSERT_TRUE(
+      wait_for([&] { return last_output_counts(dir / "stderr.txt", "trajectory").failed >= 3; }, 30s, 20ms))
+      << read_text(dir / "stderr.txt");
+  const std::size_t at_full = read_lines(traj).size();
+  expect_complete_tum_lines(read_lines(traj));
+  fs::remove(filler);  // space returns
+  const int status = child.wait(30s);
+  const std::string log = read_text(dir / "stderr.txt");
+  ASSERT_EQ(status, 0) << log;
+  const auto lines = read_lines(traj);
+  expect_complete_tum_lines(lines);
+  auto parsed = io::read_tum_trajectory(traj);
+  ASSERT_TRUE(parsed) << parsed.error().message;
+  const OutputCounts c = last_output_counts(dir / "stderr.txt", "trajectory");
+  std::printf("disk full after %zu lines: %zu lines in the end; trajectory[ok=%ld errors=%ld failed=%ld]\n",
+              at_full, lines.size(), c.ok, c.errors, c.failed);
+  EXPECT_GE(c.failed, 3);
+  EXPECT_EQ(c.ok + c.failed, frames_published(dir / "stderr.txt", kFrames));
+  EXPECT_LE(static_cast<long>(lines.size()), c.ok);  // LOST poses are published, not written
+  EXPECT_GE(static_cast<long>(lines.size()), c.ok - 2);
+  EXPECT_GT(lines.size(), at_full) << "writing resumed when space returned";
+  const auto times = io::read_times(seq + "/times.txt");
+  ASSERT_TRUE(times);
+  EXPECT_NEAR(parsed->back().t_s, times->back(), 1e-6) << "the last frame was written";
 }
 
 }  // namespace
