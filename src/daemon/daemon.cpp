@@ -146,10 +146,14 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
   SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config.sitepose, context));
   std::string deadline_text;
   if (config.sitepose.dynamic.mode != config::MaskingMode::kNone) {
+    // Default: one frame period of a live source. A replay at rate max is
+    // lossless and has no period to keep up with: a generous bound keeps its
+    // results independent of this machine's load while a hang still ends.
+    constexpr double kLosslessDeadlineMs = 5000.0;
     const double fps = source->frame_rate_hz() > 0.0 ? source->frame_rate_hz() : 30.0;
     const double deadline_ms = config.detect_deadline.detector_deadline_ms > 0.0
                                    ? config.detect_deadline.detector_deadline_ms
-                                   : 1000.0 / fps;
+                                   : (source->live() ? 1000.0 / fps : kLosslessDeadlineMs);
     auto bounded = std::make_unique<pipeline::DeadlineDetect>(
         std::move(detect_hook), std::chrono::nanoseconds(std::llround(deadline_ms * 1e6)));
     d->deadline_detect_ = bounded.get();

@@ -108,7 +108,7 @@ struct MapPersistenceConfig {
 // dynamic.detector_deadline_ms: siteposed's own key in the sitepose
 // `dynamic` section (pipeline::DeadlineDetect).
 struct DetectDeadlineConfig {
-  double detector_deadline_ms = 0.0;  // 0: one frame period of the source
+  double detector_deadline_ms = 0.0;  // 0: one frame period of a live source, 5 s for a lossless replay
 };
 
 struct DaemonConfig {
