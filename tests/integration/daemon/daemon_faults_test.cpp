@@ -423,20 +423,6 @@ OutputCounts last_output_counts(const std::string& log_path, const std::string& 
   return c;
 }
 
-// Poses that reached the publish stage: the frames captured less those
-// dropped at the rings ("drops a/b/c" of the last health line), e.g. when
-// this machine tracks slower than the live replay.
-long frames_published(const std::string& log_path, long captured) {
-  long drops[3] = {0, 0, 0};
-  for (const std::string& line : read_lines(log_path)) {
-    const std::size_t at = line.find(" drops ");
-    if (line.find("health:") != std::string::npos && at != std::string::npos) {
-      std::sscanf(line.c_str() + at, " drops %ld/%ld/%ld", &drops[0], &drops[1], &drops[2]);
-    }
-  }
-  return captured - drops[0] - drops[1] - drops[2];
-}
-
 // A counter "key=value" from the last line holding it.
 long last_counter(const std::string& log_path, const std::string& key) {
   long value = -1;
@@ -525,9 +511,10 @@ TEST(DaemonFaults, HangingDetectorIsAbandonedAtItsDeadlineAndTrackingGoesOn) {
 }
 
 // issue 20: LCM lost mid-run. In a network namespace the multicast route
-// goes away for a while (sends fail: no route), then comes back. The
-// publish stage counts the errors and the poses it gave up on, the daemon
-// runs on, and poses arrive again after the route is back.
+// goes away (sends fail: no route) until the publish stage has given up on
+// a few poses, then comes back. The errors and the poses given up are
+// counted in health, the daemon runs on, and poses arrive again. The replay
+// loops (live, 6 fps), so a slow machine only makes each phase longer.
 TEST(DaemonFaults, LcmLostMidRunIsCountedAndPublishingResumes) {
   const std::string seq = shared_sequence();
   ASSERT_FALSE(seq.empty());
@@ -555,49 +542,48 @@ TEST(DaemonFaults, LcmLostMidRunIsCountedAndPublishingResumes) {
     std::lock_guard lock(mutex);
     return received.size();
   };
-  const std::string config = dir.write("d.yaml", faults_config(seq, "recorded", dir / "traj.tum", url, ""));
-  Child child({SITEPOSED_EXE, "--config", config}, {}, dir / "stderr.txt");
-  ASSERT_TRUE(wait_for([&] { return count() >= 6; }, 30s, 20ms)) << read_text(dir / "stderr.txt");
+  const std::string log_path = dir / "stderr.txt";
+  const std::string config =
+      dir.write("d.yaml", faults_config(seq, "recorded, loop: true", dir / "traj.tum", url, ""));
+  Child child({SITEPOSED_EXE, "--config", config}, {}, log_path);
+  ASSERT_TRUE(wait_for([&] { return count() >= 6; }, 30s, 20ms)) << read_text(log_path);
   ASSERT_EQ(std::system("ip route del 224.0.0.0/4 dev lo"), 0);
   const std::size_t before = count();
-  std::this_thread::sleep_for(1500ms);  // the outage: about 9 frames
+  const bool gave_up = wait_for([&] { return last_output_counts(log_path, "lcm").failed >= 3; }, 60s, 50ms);
   const std::size_t during = count() - before;
+  const OutputCounts at_restore = last_output_counts(log_path, "lcm");
   ASSERT_EQ(std::system("ip route add 224.0.0.0/4 dev lo"), 0);
-  const int status = child.wait(30s);
-  const std::string log = read_text(dir / "stderr.txt");
-  ASSERT_EQ(status, 0) << log;
+  ASSERT_TRUE(gave_up) << read_text(log_path);
+  const bool resumed = wait_for([&] { return count() >= before + during + 3; }, 60s, 20ms);
+  kill(child.pid(), SIGTERM);
+  const int status = child.wait(10s);
   receiver = {};
-  std::int64_t last = -1;
-  {
-    std::lock_guard lock(mutex);
-    if (!received.empty()) last = received.back();
-  }
-  const OutputCounts lcm_counts = last_output_counts(dir / "stderr.txt", "lcm");
-  const std::size_t total = count();
+  const std::string log = read_text(log_path);
+  ASSERT_EQ(status, 0) << log;
+  const OutputCounts lcm_counts = last_output_counts(log_path, "lcm");
   std::printf(
-      "LCM lost for 1.5 s: %zu poses received before, %zu during, %zu in all of %d; lcm[ok=%ld errors=%ld "
-      "failed=%ld]\n",
-      before, during, total, kSequenceFrames, lcm_counts.ok, lcm_counts.errors, lcm_counts.failed);
+      "LCM lost: %zu poses received before, %zu during the outage (lcm[failed=%ld errors=%ld] then), %zu in "
+      "all; at the end lcm[ok=%ld errors=%ld failed=%ld]\n",
+      before, during, at_restore.failed, at_restore.errors, count(), lcm_counts.ok, lcm_counts.errors,
+      lcm_counts.failed);
+  EXPECT_TRUE(resumed) << "no poses after the route came back";
   EXPECT_LE(during, 1u);  // at most one in flight when the route went
-  EXPECT_GE(lcm_counts.failed, 5);
+  EXPECT_GE(lcm_counts.failed, 3);
   EXPECT_GE(lcm_counts.errors, lcm_counts.failed);
-  const long published = frames_published(dir / "stderr.txt", kSequenceFrames);
-  EXPECT_EQ(lcm_counts.ok + lcm_counts.failed, published);
-  EXPECT_EQ(static_cast<long>(total), lcm_counts.ok);
-  EXPECT_EQ(last, kSequenceFrames - 1) << "publishing resumed up to the last frame";
+  EXPECT_EQ(static_cast<long>(count()), lcm_counts.ok);
   expect_complete_tum_lines(read_lines(dir / "traj.tum"));
-  EXPECT_GE(static_cast<long>(read_lines(dir / "traj.tum").size()), published - 2)
+  EXPECT_GE(static_cast<long>(read_lines(dir / "traj.tum").size()), lcm_counts.ok - 2)
       << "the trajectory is not held up by LCM";
 }
 
 // issue 20: the trajectory's disk full mid-run, for real: ENOSPC on a small
 // tmpfs in a mount namespace of this test, filled up but one page before the
-// daemon starts, so the trajectory fills it after about 50 lines. The daemon
+// daemon starts, so the trajectory fills it after about 48 lines. The daemon
 // runs on, health counts the poses it could not write, the file never holds
-// a half line, and writing resumes when space returns.
+// a half line, and writing resumes when space returns. The replay loops
+// (live, 6 fps), so a slow machine only makes each phase longer.
 TEST(DaemonFaults, TrajectoryDiskFullIsCountedAndWritingResumesWithWholeLines) {
-  constexpr int kFrames = 60;  // 10 s live; about 85 bytes a line
-  const std::string seq = simulated_sequence("static", kFrames);
+  const std::string seq = shared_sequence();
   ASSERT_FALSE(seq.empty());
   TempDir dir("diskfull");
   const std::string mnt = dir / "fs";
@@ -617,33 +603,32 @@ TEST(DaemonFaults, TrajectoryDiskFullIsCountedAndWritingResumesWithWholeLines) {
     close(fd);
   }
   const std::string traj = mnt + "/traj.tum";
-  const std::string config = dir.write("d.yaml", faults_config(seq, "recorded", traj, "", ""));
-  Child child({SITEPOSED_EXE, "--config", config}, {}, dir / "stderr.txt");
+  const std::string log_path = dir / "stderr.txt";
+  const std::string config = dir.write("d.yaml", faults_config(seq, "recorded, loop: true", traj, "", ""));
+  Child child({SITEPOSED_EXE, "--config", config}, {}, log_path);
   // Full: poses fail (counted in health) and the file stops growing.
-  ASSERT_TRUE(
-      wait_for([&] { return last_output_counts(dir / "stderr.txt", "trajectory").failed >= 3; }, 30s, 20ms))
-      << read_text(dir / "stderr.txt");
-  const std::size_t at_full = read_lines(traj).size();
-  expect_complete_tum_lines(read_lines(traj));
+  ASSERT_TRUE(wait_for([&] { return last_output_counts(log_path, "trajectory").failed >= 3; }, 90s, 50ms))
+      << read_text(log_path);
+  const auto at_full = read_lines(traj);
+  expect_complete_tum_lines(at_full);
   fs::remove(filler);  // space returns
-  const int status = child.wait(30s);
-  const std::string log = read_text(dir / "stderr.txt");
+  const bool resumed = wait_for([&] { return read_lines(traj).size() >= at_full.size() + 3; }, 60s, 20ms);
+  kill(child.pid(), SIGTERM);
+  const int status = child.wait(10s);
+  const std::string log = read_text(log_path);
   ASSERT_EQ(status, 0) << log;
   const auto lines = read_lines(traj);
   expect_complete_tum_lines(lines);
   auto parsed = io::read_tum_trajectory(traj);
   ASSERT_TRUE(parsed) << parsed.error().message;
-  const OutputCounts c = last_output_counts(dir / "stderr.txt", "trajectory");
+  const OutputCounts c = last_output_counts(log_path, "trajectory");
   std::printf("disk full after %zu lines: %zu lines in the end; trajectory[ok=%ld errors=%ld failed=%ld]\n",
-              at_full, lines.size(), c.ok, c.errors, c.failed);
+              at_full.size(), lines.size(), c.ok, c.errors, c.failed);
+  EXPECT_TRUE(resumed) << "writing did not resume when space returned";
   EXPECT_GE(c.failed, 3);
-  EXPECT_EQ(c.ok + c.failed, frames_published(dir / "stderr.txt", kFrames));
+  EXPECT_GE(c.errors, c.failed);
   EXPECT_LE(static_cast<long>(lines.size()), c.ok);  // LOST poses are published, not written
   EXPECT_GE(static_cast<long>(lines.size()), c.ok - 2);
-  EXPECT_GT(lines.size(), at_full) << "writing resumed when space returned";
-  const auto times = io::read_times(seq + "/times.txt");
-  ASSERT_TRUE(times);
-  EXPECT_NEAR(parsed->back().t_s, times->back(), 1e-6) << "the last frame was written";
 }
 
 }  // namespace
