@@ -44,7 +44,7 @@ std::string anchor_mismatch(const mapfile::SiteAnchorRecord& saved,
 // <path>.bad-<n>, the first n that is free; empty when the rename failed.
 std::string move_aside(const std::string& path) {
   for (int n = 1; n < 10000; ++n) {
-    const std::string target = path + ".bad-" + std::to_string(n);
+    std::string target = path + ".bad-" + std::to_string(n);
     std::error_code ec;
     if (fs::exists(fs::symlink_status(target, ec))) continue;
     fs::rename(path, target, ec);
