@@ -2,6 +2,8 @@
 // test plugin fuzz_plugin.c returns the fuzzer's bytes as its capabilities,
 // return code, count, detections and mask; the host's checked copies must
 // keep what detector.hpp promises.
+#include <dlfcn.h>
+
 #include <set>
 
 #include <opencv2/core.hpp>
@@ -13,6 +15,11 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace sitepose;
+  // Loaded once for good: under libFuzzer the plugin registers its coverage
+  // counters when loaded, and the loader's dlclose() after each input would
+  // unmap them under the fuzzer's feet (a SEGV in libFuzzer's own loop).
+  static void* const keep_loaded = dlopen(SITEPOSE_FUZZ_PLUGIN, RTLD_NOW | RTLD_NODELETE);
+  (void)keep_loaded;
   static const char* kHex = "0123456789abcdef";
   std::string config = "hex: ";
   for (std::size_t i = 0; i < size; ++i) {
