@@ -81,6 +81,31 @@ Status check_detector(const DaemonConfig& config, std::optional<StereoCamera> ca
   return ok_status();
 }
 
+// The site map kept in mapping.map_file: loaded into the tracker now,
+// saved by the returned store.
+std::unique_ptr<MapStore> open_map_store(const DaemonConfig& config, pipeline::SlamPoseTracker& tracker) {
+  pipeline::SlamPoseTracker* t = &tracker;
+  const auto anchor = site_anchor_record(config.geo);
+  const MapLoadOutcome loaded = load_site_map(config.map.map_file, anchor,
+                                              [t](map::MapData map) { return t->load_map(std::move(map)); });
+  auto store = std::make_unique<MapStore>(config.map, anchor, [t] { return t->copy_map(); });
+  if (!loaded.refused_why.empty() && loaded.moved_to.empty()) {
+    store->disable("not saving over the refused map file " + config.map.map_file);
+  }
+  return store;
+}
+
+// dynamic.detector_deadline_ms, or its default: one frame period of a live
+// source. A replay at rate max is lossless and has no period to keep up
+// with: a generous bound keeps its results independent of this machine's
+// load while a hang still ends.
+double detector_deadline_ms(const DaemonConfig& config, const pipeline::FrameSource& source) {
+  constexpr double kLosslessDeadlineMs = 5000.0;
+  if (config.detect_deadline.detector_deadline_ms > 0.0) return config.detect_deadline.detector_deadline_ms;
+  const double fps = source.frame_rate_hz() > 0.0 ? source.frame_rate_hz() : 30.0;
+  return source.live() ? 1000.0 / fps : kLosslessDeadlineMs;
+}
+
 Status check_output(bool enabled, const std::string& key, const std::string& path) {
   if (!enabled) return ok_status();
   auto st = io::check_output_path(path);
@@ -130,30 +155,14 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
   SITEPOSE_TRY(auto tracker,
                pipeline::SlamPoseTracker::create(camera, config.sitepose, source->frame_rate_hz()));
   d->tracker_ = tracker.get();
-  if (!config.map.map_file.empty()) {
-    pipeline::SlamPoseTracker* t = tracker.get();
-    const auto anchor = site_anchor_record(config.geo);
-    const MapLoadOutcome loaded = load_site_map(
-        config.map.map_file, anchor, [t](map::MapData map) { return t->load_map(std::move(map)); });
-    d->map_store_ = std::make_unique<MapStore>(config.map, anchor, [t] { return t->copy_map(); });
-    if (!loaded.refused_why.empty() && loaded.moved_to.empty()) {
-      d->map_store_->disable("not saving over the refused map file " + config.map.map_file);
-    }
-  }
+  if (!config.map.map_file.empty()) d->map_store_ = open_map_store(config, *tracker);
   detect::DetectorContext context;
   if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
   context.camera = camera;
   SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config.sitepose, context));
   std::string deadline_text;
   if (config.sitepose.dynamic.mode != config::MaskingMode::kNone) {
-    // Default: one frame period of a live source. A replay at rate max is
-    // lossless and has no period to keep up with: a generous bound keeps its
-    // results independent of this machine's load while a hang still ends.
-    constexpr double kLosslessDeadlineMs = 5000.0;
-    const double fps = source->frame_rate_hz() > 0.0 ? source->frame_rate_hz() : 30.0;
-    const double deadline_ms = config.detect_deadline.detector_deadline_ms > 0.0
-                                   ? config.detect_deadline.detector_deadline_ms
-                                   : (source->live() ? 1000.0 / fps : kLosslessDeadlineMs);
+    const double deadline_ms = detector_deadline_ms(config, *source);
     auto bounded = std::make_unique<pipeline::DeadlineDetect>(
         std::move(detect_hook), std::chrono::nanoseconds(std::llround(deadline_ms * 1e6)));
     d->deadline_detect_ = bounded.get();
