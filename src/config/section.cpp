@@ -1,6 +1,7 @@
 #include "sitepose/config/section.hpp"
 
 #include <algorithm>
+#include <iterator>
 #include <unordered_map>
 
 namespace sitepose::config {
@@ -63,9 +64,41 @@ void YamlWriter::begin_section(std::string_view key) {
   path_.emplace_back(key);
 }
 
+namespace {
+
+// The section whose header is entries[begin] (its entries follow to the
+// end) into an earlier one of the same path, if there is one: its entries
+// go after the earlier one's, its header goes.
+void merge_repeated_section(std::vector<YamlEntry>& entries, std::size_t begin) {
+  const YamlEntry& header = entries[begin];
+  if (header.absent) return;
+  for (std::size_t i = 0; i < begin; ++i) {
+    if (!entries[i].section || entries[i].absent || entries[i].path != header.path) continue;
+    std::size_t end = i + 1;
+    while (end < begin && entries[end].depth > entries[i].depth) ++end;
+    const auto first = entries.begin() + static_cast<std::ptrdiff_t>(begin);
+    std::vector<YamlEntry> moved(std::make_move_iterator(first + 1), std::make_move_iterator(entries.end()));
+    entries.erase(first, entries.end());
+    entries.insert(entries.begin() + static_cast<std::ptrdiff_t>(end), std::make_move_iterator(moved.begin()),
+                   std::make_move_iterator(moved.end()));
+    return;
+  }
+}
+
+}  // namespace
+
 void YamlWriter::end_section() {
   if (absent_depth_ == static_cast<int>(path_.size())) absent_depth_ = 0;
+  std::string path;
+  for (const std::string& part : path_) path += (path.empty() ? "" : ".") + part;
+  const int depth = static_cast<int>(path_.size()) - 1;
   path_.pop_back();
+  for (std::size_t i = entries_.size(); i-- > 0;) {
+    if (entries_[i].section && entries_[i].depth == depth && entries_[i].path == path) {
+      merge_repeated_section(entries_, i);
+      break;
+    }
+  }
 }
 
 bool YamlWriter::absent_section(std::string_view key, std::string note) {

@@ -81,6 +81,31 @@ Status check_detector(const DaemonConfig& config, std::optional<StereoCamera> ca
   return ok_status();
 }
 
+// The site map kept in mapping.map_file: loaded into the tracker now,
+// saved by the returned store.
+std::unique_ptr<MapStore> open_map_store(const DaemonConfig& config, pipeline::SlamPoseTracker& tracker) {
+  pipeline::SlamPoseTracker* t = &tracker;
+  const auto anchor = site_anchor_record(config.geo);
+  const MapLoadOutcome loaded = load_site_map(config.map.map_file, anchor,
+                                              [t](map::MapData map) { return t->load_map(std::move(map)); });
+  auto store = std::make_unique<MapStore>(config.map, anchor, [t] { return t->copy_map(); });
+  if (!loaded.refused_why.empty() && loaded.moved_to.empty()) {
+    store->disable("not saving over the refused map file " + config.map.map_file);
+  }
+  return store;
+}
+
+// dynamic.detector_deadline_ms, or its default: one frame period of a live
+// source. A replay at rate max is lossless and has no period to keep up
+// with: a generous bound keeps its results independent of this machine's
+// load while a hang still ends.
+double detector_deadline_ms(const DaemonConfig& config, const pipeline::FrameSource& source) {
+  constexpr double kLosslessDeadlineMs = 5000.0;
+  if (config.detect_deadline.detector_deadline_ms > 0.0) return config.detect_deadline.detector_deadline_ms;
+  const double fps = source.frame_rate_hz() > 0.0 ? source.frame_rate_hz() : 30.0;
+  return source.live() ? 1000.0 / fps : kLosslessDeadlineMs;
+}
+
 Status check_output(bool enabled, const std::string& key, const std::string& path) {
   if (!enabled) return ok_status();
   auto st = io::check_output_path(path);
@@ -116,6 +141,7 @@ Status check_startable(const DaemonConfig& config) {
                                    "outputs.can.path", config.can.path));
   SITEPOSE_TRY_STATUS(
       check_output(config.trajectory.enabled, "outputs.trajectory.path", config.trajectory.path));
+  SITEPOSE_TRY_STATUS(check_output(!config.map.map_file.empty(), "mapping.map_file", config.map.map_file));
   return ok_status();
 }
 
@@ -131,12 +157,22 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
   SITEPOSE_TRY(auto tracker,
                pipeline::SlamPoseTracker::create(camera, config.sitepose, source->frame_rate_hz()));
   d->tracker_ = tracker.get();
+  if (!config.map.map_file.empty()) d->map_store_ = open_map_store(config, *tracker);
   detect::DetectorContext context;
   if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
   context.camera = camera;
   SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config.sitepose, context));
-  spdlog::info("detect stage: {}, dynamic.mode {}", detect_hook->name(),
-               config::to_string(config.sitepose.dynamic.mode));
+  std::string deadline_text;
+  if (config.sitepose.dynamic.mode != config::MaskingMode::kNone) {
+    const double deadline_ms = detector_deadline_ms(config, *source);
+    auto bounded = std::make_unique<pipeline::DeadlineDetect>(
+        std::move(detect_hook), std::chrono::nanoseconds(std::llround(deadline_ms * 1e6)));
+    d->deadline_detect_ = bounded.get();
+    detect_hook = std::move(bounded);
+    deadline_text = fmt::format(", deadline {:.1f} ms", deadline_ms);
+  }
+  spdlog::info("detect stage: {}, dynamic.mode {}{}", detect_hook->name(),
+               config::to_string(config.sitepose.dynamic.mode), deadline_text);
 
   SITEPOSE_TRY(d->anchoring_, Anchoring::create(config.geo, publish_options(config)));
   if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kNmeaFile) {
@@ -192,7 +228,8 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
 }
 
 Daemon::~Daemon() {
-  gnss_thread_ = {};  // stop and join before the anchoring goes
+  gnss_thread_ = {};                   // stop and join before the anchoring goes
+  if (map_store_) map_store_->stop();  // before the tracker it copies from
   pipeline_.reset();
 }
 
@@ -215,17 +252,37 @@ void Daemon::log_health(const pipeline::PipelineHealth& h) const {
   std::string fallbacks;
   if (tracker_ != nullptr && config_.sitepose.dynamic.mode != config::MaskingMode::kNone) {
     const pipeline::TrackerFallbackCounters f = tracker_->fallback_counters();
-    fallbacks =
-        fmt::format(" dynamic[detect_errors={} reused_boxes={} unmasked={} box_for_pixel_mask={}]",
-                    h.detect_errors, f.reused_detections, f.tracked_unmasked, f.box_mask_for_pixel_mask);
+    const pipeline::DetectDeadlineCounters d =
+        deadline_detect_ != nullptr ? deadline_detect_->counters() : pipeline::DetectDeadlineCounters{};
+    fallbacks = fmt::format(
+        " dynamic[detect_errors={} reused_boxes={} unmasked={} box_for_pixel_mask={} detect_timeouts={} "
+        "detect_skipped={} detect_late={}]",
+        h.detect_errors, f.reused_detections, f.tracked_unmasked, f.box_mask_for_pixel_mask, d.timeouts,
+        d.skipped_busy, d.late_returns);
   }
   std::string can_bus;
   if (socketcan_ != nullptr) {
     can_bus =
         " can_bus[" + drivers::socketcan::format_stats(config_.can.interface, socketcan_->stats()) + "]";
   }
-  spdlog::info("health: {} captured={} stalls={} track_errors={} |{} |{}{}{}{}", pipeline::format_status(h),
-               h.frames_captured, h.stalls, h.track_errors, stages, outputs, anchor, fallbacks, can_bus);
+  const std::string map =
+      map_store_ ? " " + format_map_stats(map_store_->stats(), pipeline::SteadyClock::now()) : std::string();
+  spdlog::info("health: {} captured={} stalls={} track_errors={} |{} |{}{}{}{}{}", pipeline::format_status(h),
+               h.frames_captured, h.stalls, h.track_errors, stages, outputs, anchor, fallbacks, can_bus, map);
+}
+
+// After the pipeline has stopped (the mapper finished): the last word of the
+// map, whatever stopped the run.
+void Daemon::save_map_at_stop() {
+  if (!map_store_) return;
+  map_store_->stop();
+  if (auto st = map_store_->save_now(); !st) {
+    spdlog::error("map: save at stop failed: {}", st.error().message);
+    return;
+  }
+  const MapStoreStats s = map_store_->stats();
+  spdlog::info("map: saved {} at stop: {} keyframes, {} points, copy {:.1f} ms, write {:.1f} ms ({} saves)",
+               config_.map.map_file, s.keyframes, s.points, s.last_copy_ms, s.last_write_ms, s.saves);
 }
 
 int Daemon::run(const sigset_t& stop_signals) {
@@ -253,6 +310,7 @@ int Daemon::run(const sigset_t& stop_signals) {
     }
   };
   pipeline_->start();
+  if (map_store_) map_store_->start();
   const auto tick = supervisor.tick_interval();
   bool stopped_by_signal = false;
   for (;;) {
@@ -283,6 +341,7 @@ int Daemon::run(const sigset_t& stop_signals) {
     if (pipeline_->finished()) break;
   }
   const Status st = pipeline_->wait();
+  save_map_at_stop();
   const pipeline::PipelineHealth h = pipeline_->health();
   log_health(h);
   if (!stopped_by_signal) notify(notifier_.stopping(st ? "source ended" : "source failed"));

@@ -448,6 +448,24 @@ Section<GeoConfig> geo_section() {
   return s;
 }
 
+// ---- siteposed's keys in sitepose sections -----------------------------------
+
+Section<MapPersistenceConfig> map_persistence_section() {
+  using M = MapPersistenceConfig;
+  Section<M> s;
+  s.key("map_file", &M::map_file)
+      .key("checkpoint_interval_s", &M::checkpoint_interval_s,
+           make_rule([](double v) { return v == 0.0 || (v >= 0.1 && v <= 86400.0); },
+                     "must be 0 (only at stop) or in [0.1, 86400]"));
+  return s;
+}
+
+Section<DetectDeadlineConfig> detect_deadline_section() {
+  Section<DetectDeadlineConfig> s;
+  s.key("detector_deadline_ms", &DetectDeadlineConfig::detector_deadline_ms, in_range(0.0, 60000.0));
+  return s;
+}
+
 // ---- the file ---------------------------------------------------------------
 
 Section<DaemonConfig> make_daemon_sections() {
@@ -458,6 +476,9 @@ Section<DaemonConfig> make_daemon_sections() {
       .group("outputs", outputs_group())
       .section("geo", &DaemonConfig::geo, geo_section())
       .embed(&DaemonConfig::sitepose, config::sitepose_sections())
+      // After the sitepose sections: written into their `mapping` (YamlWriter reopens it).
+      .section("mapping", &DaemonConfig::map, map_persistence_section())
+      .section("dynamic", &DaemonConfig::detect_deadline, detect_deadline_section())
       .check([](const ReadKeys& keys, const DaemonConfig& c) {
         if (c.can.enabled && c.geo.mode == GeoMode::kNone) {
           keys.map().map("outputs").map("can").report(
@@ -499,8 +520,9 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text, c
   DaemonConfig c;
   daemon_sections().read(reader.root(), c);
   SITEPOSE_TRY_STATUS(reader.finish());
-  for (std::string* path : {&c.replay.sequence_dir, &c.aravis.calibration, &c.v4l2.options.calibration_file,
-                            &c.trajectory.path, &c.can.path, &c.geo.nmea_file, &c.geo.geoid}) {
+  for (std::string* path :
+       {&c.replay.sequence_dir, &c.aravis.calibration, &c.v4l2.options.calibration_file, &c.trajectory.path,
+        &c.can.path, &c.geo.nmea_file, &c.geo.geoid, &c.map.map_file}) {
     *path = resolve(base_dir, *path);
   }
   c.geo.anchor = anchor_options(c.geo);

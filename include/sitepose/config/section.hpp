@@ -66,6 +66,10 @@ class YamlWriter {
 
   void value(std::string_view key, std::string text);
   void begin_section(std::string_view key);
+  // A section written a second time at the same place (a file adding its
+  // own keys to another file's section, siteposed's `mapping`) is merged
+  // into the first when it ends: its keys follow the first one's, and the
+  // text holds the section once.
   void end_section();
   // An optional section that is not set. Returns whether its keys are to
   // follow (expand_absent); then end_section() closes it.

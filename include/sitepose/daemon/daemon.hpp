@@ -3,7 +3,9 @@
 // the outputs from a validated DaemonConfig, runs the pipeline and talks to
 // systemd (READY after the first source frame, STATUS lines, WATCHDOG only
 // while frames flow and the track stage progresses, STOPPING on a stop
-// signal), logging health periodically.
+// signal), logging health periodically. With mapping.map_file it starts in
+// the saved site map and keeps it saved (MapStore: checkpoints, and one
+// save after the pipeline stopped, on SIGTERM or at the source's end).
 // Threads: create() and run() on the main thread, which must have blocked
 // the stop signals (SIGTERM, SIGINT) before any thread was started, so that
 // only run()'s sigtimedwait() receives them. A GNSS receiving thread runs
@@ -15,9 +17,11 @@
 #include <thread>
 
 #include "sitepose/daemon/daemon_config.hpp"
+#include "sitepose/daemon/map_store.hpp"
 #include "sitepose/daemon/outputs.hpp"
 #include "sitepose/drivers/socketcan/socketcan_sink.hpp"
 #include "sitepose/output/lcm_gnss_subscriber.hpp"
+#include "sitepose/pipeline/detect_deadline.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"
 #include "sitepose/pipeline/systemd_notify.hpp"
@@ -67,6 +71,7 @@ class Daemon {
  private:
   explicit Daemon(const DaemonConfig& config) : config_(config) {}
   void log_health(const pipeline::PipelineHealth& health) const;
+  void save_map_at_stop();
 
   DaemonConfig config_;
   pipeline::SystemdNotifier notifier_;
@@ -76,6 +81,8 @@ class Daemon {
   std::unique_ptr<pipeline::Pipeline> pipeline_;                  // owns source, tracker, outputs
   const pipeline::SlamPoseTracker* tracker_ = nullptr;            // owned by pipeline_ (counters only)
   const drivers::socketcan::SocketCanSink* socketcan_ = nullptr;  // owned by pipeline_ (stats only)
+  const pipeline::DeadlineDetect* deadline_detect_ = nullptr;     // owned by pipeline_ (counters only)
+  std::unique_ptr<MapStore> map_store_;                           // copies from tracker_: stopped first
   std::jthread gnss_thread_;                                      // joined first (declared last)
 };
 

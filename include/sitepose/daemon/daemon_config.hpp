@@ -110,6 +110,21 @@ struct V4l2SourceConfig {
   double pair_tolerance_ms = 5.0;
 };
 
+// mapping.map_file, mapping.checkpoint_interval_s: siteposed's own keys in
+// the sitepose `mapping` section (MapStore, map_store.hpp).
+struct MapPersistenceConfig {
+  // The site map kept between runs; empty: none (each start a new map).
+  // The shipped file sets /var/lib/siteposed/site.map (StateDirectory=).
+  std::string map_file;
+  double checkpoint_interval_s = 300.0;  // periodic save while running; 0 = only at stop
+};
+
+// dynamic.detector_deadline_ms: siteposed's own key in the sitepose
+// `dynamic` section (pipeline::DeadlineDetect).
+struct DetectDeadlineConfig {
+  double detector_deadline_ms = 0.0;  // 0: one frame period of a live source, 5 s for a lossless replay
+};
+
 struct DaemonConfig {
   std::string source_type = "replay";  // replay | aravis | v4l2
   // A camera source: how long to wait at start for an absent camera (0:
@@ -128,6 +143,8 @@ struct DaemonConfig {
   double integrity_alert_limit_m = 0.10;                   // outputs.integrity.alert_limit_m
   GeoConfig geo;
   config::SiteposeConfig sitepose;
+  MapPersistenceConfig map;
+  DetectDeadlineConfig detect_deadline;
 };
 
 // The V4L2 source's options from source.v4l2 and source.wait_for_camera_s.

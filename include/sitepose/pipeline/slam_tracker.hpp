@@ -51,6 +51,10 @@ class SlamPoseTracker final : public PoseTracker {
   // Map size, from any thread (the map's own lock).
   std::size_t keyframe_count() const;
   std::size_t point_count() const;
+  // A saved map to start in: before the first frame (slam::SlamSystem::load_map).
+  Status load_map(map::MapData map) { return system_->load_map(std::move(map)); }
+  // A copy of the map under its read lock, from any thread (checkpoints).
+  map::MapData copy_map() const { return system_->copy_map(); }
 
  private:
   explicit SlamPoseTracker(std::unique_ptr<slam::SlamSystem> system) : system_(std::move(system)) {}

@@ -472,6 +472,8 @@ TEST(DaemonConfig, CheckConfigChecksWhatAStartChecks) {
       {"lcm_port", replace(good, "memq://", "udpm://239.255.76.67:99999"), "outputs.lcm.url"},
       {"traj", replace(good, dir / "traj.tum", dir / "no/such/folder/traj.tum"), "outputs.trajectory.path"},
       {"can", replace(good, dir / "can.log", dir / "nofolder/can.log"), "outputs.can.path"},
+      {"map", good + "mapping: {map_file: \"" + (dir / "no/such/folder/site.map") + "\"}\n",
+       "mapping.map_file"},
       {"plugin",
        replace(good, "dynamic: {mode: none}",
                "dynamic: {mode: bbox}\ndetector: {name: " + (dir / "nope.so") + "}"),

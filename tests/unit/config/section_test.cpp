@@ -189,6 +189,34 @@ TEST(Section, EmptySectionCarriesTheNoteOfItsAbsentPart) {
   EXPECT_EQ(write_yaml(outer, set), "place:\n  origin:\n    x_m: 1\n    y_m: 2\n");
 }
 
+// A file that adds its own keys to another file's section (siteposed's
+// mapping.map_file in sitepose's mapping): one section in the text, the
+// added keys after the others, read back to the same values.
+TEST(Section, AddedKeysGoIntoTheSectionWrittenBefore) {
+  struct Both {
+    Settings base;
+    Limits extra{5, 7};
+  };
+  Section<Limits> extra;
+  extra.key("top", &Limits::high);
+  Section<Both> both;
+  both.embed(&Both::base, settings_section()).section("limits", &Both::extra, std::move(extra));
+  Both value;
+  value.base.path = "out";
+  value.extra.high = 9;
+  const std::string text = write_yaml(both, value);
+  EXPECT_EQ(text.substr(text.find("limits:")), "limits:\n  low: 1\n  high: 10\n  top: 9\n");
+  auto reader = YamlReader::from_string(text + "capacity_extra: 1\n", "s.yaml");
+  ASSERT_TRUE(reader.has_value());
+  Both read;
+  both.read(reader->root(), read);
+  const Status status = reader->finish();
+  ASSERT_FALSE(status.has_value());  // capacity_extra only: both tables' keys are known
+  EXPECT_EQ(status.error().message.find("limits."), std::string::npos) << status.error().message;
+  EXPECT_EQ(read.extra.high, 9);
+  EXPECT_EQ(read.base.limits.high, 10);
+}
+
 TEST(Section, EntriesListEveryKeyWithItsPath) {
   const auto listed = entries(settings_section(), Settings{}, true);
   std::vector<std::string> paths;

@@ -2,12 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <ctime>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "sitepose/config/config.hpp"
+#include "sitepose/config/yaml_reader.hpp"
 
 namespace sitepose::daemon {
 namespace {
@@ -33,6 +35,10 @@ bool contains(const std::string& haystack, const std::string& needle) {
   return haystack.find(needle) != std::string::npos;
 }
 
+bool contains_item(const std::vector<std::string>& list, const std::string& item) {
+  return std::find(list.begin(), list.end(), item) != list.end();
+}
+
 // Every key of the daemon's sections is in config/siteposed.yaml with its
 // default, except the deployment values the shipped file sets on purpose
 // (each comment there states the default); the sitepose sections are
@@ -42,7 +48,7 @@ TEST(DaemonConfig, DocumentedFileAgreesWithTheTable) {
       kShippedFile,
       {"source.replay.sequence", "outputs.trajectory.path", "outputs.can.path", "outputs.lcm.url", "geo.mode",
        "geo.origin.latitude_deg", "geo.origin.longitude_deg", "geo.origin.height_m",
-       "geo.T_site_slam.translation_m", "geo.T_site_slam.rotation_wxyz", "detector.name"},
+       "geo.T_site_slam.translation_m", "geo.T_site_slam.rotation_wxyz", "detector.name", "mapping.map_file"},
       {}};
   for (const auto& entry : config::entries(config::sitepose_sections(), config::SiteposeConfig{}, false)) {
     if (entry.depth == 0) file.documented_elsewhere.push_back(entry.key);
@@ -50,6 +56,35 @@ TEST(DaemonConfig, DocumentedFileAgreesWithTheTable) {
   ASSERT_EQ(file.documented_elsewhere.size(), 8u);
   const Status status = config::check_documented(daemon_sections(), file);
   EXPECT_TRUE(status.has_value()) << status.error().message;
+  // siteposed's own keys inside sitepose sections (mapping.map_file, ...)
+  // are documented here, not in config/sitepose.yaml: each must be in this
+  // file with its default, or listed as a deployment value.
+  std::vector<std::string> sitepose_paths;
+  for (const auto& entry : config::entries(config::sitepose_sections(), config::SiteposeConfig{}, true)) {
+    sitepose_paths.push_back(entry.path);
+  }
+  const auto shipped = load_daemon_config(kShippedFile);
+  ASSERT_TRUE(shipped.has_value()) << shipped.error().message;
+  const auto documented = config::entries(daemon_sections(), *shipped, true);
+  auto reader = config::YamlReader::from_file(kShippedFile);
+  ASSERT_TRUE(reader.has_value()) << reader.error().message;
+  int own = 0;
+  for (const auto& entry : config::entries(daemon_sections(), DaemonConfig{}, true)) {
+    const std::string top = entry.path.substr(0, entry.path.find('.'));
+    if (entry.section || !contains_item(file.documented_elsewhere, top) ||
+        contains_item(sitepose_paths, entry.path)) {
+      continue;
+    }
+    ++own;
+    EXPECT_TRUE(reader->root().map(top).has(entry.key))
+        << entry.path << ": not documented in " << kShippedFile;
+    for (const auto& d : documented) {
+      if (d.path != entry.path) continue;
+      EXPECT_EQ(d.value != entry.value, contains_item(file.shipped_values, entry.path))
+          << entry.path << " = " << d.value << " (default " << entry.value << ")";
+    }
+  }
+  EXPECT_EQ(own, 3);  // mapping.map_file, mapping.checkpoint_interval_s, dynamic.detector_deadline_ms
 }
 
 TEST(DaemonConfig, ShippedFileLoadsAndWritesWhatReadsBackTheSame) {
