@@ -47,14 +47,11 @@ constexpr double kPooledGateWithPoints = 9.35;
 // their common displacement (else unknown and masked: points that disagree
 // with each other prove nothing).
 constexpr double kMinConsistentFraction = 0.5;
-// A rigid part moving against the rest of the object (a slewing house on
-// standing tracks, a lifting bucket): the points that leave the common
+// A part of an articulated machine moving against the rest (a slewing house
+// on standing tracks, a lifting bucket): the points that leave the common
 // displacement and each fail the point gate on their own (chi2 3 dof 99.9 %)
-// make the object moving when they are at least this share of its matched
-// points and at least min_object_points. A mismatch is rarely that common,
-// and the common displacement alone would let the standing tracks outvote
-// the turning house.
-constexpr double kMinMovingPartFraction = 0.2;
+// (the common displacement alone would let the standing tracks outvote the
+// turning house) ...
 constexpr double kMovingPointGate = 16.27;
 // ... and whose shift across the image fails chi2 2 dof 99.9 % (a wrong
 // stereo match moves a point in depth only, which the 3D gate alone would
@@ -71,18 +68,26 @@ constexpr double kStandingMotionM = 0.03;
 // evidence: twice the points and three times the static frames.
 constexpr const char* kPersonClass = "person";
 // Machines whose parts move on their own (slewing house, boom, arm, bucket).
-// Their points that leave the common displacement are not taken for
-// mismatches once they are at least this share of the matched points and at
-// least kMinArticulatedPartPoints: several of them moving make the machine
-// moving, else it is unknown (masked). Measured on slewing (seed 7): a
-// working excavator's static-looking frames had >= 2 such points and >= 12 %
-// in 84 of 104, the parked one in 4 of 152.
+// A machine with two moving verdicts within kWorkingMemoryS is "working":
+// its points that leave the common displacement and each show motion make
+// it moving once they are at least this share of the matched points and at
+// least kMinArticulatedPartPoints; as many that leave it without proving
+// motion make it unknown (masked); it needs twice the static verdicts.
+// Measured on slewing (seed 7): a working excavator's static-looking frames
+// had >= 2 such points and >= 12 % in 84 of 104. A machine that is not
+// working needs a part of kMinIdlePartFraction and min_object_points:
+// with the working rules a parked excavator passed by the ego (parked) was
+// called moving by them in 11 of 16 frames, and the machines of parked were
+// unmasked in 69 of 104 frames.
 constexpr double kMinArticulatedPartFraction = 0.12;
+// Longer than the pauses between a working machine's strokes (4-8 s).
+constexpr double kWorkingMemoryS = 20.0;
 // A working machine pauses with zero joint speed between strokes (and at
 // the turn of a stroke), where a few static-looking frames follow motion:
 // it is unmasked only after twice the static verdicts.
 constexpr int kArticulatedHysteresisFactor = 2;
 constexpr int kMinArticulatedPartPoints = 2;
+constexpr double kMinIdlePartFraction = 0.2;
 bool is_articulated_class(const std::string& class_name) {
   return class_name == "excavator" || class_name == "loader";
 }
@@ -126,20 +131,18 @@ std::vector<double> judge_paper(std::vector<double> errors_m, const config::Dyna
   return errors_m;
 }
 
-// How many points a separately moving part needs (see kMinMovingPartFraction
-// and kMinArticulatedPartFraction).
-double part_points_needed(std::size_t points, int min_points, bool articulated) {
+// How many points a separately moving part needs (kMinArticulatedPartFraction,
+// kMinIdlePartFraction).
+double part_points_needed(std::size_t points, bool working, int min_points) {
   const double n = static_cast<double>(points);
-  return articulated
-             ? std::max(static_cast<double>(kMinArticulatedPartPoints), kMinArticulatedPartFraction * n)
-             : std::max(static_cast<double>(min_points), kMinMovingPartFraction * n);
+  return working ? std::max(static_cast<double>(kMinArticulatedPartPoints), kMinArticulatedPartFraction * n)
+                 : std::max(static_cast<double>(min_points), kMinIdlePartFraction * n);
 }
 
 // The points that leave the common displacement and show motion on their
 // own and across the image; empty when they are too few to be a part.
 std::vector<PointDisplacement> moving_part(const std::vector<PointDisplacement>& points,
-                                           const std::vector<bool>& agrees, int min_points,
-                                           bool articulated) {
+                                           const std::vector<bool>& agrees, bool working, int min_points) {
   std::vector<PointDisplacement> part;
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!agrees[i] && points[i].mahalanobis2 > kMovingPointGate &&
@@ -147,10 +150,15 @@ std::vector<PointDisplacement> moving_part(const std::vector<PointDisplacement>&
       part.push_back(points[i]);
     }
   }
-  if (static_cast<double>(part.size()) < part_points_needed(points.size(), min_points, articulated))
-    part.clear();
+  if (static_cast<double>(part.size()) < part_points_needed(points.size(), working, min_points)) part.clear();
   return part;
 }
+
+// The kind of object judge_sitepose() tests.
+struct ObjectKind {
+  bool articulated = false;  // its parts move on their own: a few moving points suffice
+  bool working = false;      // ... and it was seen moving lately: disagreeing points are doubt
+};
 
 // Sitepose mode on one object's matched points (see the header). Fills
 // v.points, v.matched_points, v.score, v.pooled_statistic,
@@ -160,7 +168,7 @@ std::vector<PointDisplacement> moving_part(const std::vector<PointDisplacement>&
 // (no common displacement, or the points disagree with "static" while the
 // object as a whole has not moved): masked at once.
 UnknownReason judge_sitepose(const std::vector<PointDisplacement>& points,
-                             const config::DynamicConfig& config, int min_points, bool articulated,
+                             const config::DynamicConfig& config, int min_points, ObjectKind kind,
                              ObjectVerdict& v, std::vector<double>& statistics) {
   v.points = static_cast<int>(points.size());
   v.matched_points = v.points;
@@ -171,8 +179,12 @@ UnknownReason judge_sitepose(const std::vector<PointDisplacement>& points,
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (agrees[i]) kept.push_back(points[i]);
   }
+  // A rigid machine has no parts: its points that leave the common
+  // displacement are mismatches (repeated texture moves them across the
+  // image as much as motion would).
   const std::vector<PointDisplacement> part =
-      moving_part(points, agrees, config.min_object_points, articulated);
+      kind.articulated ? moving_part(points, agrees, kind.working, config.min_object_points)
+                       : std::vector<PointDisplacement>{};
   if (!part.empty()) {
     v.part_statistic = pooled_statistic(part);
     v.score = quantile(statistics, config.static_inlier_fraction);
@@ -181,8 +193,8 @@ UnknownReason judge_sitepose(const std::vector<PointDisplacement>& points,
     return UnknownReason::kNone;
   }
   const bool parts_disagree =
-      articulated && static_cast<double>(points.size() - kept.size()) >=
-                         part_points_needed(points.size(), config.min_object_points, articulated);
+      kind.working && static_cast<double>(points.size() - kept.size()) >=
+                          part_points_needed(points.size(), true, config.min_object_points);
   if (parts_disagree ||
       static_cast<double>(kept.size()) <= kMinConsistentFraction * static_cast<double>(points.size())) {
     v.raw = MotionState::kUnknown;  // no common displacement: the points contradict each other
@@ -402,14 +414,22 @@ const ObjectFeatures* MotionClassifier::select_reference(const ObjectFeatures& c
   return &ring_.front();
 }
 
-MotionState MotionClassifier::smooth(std::uint16_t instance, std::int64_t seq, MotionState raw,
+bool MotionClassifier::is_working(std::uint16_t instance, const std::string& class_name,
+                                  std::int64_t t_ns) const {
+  if (!is_articulated_class(class_name)) return false;
+  const auto it = tracks_.find(instance);
+  return it != tracks_.end() && it->second.previous_moving_t_ns &&
+         static_cast<double>(t_ns - *it->second.previous_moving_t_ns) * 1e-9 <= kWorkingMemoryS;
+}
+
+MotionState MotionClassifier::smooth(std::uint16_t instance, const ObjectFeatures& current, MotionState raw,
                                      bool static_evidence_counts, bool conflicting_evidence,
                                      int hysteresis_frames) {
   Track& t = tracks_[instance];
-  t.last_seq = seq;
+  t.last_seq = current.seq;
   const int n = hysteresis_frames;
   switch (raw) {
-    case MotionState::kMoving: t.mask_as_moving(); break;
+    case MotionState::kMoving: t.mask_as_moving(current.t_ns); break;
     case MotionState::kStatic:
       t.unknown_streak = 0;
       if (!static_evidence_counts) break;  // too short a time span to tell
@@ -494,7 +514,7 @@ void MotionClassifier::judge(const Pairing& pairing,
   ObjectVerdict& v = object.verdict;
   const bool paper = config_.classifier == config::ClassifierMode::kPaper;
   const bool person = v.class_name == kPersonClass;
-  const int min_points = config_.min_object_points * (person ? kPersonPointFactor : 1);
+  const bool working = is_working(v.instance, v.class_name, pairing.current.t_ns);
   UnknownReason reason = pairing.ref == nullptr ? UnknownReason::kNoReference : UnknownReason::kTooFewPoints;
   if (const auto it = ref_of_current.find(v.instance); it != ref_of_current.end()) {
     v.reference_instance = it->second;
@@ -505,19 +525,25 @@ void MotionClassifier::judge(const Pairing& pairing,
       v.matched_points = static_cast<int>(points.size());
     } else {
       for (PointDisplacement& p : points) p.mahalanobis2 = p.d.dot(p.covariance.ldlt().solve(p.d));
-      reason = judge_sitepose(points, config_, min_points, is_articulated_class(v.class_name), v,
-                              object.statistics);
+      const ObjectKind kind{is_articulated_class(v.class_name), working};
+      reason = judge_sitepose(points, config_, config_.min_object_points, kind, v, object.statistics);
+      // A person proves motion like any object, but "static" only with
+      // twice the points.
+      if (person && v.raw == MotionState::kStatic &&
+          v.points < kPersonPointFactor * config_.min_object_points) {
+        v.raw = MotionState::kUnknown;
+        reason = UnknownReason::kTooFewPoints;
+      }
     }
   }
   const bool long_enough =
       pairing.ref != nullptr &&
       static_cast<double>(pairing.current.t_ns - pairing.ref->t_ns) * 1e-9 >= kMinStaticEvidenceS;
-  const int hysteresis =
-      config_.hysteresis_frames * (person                               ? kPersonHysteresisFactor
-                                   : is_articulated_class(v.class_name) ? kArticulatedHysteresisFactor
-                                                                        : 1);
+  const int hysteresis = config_.hysteresis_frames * (person    ? kPersonHysteresisFactor
+                                                      : working ? kArticulatedHysteresisFactor
+                                                                : 1);
   v.state = paper ? v.raw
-                  : smooth(v.instance, pairing.current.seq, v.raw, long_enough,
+                  : smooth(v.instance, pairing.current, v.raw, long_enough,
                            reason == UnknownReason::kAmbiguous, hysteresis);
   if (v.state != MotionState::kUnknown) {
     v.unknown_reason = UnknownReason::kNone;

@@ -93,14 +93,17 @@ StateScores score_states(const std::vector<ObjectSample>& samples, int min_point
         break;
     }
   }
-  out.auc = score_auc(samples, min_points, class_name);
+  out.auc = score_auc(samples, min_points, class_name, true);
+  out.auc_all = score_auc(samples, min_points, class_name, false);
   return out;
 }
 
-double score_auc(const std::vector<ObjectSample>& samples, int min_points, const std::string& class_name) {
+double score_auc(const std::vector<ObjectSample>& samples, int min_points, const std::string& class_name,
+                 bool testable_only) {
   std::vector<double> statics, movings;
   for (const ObjectSample& s : samples) {
     if (!selected(s, class_name)) continue;
+    if (testable_only && s.object.verdict.matched_points < min_points) continue;
     (*s.moving_gt ? movings : statics).push_back(motion_score(s.object.verdict, min_points));
   }
   if (statics.empty() || movings.empty()) return std::nan("");

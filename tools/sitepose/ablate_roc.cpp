@@ -39,16 +39,17 @@ void add_state_rows(const char* classifier, const std::vector<experiments::Objec
       return it == sc.unknown_by_reason.end() ? 0 : it->second;
     };
     csv << classifier << ',' << (c.empty() ? "all" : c) << ',' << sc.samples << ',' << sc.testable << ','
-        << sc.unknown_share() << ',' << sc.balanced_accuracy() << ',' << sc.auc << ','
+        << sc.unknown_share() << ',' << sc.balanced_accuracy() << ',' << sc.auc << ',' << sc.auc_all << ','
         << sc.static_called_static << ',' << sc.static_called_moving << ',' << sc.moving_called_moving << ','
         << sc.moving_called_static << ',' << reason("no_reference") << ',' << reason("too_few_points") << ','
         << reason("ambiguous") << ',' << reason("settling") << '\n';
     std::printf(
-        "  %-9s %-10s balanced accuracy %.3f  AUC %.3f  unknown %.1f %% of %d testable  moving called "
-        "static %d  unknown: no reference %d, too few points %d, ambiguous %d, settling %d\n",
-        classifier, c.empty() ? "all" : c.c_str(), sc.balanced_accuracy(), sc.auc, 100.0 * sc.unknown_share(),
-        sc.testable, sc.moving_called_static, reason("no_reference"), reason("too_few_points"),
-        reason("ambiguous"), reason("settling"));
+        "  %-9s %-10s balanced accuracy %.3f  AUC %.3f (with untestable %.3f)  unknown %.1f %% of %d "
+        "testable  "
+        "moving called static %d  unknown: no reference %d, too few points %d, ambiguous %d, settling %d\n",
+        classifier, c.empty() ? "all" : c.c_str(), sc.balanced_accuracy(), sc.auc, sc.auc_all,
+        100.0 * sc.unknown_share(), sc.testable, sc.moving_called_static, reason("no_reference"),
+        reason("too_few_points"), reason("ambiguous"), reason("settling"));
   }
 }
 
@@ -56,7 +57,8 @@ int run(const AblationArgs& args, config::SiteposeConfig& config, const experime
   config.dynamic.mode = config::MaskingMode::kFull;
 
   std::ostringstream csv, summary, states;
-  states << "classifier,class,samples,testable,unknown_share,balanced_accuracy,auc,static_called_static,"
+  states << "classifier,class,samples,testable,unknown_share,balanced_accuracy,auc,auc_with_untestable,"
+            "static_called_static,"
             "static_called_moving,moving_called_moving,moving_called_static,unknown_no_reference,"
             "unknown_too_few_points,unknown_ambiguous,unknown_settling\n";
   csv << "classifier,parameter,parameter_value,threshold,tpr,fpr\n";

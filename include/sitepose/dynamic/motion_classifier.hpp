@@ -58,6 +58,7 @@
 #include <deque>
 #include <map>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -183,11 +184,17 @@ class MotionClassifier {
     int static_streak = 0;
     int unknown_streak = 0;
     std::int64_t last_seq = -1;
+    // When motion was proven (a moving verdict or the map check) last and
+    // the time before, if ever.
+    std::optional<std::int64_t> last_moving_t_ns;
+    std::optional<std::int64_t> previous_moving_t_ns;
     // Safety first: evidence of motion masks the object again at once.
-    void mask_as_moving() {
+    void mask_as_moving(std::int64_t t_ns) {
       state = MotionState::kMoving;
       static_streak = 0;
       unknown_streak = 0;
+      previous_moving_t_ns = last_moving_t_ns;
+      last_moving_t_ns = t_ns;
     }
   };
 
@@ -211,8 +218,11 @@ class MotionClassifier {
                                                        std::uint16_t ref_instance) const;
   // Forgets instances not seen for a ring's length.
   void forget_unseen_tracks(std::int64_t seq);
-  MotionState smooth(std::uint16_t instance, std::int64_t seq, MotionState raw, bool static_evidence_counts,
-                     bool conflicting_evidence, int hysteresis_frames);
+  // Whether `instance` is an articulated machine with two moving verdicts
+  // within kWorkingMemoryS before t_ns (working: its parts move on their own).
+  bool is_working(std::uint16_t instance, const std::string& class_name, std::int64_t t_ns) const;
+  MotionState smooth(std::uint16_t instance, const ObjectFeatures& current, MotionState raw,
+                     bool static_evidence_counts, bool conflicting_evidence, int hysteresis_frames);
   double pixel_sigma_px(int octave, double variance_factor) const;
   // A keypoint's stereo point moved to the world: its covariance from the
   // pixel noise of its level (scaled by the variance factor) and, when

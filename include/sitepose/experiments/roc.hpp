@@ -33,7 +33,8 @@ struct StateScores {
   int static_called_static = 0, static_called_moving = 0;
   int moving_called_moving = 0, moving_called_static = 0;  // the last: the unsafe error
   std::map<std::string, int> unknown_by_reason;            // every unknown sample, by reason
-  double auc = 0.5;                                        // score_auc over the same samples
+  double auc = 0.5;      // score_auc over the same samples, testable ones only
+  double auc_all = 0.5;  // ... and with the untestable ones (scored +inf)
 
   // Mean of the static and the moving recall over decided verdicts; NaN
   // when a class of truth has no decided verdict.
@@ -44,9 +45,10 @@ StateScores score_states(const std::vector<ObjectSample>& samples, int min_point
                          const std::string& class_name = "");
 // ROC AUC of one scalar motion score per sample (the larger, the more
 // moving): the 70 % quantile of the tested points' statistics, or the moving
-// part's statistic when larger; samples with fewer than min_points matched
-// points score +inf (never static). Ties count half (Mann-Whitney).
-double score_auc(const std::vector<ObjectSample>& samples, int min_points,
-                 const std::string& class_name = "");
+// part's statistic when larger. Samples with fewer than min_points matched
+// points have no score: left out when testable_only, else scored +inf
+// (never static). Ties count half (Mann-Whitney).
+double score_auc(const std::vector<ObjectSample>& samples, int min_points, const std::string& class_name = "",
+                 bool testable_only = true);
 
 }  // namespace sitepose::experiments

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 
@@ -22,9 +23,10 @@ namespace {
 
 void print_scores(const std::string& scenario, const std::string& what, const StateScores& s) {
   std::printf(
-      "[figures] %s %-10s samples %4d testable %4d  balanced accuracy %.3f  AUC %.3f  unknown %.1f %%  "
+      "[figures] %s %-10s samples %4d testable %4d  balanced accuracy %.3f  AUC %.3f (all %.3f)  unknown "
+      "%.1f %%  "
       "static->static %d static->moving %d moving->moving %d moving->static %d  unknown:",
-      scenario.c_str(), what.c_str(), s.samples, s.testable, s.balanced_accuracy(), s.auc,
+      scenario.c_str(), what.c_str(), s.samples, s.testable, s.balanced_accuracy(), s.auc, s.auc_all,
       100.0 * s.unknown_share(), s.static_called_static, s.static_called_moving, s.moving_called_moving,
       s.moving_called_static);
   for (const auto& [reason, n] : s.unknown_by_reason) std::printf(" %s %d", reason.c_str(), n);
@@ -51,9 +53,16 @@ struct Figures {
   DynamicRunResult run;
 };
 
+// SITEPOSE_STATES_SEED renders another seed of the scenario (figures over
+// several renderings); default the scenario's.
+std::optional<int> seed_from_env() {
+  if (const char* env = std::getenv("SITEPOSE_STATES_SEED"); env && *env) return std::atoi(env);
+  return std::nullopt;
+}
+
 Figures run_full(const std::string& scenario, int frames) {
   Figures f;
-  Scenario s(scenario, frames_from_env(frames));
+  Scenario s(scenario, frames_from_env(frames), seed_from_env());
   EXPECT_TRUE(s.error().empty()) << s.error();
   if (!s.error().empty()) return f;
   ModeFigures full = s.run(config::MaskingMode::kFull);
