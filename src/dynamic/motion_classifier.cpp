@@ -75,10 +75,10 @@ constexpr const char* kPersonClass = "person";
 // motion make it unknown (masked); it needs twice the static verdicts.
 // Measured on slewing (seed 7): a working excavator's static-looking frames
 // had >= 2 such points and >= 12 % in 84 of 104. A machine that is not
-// working needs a part of kMinIdlePartFraction and min_object_points:
-// with the working rules a parked excavator passed by the ego (parked) was
-// called moving by them in 11 of 16 frames, and the machines of parked were
-// unmasked in 69 of 104 frames.
+// working keeps the rigid rules: on parked, the parked excavator passed by
+// the ego showed such "parts" (repeated texture, occlusion edges): with the
+// part test on every excavator it was unmasked in 69 of 104 frames, and
+// with a part of 20 % and 8 points it flickered 3 times.
 constexpr double kMinArticulatedPartFraction = 0.12;
 // Longer than the pauses between a working machine's strokes (4-8 s).
 constexpr double kWorkingMemoryS = 20.0;
@@ -87,7 +87,6 @@ constexpr double kWorkingMemoryS = 20.0;
 // it is unmasked only after twice the static verdicts.
 constexpr int kArticulatedHysteresisFactor = 2;
 constexpr int kMinArticulatedPartPoints = 2;
-constexpr double kMinIdlePartFraction = 0.2;
 bool is_articulated_class(const std::string& class_name) {
   return class_name == "excavator" || class_name == "loader";
 }
@@ -131,18 +130,16 @@ std::vector<double> judge_paper(std::vector<double> errors_m, const config::Dyna
   return errors_m;
 }
 
-// How many points a separately moving part needs (kMinArticulatedPartFraction,
-// kMinIdlePartFraction).
-double part_points_needed(std::size_t points, bool working, int min_points) {
-  const double n = static_cast<double>(points);
-  return working ? std::max(static_cast<double>(kMinArticulatedPartPoints), kMinArticulatedPartFraction * n)
-                 : std::max(static_cast<double>(min_points), kMinIdlePartFraction * n);
+// How many points a separately moving part needs (kMinArticulatedPartFraction).
+double part_points_needed(std::size_t points) {
+  return std::max(static_cast<double>(kMinArticulatedPartPoints),
+                  kMinArticulatedPartFraction * static_cast<double>(points));
 }
 
 // The points that leave the common displacement and show motion on their
 // own and across the image; empty when they are too few to be a part.
 std::vector<PointDisplacement> moving_part(const std::vector<PointDisplacement>& points,
-                                           const std::vector<bool>& agrees, bool working, int min_points) {
+                                           const std::vector<bool>& agrees) {
   std::vector<PointDisplacement> part;
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!agrees[i] && points[i].mahalanobis2 > kMovingPointGate &&
@@ -150,14 +147,15 @@ std::vector<PointDisplacement> moving_part(const std::vector<PointDisplacement>&
       part.push_back(points[i]);
     }
   }
-  if (static_cast<double>(part.size()) < part_points_needed(points.size(), working, min_points)) part.clear();
+  if (static_cast<double>(part.size()) < part_points_needed(points.size())) part.clear();
   return part;
 }
 
 // The kind of object judge_sitepose() tests.
 struct ObjectKind {
-  bool articulated = false;  // its parts move on their own: a few moving points suffice
-  bool working = false;      // ... and it was seen moving lately: disagreeing points are doubt
+  // An articulated machine seen moving lately (is_working): a few points that
+  // show motion on their own make it moving, as many that disagree are doubt.
+  bool working = false;
 };
 
 // Sitepose mode on one object's matched points (see the header). Fills
@@ -183,8 +181,7 @@ UnknownReason judge_sitepose(const std::vector<PointDisplacement>& points,
   // displacement are mismatches (repeated texture moves them across the
   // image as much as motion would).
   const std::vector<PointDisplacement> part =
-      kind.articulated ? moving_part(points, agrees, kind.working, config.min_object_points)
-                       : std::vector<PointDisplacement>{};
+      kind.working ? moving_part(points, agrees) : std::vector<PointDisplacement>{};
   if (!part.empty()) {
     v.part_statistic = pooled_statistic(part);
     v.score = quantile(statistics, config.static_inlier_fraction);
@@ -193,8 +190,7 @@ UnknownReason judge_sitepose(const std::vector<PointDisplacement>& points,
     return UnknownReason::kNone;
   }
   const bool parts_disagree =
-      kind.working && static_cast<double>(points.size() - kept.size()) >=
-                          part_points_needed(points.size(), true, config.min_object_points);
+      kind.working && static_cast<double>(points.size() - kept.size()) >= part_points_needed(points.size());
   if (parts_disagree ||
       static_cast<double>(kept.size()) <= kMinConsistentFraction * static_cast<double>(points.size())) {
     v.raw = MotionState::kUnknown;  // no common displacement: the points contradict each other
@@ -525,7 +521,7 @@ void MotionClassifier::judge(const Pairing& pairing,
       v.matched_points = static_cast<int>(points.size());
     } else {
       for (PointDisplacement& p : points) p.mahalanobis2 = p.d.dot(p.covariance.ldlt().solve(p.d));
-      const ObjectKind kind{is_articulated_class(v.class_name), working};
+      const ObjectKind kind{working};
       reason = judge_sitepose(points, config_, config_.min_object_points, kind, v, object.statistics);
       // A person proves motion like any object, but "static" only with
       // twice the points.

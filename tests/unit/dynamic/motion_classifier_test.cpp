@@ -201,7 +201,7 @@ TEST(MotionClassifier, SiteposeTestsOnlyThePointsThatShareTheObjectsDisplacement
   EXPECT_EQ(v.points, 60);
 }
 
-// An excavator: the standing tracks (60 % of the points) outvote
+// A working excavator: the standing tracks (60 % of the points) outvote
 // the part that moves (the 40 % with the largest x), so the common
 // displacement is zero; the moving part still makes the object moving.
 TEST(MotionClassifier, SiteposeMovingPartMakesTheObjectMovingThoughTheRestStands) {
@@ -219,6 +219,11 @@ TEST(MotionClassifier, SiteposeMovingPartMakesTheObjectMovingThoughTheRestStands
       return f;
     };
     classifier.remember(as_excavator(observe({machine}, {Eigen::Vector3d::Zero()}, standing, 0, 0.2, rng)));
+    // Two moving verdicts of the whole machine: it is working.
+    for (int k = 6; k < 8; ++k) {
+      classifier.classify(
+          as_excavator(observe({machine}, {Eigen::Vector3d(0.3, 0.0, 0.0)}, standing, k, 0.2, rng)));
+    }
     Object moved = machine;
     for (auto& p : moved.p_world) {
       if (p.x() >= cut) p += Eigen::Vector3d(part_motion_m, 0.0, 0.1 * part_motion_m);
