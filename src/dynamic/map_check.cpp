@@ -60,7 +60,7 @@ std::vector<MapCheck> MotionClassifier::check_against_map(
     if (check.moving) {
       // As after a moving verdict: unmasked again only after
       // hysteresis_frames static verdicts.
-      tracks_[instance].mask_as_moving();
+      tracks_[instance].mask_as_moving(current.t_ns);
     }
     out.push_back(check);
   }

@@ -23,6 +23,17 @@ const char* to_string(MotionState state) {
   return "unknown";
 }
 
+const char* to_string(UnknownReason reason) {
+  switch (reason) {
+    case UnknownReason::kNoReference: return "no_reference";
+    case UnknownReason::kTooFewPoints: return "too_few_points";
+    case UnknownReason::kAmbiguous: return "ambiguous";
+    case UnknownReason::kSettling: return "settling";
+    case UnknownReason::kNone: break;
+  }
+  return "";
+}
+
 bool is_dynamic_class(const std::string& class_name, const std::vector<std::string>& dynamic_classes) {
   return std::find(dynamic_classes.begin(), dynamic_classes.end(), class_name) != dynamic_classes.end();
 }

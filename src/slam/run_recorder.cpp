@@ -68,7 +68,7 @@ void RunRecorder::add(const FrameReport& report) {
   add_dynamic(report.mar, report.pixel_mask_used);
   for (const auto& o : report.objects) {
     state_rows_.push_back({report.pose.seq, o.verdict.instance, o.verdict.class_name, o.verdict.state,
-                           o.verdict.score, o.verdict.points});
+                           o.verdict.score, o.verdict.points, o.verdict.unknown_reason});
   }
 }
 
@@ -81,12 +81,12 @@ double RunRecorder::stage_total_ms(const std::string& stage) const {
 Status RunRecorder::write_states_csv(const std::string& path) const {
   std::ofstream out(path);
   if (!out) return make_error(ErrorCode::kIoError, "cannot write " + path);
-  out << "frame,instance,class,state,score,points\n";
+  out << "frame,instance,class,state,score,points,reason\n";
   char score[32];
   for (const StateRow& r : state_rows_) {
     std::snprintf(score, sizeof(score), "%.4f", r.score);
     out << r.frame << ',' << r.instance << ',' << r.class_name << ',' << dynamic::to_string(r.state) << ','
-        << score << ',' << r.points << '\n';
+        << score << ',' << r.points << ',' << dynamic::to_string(r.reason) << '\n';
   }
   out.close();  // the buffered rest is written here: a full disk shows only now
   if (!out) return make_error(ErrorCode::kIoError, "write failed: " + path);
@@ -99,9 +99,8 @@ void RunRecorder::add_dynamic(double masked_area_ratio, bool pixel_mask_used) {
 }
 
 int RunRecorder::frames_ok() const {
-  return static_cast<int>(std::count_if(poses_.begin(), poses_.end(), [](const PoseEstimate& p) {
-    return p.state == TrackingState::kOk;
-  }));
+  return static_cast<int>(std::count_if(poses_.begin(), poses_.end(),
+                                        [](const PoseEstimate& p) { return p.state == TrackingState::kOk; }));
 }
 
 std::map<std::string, StageSummary> RunRecorder::stage_summaries() const {

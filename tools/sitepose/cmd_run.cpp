@@ -424,7 +424,8 @@ const CommandRegistrar kRun{
                       "Tracking state of every frame, CSV frame,t_s,state (OK, RECOVERING or LOST; "
                       "docs/run/tracking_states.md)");
        sub.add_option("--states-out", args->states_out,
-                      "Motion states CSV, frame,instance,class,state,score,points (--mode full only)");
+                      "Motion states CSV, frame,instance,class,state,score,points,reason (--mode full only; "
+                      "reason: why unknown)");
        sub.add_option("--stats-out", args->stats_out, "Per-run statistics JSON");
        sub.add_option("--gt", args->gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
        sub.add_option(

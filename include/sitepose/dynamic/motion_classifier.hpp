@@ -10,8 +10,17 @@
 //    when more than 70 % of the kept errors are below 3 sigma_bkg.
 //  * sitepose (METHOD.md "Where sitepose goes further"):
 //    - RF = newest kept frame whose camera centre is at least
-//      min_reference_parallax_m from CF's and at least 0.4 s older (the
-//      oldest kept frame when the camera stands still);
+//      min_reference_parallax_m from CF's and at least 0.4 s older; when
+//      the camera stands still (centre within 3 cm) the newest frame at
+//      least 1 s older, chosen by time (any displacement is then the
+//      object's own); else the oldest kept frame;
+//    - articulated machines: the points that leave the common displacement
+//      and each show motion on their own make the object moving when they
+//      are >= 20 % of its points and >= min_object_points (a slewing house
+//      on standing tracks is not outvoted by the tracks);
+//    - people are unmasked only on strong evidence (twice the points,
+//      three times the hysteresis);
+//    - an unknown verdict says why (ObjectVerdict::unknown_reason);
 //    - the same matching; instead of the paper's median cut, mismatches
 //      are the points whose displacement disagrees with the object's common
 //      (median) one beyond their pixel noise; an object whose points have
@@ -49,6 +58,7 @@
 #include <deque>
 #include <map>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -72,25 +82,24 @@ struct ObjectFeatures {
   std::int64_t seq = 0;
   std::int64_t t_ns = 0;
   SE3 T_world_cam;
-  std::optional<Matrix6d> covariance;      // of T_world_cam; nullopt = unknown (treated as 0)
+  std::optional<Matrix6d> covariance;  // of T_world_cam; nullopt = unknown (treated as 0)
   // A-posteriori variance factor of the pose solve (tracking::PassResult):
   // how much noisier (> 1) or cleaner (< 1) this frame's keypoints were than
   // the unit pixel model. Scales the pixel noise and `covariance` (clamped).
   double variance_factor = 1.0;
-  std::vector<Eigen::Vector2d> uv_px;      // left keypoints on objects with a stereo match
+  std::vector<Eigen::Vector2d> uv_px;  // left keypoints on objects with a stereo match
   std::vector<double> u_right_px;
   std::vector<int> octave;
   std::vector<std::uint16_t> instance;
-  cv::Mat descriptors;                     // one 32-byte row per keypoint above
-  std::vector<ObjectBox> boxes;            // the frame's dynamic boxes
+  cv::Mat descriptors;           // one 32-byte row per keypoint above
+  std::vector<ObjectBox> boxes;  // the frame's dynamic boxes
 };
 
 // Object keypoints (instance != 0, stereo match, depth < max_depth_m) of a
 // prepared frame, with the given pose.
-ObjectFeatures make_object_features(const tracking::PreparedFrame& frame,
-                                    const std::vector<ObjectBox>& boxes, const SE3& T_world_cam,
-                                    const std::optional<Matrix6d>& covariance, double variance_factor,
-                                    double max_depth_m);
+ObjectFeatures make_object_features(const tracking::PreparedFrame& frame, const std::vector<ObjectBox>& boxes,
+                                    const SE3& T_world_cam, const std::optional<Matrix6d>& covariance,
+                                    double variance_factor, double max_depth_m);
 
 // The a-posteriori variance factor as the noise model uses it: clamped to
 // [0.05, 4] (never ~4.5x more confident than the unit pixel model, never
@@ -118,8 +127,8 @@ struct MapCheck {
   std::uint16_t instance = 0;
   int points = 0;  // matched points that agree with the common displacement
   Eigen::Vector3d displacement_m = Eigen::Vector3d::Zero();  // weighted mean, keypoint - map point, world
-  double statistic = 0.0;  // squared Mahalanobis distance of displacement_m
-  bool moving = false;     // statistic above the gate
+  double statistic = 0.0;                                    // squared Mahalanobis distance of displacement_m
+  bool moving = false;                                       // statistic above the gate
 };
 
 struct ClassifierTimings {
@@ -150,10 +159,10 @@ class MotionClassifier {
   // background only). An object whose common displacement fails the gate
   // (chi2 3 dof 99.9 %) is moving from now on, like after a moving verdict.
   // One result per instance tested (at least 30 matched points), in order.
-  std::vector<MapCheck> check_against_map(const tracking::PreparedFrame& frame,
-                                          const std::vector<std::optional<Eigen::Vector3d>>& map_point_of_keypoint,
-                                          const ObjectFeatures& current,
-                                          const std::vector<std::uint16_t>& instances);
+  std::vector<MapCheck> check_against_map(
+      const tracking::PreparedFrame& frame,
+      const std::vector<std::optional<Eigen::Vector3d>>& map_point_of_keypoint, const ObjectFeatures& current,
+      const std::vector<std::uint16_t>& instances);
 
   // Clears the ring and the hysteresis.
   void reset();
@@ -175,11 +184,17 @@ class MotionClassifier {
     int static_streak = 0;
     int unknown_streak = 0;
     std::int64_t last_seq = -1;
+    // When motion was proven (a moving verdict or the map check) last and
+    // the time before, if ever.
+    std::optional<std::int64_t> last_moving_t_ns;
+    std::optional<std::int64_t> previous_moving_t_ns;
     // Safety first: evidence of motion masks the object again at once.
-    void mask_as_moving() {
+    void mask_as_moving(std::int64_t t_ns) {
       state = MotionState::kMoving;
       static_streak = 0;
       unknown_streak = 0;
+      previous_moving_t_ns = last_moving_t_ns;
+      last_moving_t_ns = t_ns;
     }
   };
 
@@ -203,8 +218,11 @@ class MotionClassifier {
                                                        std::uint16_t ref_instance) const;
   // Forgets instances not seen for a ring's length.
   void forget_unseen_tracks(std::int64_t seq);
-  MotionState smooth(std::uint16_t instance, std::int64_t seq, MotionState raw, bool static_evidence_counts,
-                     bool conflicting_evidence);
+  // Whether `instance` is an articulated machine with two moving verdicts
+  // within kWorkingMemoryS before t_ns (working: its parts move on their own).
+  bool is_working(std::uint16_t instance, const std::string& class_name, std::int64_t t_ns) const;
+  MotionState smooth(std::uint16_t instance, const ObjectFeatures& current, MotionState raw,
+                     bool static_evidence_counts, bool conflicting_evidence, int hysteresis_frames);
   double pixel_sigma_px(int octave, double variance_factor) const;
   // A keypoint's stereo point moved to the world: its covariance from the
   // pixel noise of its level (scaled by the variance factor) and, when

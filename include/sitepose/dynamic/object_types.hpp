@@ -38,6 +38,16 @@ struct FrameObjects {
 enum class MotionState { kUnknown, kStatic, kMoving };
 const char* to_string(MotionState state);
 
+// Why a verdict's state is unknown (kNone when it is not).
+enum class UnknownReason {
+  kNone,
+  kNoReference,   // no reference frame yet, or the object is not in it
+  kTooFewPoints,  // fewer than min_object_points matched (or agreeing) points
+  kAmbiguous,     // the points contradict each other or "static" without proving motion
+  kSettling,      // static evidence, not yet long enough to unmask (hysteresis)
+};
+const char* to_string(UnknownReason reason);
+
 // The classifier's verdict for one object of the current frame.
 struct ObjectVerdict {
   std::uint16_t instance = 0;
@@ -54,7 +64,13 @@ struct ObjectVerdict {
   // sitepose mode, objects that were static: the map check's statistic
   // (MotionClassifier::check_against_map); empty when not run.
   std::optional<double> map_statistic;
-  int points = 0;                     // 3D point pairs the decision used
+  int points = 0;          // 3D point pairs the decision used
+  int matched_points = 0;  // point pairs matched to the reference object, before any cut
+  // sitepose mode: squared Mahalanobis distance of the mean displacement of
+  // the points that left the common displacement and move on their own (a
+  // slewing house on standing tracks); 0 when there is no such part.
+  double part_statistic = 0.0;
+  UnknownReason unknown_reason = UnknownReason::kNone;
   std::uint16_t reference_instance = 0;  // associated object in the reference frame, 0 = none
   std::int64_t reference_seq = -1;       // the reference frame, -1 = none
 };

@@ -38,6 +38,7 @@ struct StateRow {
   dynamic::MotionState state = dynamic::MotionState::kUnknown;
   double score = 0.0;
   int points = 0;
+  dynamic::UnknownReason reason = dynamic::UnknownReason::kNone;  // why state is unknown
 };
 
 class RunRecorder {
@@ -68,8 +69,9 @@ class RunRecorder {
   // stats_json() with `extra_fields` (an object) added, to `path`.
   Status write_stats_json(const std::string& path, const io::Json& extra_fields) const;
   Status write_stats_json(const std::string& path) const;
-  // header frame,instance,class,state,score,points; one row per object per
-  // frame of mode full (state = the smoothed state the run used).
+  // header frame,instance,class,state,score,points,reason; one row per
+  // object per frame of mode full (state = the smoothed state the run used;
+  // reason = dynamic::to_string(UnknownReason), empty unless unknown).
   Status write_states_csv(const std::string& path) const;
 
   const std::vector<StateRow>& state_rows() const { return state_rows_; }

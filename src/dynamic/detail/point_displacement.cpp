@@ -33,7 +33,7 @@ double quantile(std::vector<double> values, double q) {
 // does not. The tests then run on these points only, free of the mismatches
 // (metres of "displacement" that would call a parked machine moving) and
 // without favouring "static".
-std::vector<PointDisplacement> consistent_points(const std::vector<PointDisplacement>& points) {
+std::vector<bool> agrees_with_common(const std::vector<PointDisplacement>& points) {
   Eigen::Vector3d common;
   for (int axis = 0; axis < 3; ++axis) {
     std::vector<double> component;
@@ -41,10 +41,20 @@ std::vector<PointDisplacement> consistent_points(const std::vector<PointDisplace
     for (const PointDisplacement& p : points) component.push_back(p.d[axis]);
     common[axis] = quantile(std::move(component), 0.5);
   }
-  std::vector<PointDisplacement> out;
+  std::vector<bool> out;
+  out.reserve(points.size());
   for (const PointDisplacement& p : points) {
     const Eigen::Vector3d e = p.d - common;
-    if (e.dot(p.pixel_covariance.ldlt().solve(e)) <= kConsistencyGate) out.push_back(p);
+    out.push_back(e.dot(p.pixel_covariance.ldlt().solve(e)) <= kConsistencyGate);
+  }
+  return out;
+}
+
+std::vector<PointDisplacement> consistent_points(const std::vector<PointDisplacement>& points) {
+  const std::vector<bool> agrees = agrees_with_common(points);
+  std::vector<PointDisplacement> out;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (agrees[i]) out.push_back(points[i]);
   }
   return out;
 }

@@ -19,10 +19,16 @@ bool gives_trusted_point(const tracking::PreparedFrame& frame, int k, double max
 // One point of an object: where the current frame (CF) sees it minus where
 // it was (a reference frame's sighting, or its map point), world frame.
 struct PointDisplacement {
-  Eigen::Vector3d d = Eigen::Vector3d::Zero();                  // m
-  Eigen::Matrix3d pixel_covariance = Eigen::Matrix3d::Zero();  // of d from pixel noise alone (independent per point)
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();        // of d, pixel noise and CF's pose
-  double mahalanobis2 = 0.0;                                    // d' covariance^-1 d
+  Eigen::Vector3d d = Eigen::Vector3d::Zero();  // m
+  Eigen::Matrix3d pixel_covariance =
+      Eigen::Matrix3d::Zero();  // of d from pixel noise alone (independent per point)
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of d, pixel noise and CF's pose
+  double mahalanobis2 = 0.0;                             // d' covariance^-1 d
+  // Squared shift in the current left image between the keypoint and its
+  // earlier sighting projected there, in units of the keypoint's pixel
+  // noise: motion across the view. A wrong stereo partner moves a point
+  // along its ray (depth) but not across the image.
+  double image_shift2 = 0.0;
 };
 
 // The q-quantile of values (q in [0, 1]); 0 when empty.
@@ -31,6 +37,9 @@ double quantile(std::vector<double> values, double q);
 // The points whose displacement agrees with the object's common one
 // (component-wise median) within their own pixel noise (chi2 3 dof 99 %).
 std::vector<PointDisplacement> consistent_points(const std::vector<PointDisplacement>& points);
+// Per point whether it agrees with the common displacement (the points
+// consistent_points() keeps).
+std::vector<bool> agrees_with_common(const std::vector<PointDisplacement>& points);
 
 // Squared Mahalanobis distance of the plain mean displacement: pixel noise
 // averages over the points, the pose term (common to all) does not.

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
+#include <string>
 
 #include "sitepose/testing/cameras.hpp"
 
@@ -110,7 +112,8 @@ TEST(MotionClassifier, TooFewPointsIsUnknown) {
   MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
   classifier.remember(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.0), 0, 0.2, rng));
   for (int k = 1; k < 4; ++k) {
-    const auto out = classifier.classify(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.2 * k), k, 0.2, rng));
+    const auto out =
+        classifier.classify(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.2 * k), k, 0.2, rng));
     ASSERT_EQ(out.size(), 1u);
     EXPECT_EQ(out[0].verdict.raw, MotionState::kUnknown);
     EXPECT_EQ(out[0].verdict.state, MotionState::kUnknown);
@@ -155,7 +158,7 @@ TEST(MotionClassifier, SiteposeHysteresisUnmasksAfterTwoVerdictsAndRemasksAtOnce
   EXPECT_EQ(v.reference_seq, 0);
   EXPECT_EQ(v.state, MotionState::kUnknown);  // first counted static verdict (0.5 s)
   v = step(0.8, offset);
-  EXPECT_EQ(v.state, MotionState::kStatic);   // second: unmasked
+  EXPECT_EQ(v.state, MotionState::kStatic);  // second: unmasked
   for (int k = 0; k < 5; ++k) {
     v = step(1.0 + 0.2 * k, offset);
     EXPECT_EQ(v.state, MotionState::kStatic) << "frame " << k;  // no flicker
@@ -198,6 +201,126 @@ TEST(MotionClassifier, SiteposeTestsOnlyThePointsThatShareTheObjectsDisplacement
   EXPECT_EQ(v.points, 60);
 }
 
+// A working excavator: the standing tracks (60 % of the points) outvote
+// the part that moves (the 40 % with the largest x), so the common
+// displacement is zero; the moving part still makes the object moving.
+TEST(MotionClassifier, SiteposeMovingPartMakesTheObjectMovingThoughTheRestStands) {
+  const auto raw_verdict = [](double part_motion_m) {
+    std::mt19937 rng(17);
+    Object machine = make_object(1, 60, 0.0, rng);
+    std::vector<double> xs;
+    for (const auto& p : machine.p_world) xs.push_back(p.x());
+    std::sort(xs.begin(), xs.end());
+    const double cut = xs[36];
+    MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+    const SE3 standing = at_x(0.0);
+    const auto as_excavator = [](ObjectFeatures f) {
+      f.boxes[0].class_name = "excavator";
+      return f;
+    };
+    classifier.remember(as_excavator(observe({machine}, {Eigen::Vector3d::Zero()}, standing, 0, 0.2, rng)));
+    // Two moving verdicts of the whole machine: it is working.
+    for (int k = 6; k < 8; ++k) {
+      classifier.classify(
+          as_excavator(observe({machine}, {Eigen::Vector3d(0.3, 0.0, 0.0)}, standing, k, 0.2, rng)));
+    }
+    Object moved = machine;
+    for (auto& p : moved.p_world) {
+      if (p.x() >= cut) p += Eigen::Vector3d(part_motion_m, 0.0, 0.1 * part_motion_m);
+    }
+    return classifier
+        .classify(as_excavator(observe({moved}, {Eigen::Vector3d::Zero()}, standing, 8, 0.2, rng)))[0]
+        .verdict;
+  };
+  ObjectVerdict v = raw_verdict(0.0);
+  EXPECT_EQ(v.raw, MotionState::kStatic);
+  EXPECT_EQ(v.part_statistic, 0.0);
+  v = raw_verdict(0.25);
+  EXPECT_EQ(v.raw, MotionState::kMoving);
+  EXPECT_GT(v.part_statistic, 100.0);
+  EXPECT_EQ(v.matched_points, 60);
+}
+
+// A small part (15 % of the points) moves while the rest stands. A truck is
+// rigid: such points are mismatches (the common displacement says static).
+// An excavator not seen working needs a larger part (a parked one's
+// mismatches must not mask it); one with two moving verdicts within
+// kWorkingMemoryS is working, and the same part makes it moving.
+TEST(MotionClassifier, SiteposeSmallMovingPartCountsOnlyOnAWorkingArticulatedMachine) {
+  std::mt19937 rng(29);
+  const Object machine = make_object(1, 60, 0.0, rng);
+  Object part_moved = machine;
+  for (int i = 0; i < 9; ++i) part_moved.p_world[i] += Eigen::Vector3d(0.25, 0.0, 0.025);
+  const SE3 standing = at_x(0.0);
+  const Eigen::Vector3d still = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d moved = Eigen::Vector3d(0.3, 0.0, 0.0);
+  const auto verdict = [&](const std::string& class_name, int moving_verdicts_before) {
+    const auto as_class = [&](ObjectFeatures f) {
+      f.boxes[0].class_name = class_name;
+      return f;
+    };
+    MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+    classifier.remember(as_class(observe({machine}, {still}, standing, 0, 0.2, rng)));
+    for (int k = 0; k < moving_verdicts_before; ++k) {
+      const auto out = classifier.classify(as_class(observe({machine}, {moved}, standing, 6 + k, 0.2, rng)));
+      EXPECT_EQ(out[0].verdict.raw, MotionState::kMoving);
+    }
+    return classifier.classify(as_class(observe({part_moved}, {still}, standing, 9, 0.2, rng)))[0].verdict;
+  };
+  EXPECT_EQ(verdict("truck", 2).raw, MotionState::kStatic);
+  EXPECT_EQ(verdict("excavator", 0).raw, MotionState::kStatic);
+  EXPECT_EQ(verdict("excavator", 1).raw, MotionState::kStatic);
+  const ObjectVerdict v = verdict("excavator", 2);
+  EXPECT_EQ(v.raw, MotionState::kMoving);
+  EXPECT_GT(v.part_statistic, 100.0);
+}
+
+// A standing camera compares against a frame chosen by time: the newest
+// one at least 1 s old (not the ring's oldest, 2 s back).
+TEST(MotionClassifier, SiteposeStandingCameraTakesTheFrameOneSecondBack) {
+  std::mt19937 rng(19);
+  const std::vector<Object> objects{make_object(1, 60, 0.0, rng)};
+  MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+  for (int k = 0; k < 12; ++k) {
+    classifier.remember(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.001 * (k % 2)), k, 0.2, rng));
+  }
+  const auto out = classifier.classify(observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.0), 12, 0.2, rng));
+  EXPECT_EQ(out[0].verdict.reference_seq, 6);  // 1 s at 6 fps
+  EXPECT_EQ(out[0].verdict.raw, MotionState::kStatic);
+}
+
+// Unknown verdicts say why; people need three times the static frames.
+TEST(MotionClassifier, SiteposeUnknownReasonsAndPeopleNeedStrongEvidence) {
+  std::mt19937 rng(23);
+  const std::vector<Object> objects{make_object(1, 80, -2.0, rng), make_object(2, 4, 2.0, rng)};
+  MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+  const std::vector<Eigen::Vector3d> still{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  int seq = 0;
+  auto step = [&](double camera_x, const std::string& class_of_first) {
+    ObjectFeatures f = observe(objects, still, at_x(camera_x), seq++, 0.2, rng);
+    f.boxes[0].class_name = class_of_first;
+    auto out = classifier.classify(f);
+    classifier.remember(f);
+    return out;
+  };
+  auto out = step(0.0, "person");
+  EXPECT_EQ(out[0].verdict.unknown_reason, UnknownReason::kNoReference);
+  out = step(0.2, "person");
+  EXPECT_EQ(out[1].verdict.unknown_reason, UnknownReason::kTooFewPoints);
+  int frames_to_unmask = 0;
+  for (int k = 2; k < 20 && out[0].verdict.state != MotionState::kStatic; ++k) {
+    out = step(0.2 * k, "person");
+    if (out[0].verdict.state == MotionState::kUnknown && out[0].verdict.raw == MotionState::kStatic) {
+      EXPECT_EQ(out[0].verdict.unknown_reason, UnknownReason::kSettling);
+    }
+    frames_to_unmask = k;
+  }
+  // A machine is unmasked at frame 4 (SiteposeHysteresis...); a person
+  // needs 6 counted static verdicts, the first at frame 3.
+  EXPECT_EQ(out[0].verdict.state, MotionState::kStatic);
+  EXPECT_EQ(frames_to_unmask, 8);
+}
+
 // A prepared frame of `object` seen from T_world_cam, displaced by offset,
 // with pixel noise, plus the exact map positions of its points (the object
 // where it was parked). Keypoint 0 is background, without a map point.
@@ -216,7 +339,8 @@ MapCheckInput map_check_input(const Object& object, const Eigen::Vector3d& offse
     const Eigen::Vector3d s = cam.project_stereo(T_world_cam.inverse() * p_world);
     in.frame.uv_px.emplace_back(s.x() + noise(rng), s.y() + noise(rng));
     in.frame.features.u_right.push_back(s.z() + noise(rng));
-    in.frame.features.depth_m.push_back(cam.bf() / (in.frame.uv_px.back().x() - in.frame.features.u_right.back()));
+    in.frame.features.depth_m.push_back(cam.bf() /
+                                        (in.frame.uv_px.back().x() - in.frame.features.u_right.back()));
     in.frame.octave.push_back(0);
     in.frame.instance.push_back(instance);
     in.map_points.push_back(in_map ? std::optional<Eigen::Vector3d>(p_world - offset) : std::nullopt);

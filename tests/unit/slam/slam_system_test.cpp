@@ -51,7 +51,7 @@ TEST(RunRecorder, WritesStatesCsvOfDynamicReports) {
   const std::string path = dir / "states_test.csv";
   ASSERT_TRUE(recorder.write_states_csv(path));
   EXPECT_EQ(testing::read_text(path),
-            "frame,instance,class,state,score,points\n7,12,truck,static,1.2500,40\n");
+            "frame,instance,class,state,score,points,reason\n7,12,truck,static,1.2500,40,\n");
 }
 
 TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
