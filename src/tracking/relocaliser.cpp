@@ -6,6 +6,7 @@
 #include <set>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <opencv2/calib3d.hpp>
 
 #include "sitepose/features/hamming.hpp"
@@ -102,12 +103,74 @@ std::optional<SE3> pnp_pose(const DescriptorMatches& pairs, const StereoCamera& 
   return SE3(R, Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)));
 }
 
+// Two verified relocalisations farther apart than this are two places (a
+// repeated scene), not one seen from two keyframes.
+constexpr double kDistinctPlacesM = 0.5;
+
+double distance_m(const PassResult& a, const SE3& T_cam_world) {
+  return (a.T_cam_world.inverse().translation() - T_cam_world.inverse().translation()).norm();
+}
+
+// A candidate keyframe within a few metres of a verified pose is the same
+// place seen from nearby; it would only repeat the verification.
+bool accepted_near(const PassResult& accepted, const SE3& T_cam_world_keyframe) {
+  return distance_m(accepted, T_cam_world_keyframe) < 2.0;
+}
+
 }  // namespace
 
 double position_sigma_m(const PassResult& result) {
   if (!result.covariance_world_cam) return std::numeric_limits<double>::infinity();
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(
       result.covariance_world_cam->topLeftCorner<3, 3>(), Eigen::EigenvaluesOnly);
+  return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
+}
+
+bool precise_pose(const PassResult& result, int min_inliers_ok) {
+  return result.n_inliers >= min_inliers_ok && position_sigma_m(result) <= kMaxOkPositionSigmaM;
+}
+
+double map_aware_position_sigma_m(const StereoCamera& camera, const map::ScalePyramid& pyramid,
+                                  const PreparedFrame& frame, const map::MapData& map,
+                                  const PassResult& result) {
+  // Pose parameters: camera centre in the world (3), rotation on the left of
+  // R_cam_world (3). p_cam = R_cam_world (p_world - c).
+  const Eigen::Matrix3d R = result.T_cam_world.rotation_matrix();
+  const Eigen::Vector3d c = result.T_cam_world.inverse().translation();
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  for (int k = 0; k < frame.size(); ++k) {
+    const map::MapPoint* point = map.good_point(result.point_of_keypoint[k]);
+    if (point == nullptr) continue;
+    const Eigen::Vector3d p = R * (point->p_world - c);
+    if (p.z() <= 0.0) continue;
+    const double z = p.z();
+    const double distance_m = (point->p_world - c).norm();
+    const Eigen::Vector3d& n = point->normal;
+    const double along = distance_m * distance_m / camera.bf();
+    const double across = distance_m / camera.fx;
+    const Eigen::Matrix3d point_covariance =
+        along * along * n * n.transpose() +
+        across * across * (Eigen::Matrix3d::Identity() - n * n.transpose());
+    const bool stereo = frame.features.u_right[k] >= 0.0;
+    Eigen::Matrix<double, 3, 3> J_proj;
+    J_proj << camera.fx / z, 0.0, -camera.fx * p.x() / (z * z), 0.0, camera.fy / z,
+        -camera.fy * p.y() / (z * z), camera.fx / z, 0.0, -(camera.fx * p.x() - camera.bf()) / (z * z);
+    Eigen::Matrix<double, 3, 6> J_pose;
+    J_pose.leftCols<3>() = -R;
+    J_pose.rightCols<3>() = -hat(p);
+    const int rows = stereo ? 3 : 2;
+    const Eigen::MatrixXd J_obs_proj = J_proj.topRows(rows);
+    const double s = pyramid.scale(frame.octave[k]);
+    const Eigen::MatrixXd noise = s * s * Eigen::MatrixXd::Identity(rows, rows) +
+                                  J_obs_proj * R * point_covariance * R.transpose() * J_obs_proj.transpose();
+    const Eigen::MatrixXd J = J_obs_proj * J_pose;
+    information += J.transpose() * noise.ldlt().solve(J);
+  }
+  const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(information);
+  if (!lu.isInvertible()) return std::numeric_limits<double>::infinity();
+  const Eigen::Matrix3d position = lu.inverse().topLeftCorner<3, 3>();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(0.5 * (position + position.transpose()),
+                                                             Eigen::EigenvaluesOnly);
   return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
 }
 
@@ -119,7 +182,8 @@ Relocaliser::Relocaliser(const StereoCamera& camera, const config::TrackingConfi
       pyramid_(pyramid) {}
 
 bool Relocaliser::relocalise(const map::SharedMap& shared_map, const PreparedFrame& frame,
-                             const std::vector<std::uint8_t>& usable, PassResult& result) const {
+                             const std::vector<std::uint8_t>& usable, PassResult& result,
+                             const Verify& verify) const {
   // Candidates from the whole map, ranked by place recognition; per
   // candidate: brute-force descriptor matching, PnP RANSAC, motion-only BA,
   // then a projection search over its neighbourhood and BA again. The
@@ -127,6 +191,11 @@ bool Relocaliser::relocalise(const map::SharedMap& shared_map, const PreparedFra
   // RECOVERING until the pose has held for a few frames.
   const PlaceIndex index = shared_map.read([](const map::MapData& map) { return make_place_index(map); });
   const std::vector<PlaceCandidate> places = rank_places(index, frame.features.descriptors, usable);
+  // Every candidate is tried: where the scene repeats (fence, containers,
+  // site offices), two places can both give a precise pose, and then
+  // neither is trusted; the next frame tries again.
+  const PassResult initial = result;
+  std::optional<PassResult> accepted;
   for (const PlaceCandidate& place : places) {
     const std::optional<RelocalisationCandidate> c =
         shared_map.read([&](const map::MapData& map) -> std::optional<RelocalisationCandidate> {
@@ -134,12 +203,21 @@ bool Relocaliser::relocalise(const map::SharedMap& shared_map, const PreparedFra
           if (kf == nullptr || kf->bad) return std::nullopt;
           return relocalisation_candidate(map, *kf);
         });
-    if (c && relocalise_against(frame, usable, *c, result)) {
-      result.relocalised = true;
-      return true;
+    if (!c) continue;
+    if (accepted && accepted_near(*accepted, c->T_cam_world)) continue;  // same place, already verified
+    PassResult attempt = initial;
+    if (!relocalise_against(frame, usable, *c, attempt) || (verify && !verify(attempt))) continue;
+    if (!accepted) {
+      accepted = std::move(attempt);
+    } else if (distance_m(*accepted, attempt.T_cam_world) > kDistinctPlacesM) {
+      result = initial;
+      return false;
     }
   }
-  return false;
+  if (!accepted) return false;
+  result = std::move(*accepted);
+  result.relocalised = true;
+  return true;
 }
 
 bool Relocaliser::relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,

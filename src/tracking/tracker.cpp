@@ -349,14 +349,25 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     // whose points lie on that machine.
     if (!tracked) tracked = track_reference_map(frame, usable, predicted, result);
   }
-  if (!tracked) tracked = relocaliser_.relocalise(map_, frame, usable, result);
-  result.timings.motion_model_ms = ms_since(t_motion) - result.timings.motion_ba_ms;
+  bool relocalised = false;
+  if (!tracked) {
+    // A relocalisation counts only when its pose, after the local map, is
+    // as precise as an OK pose; otherwise the next candidate, and the next
+    // frame, try again (on repeated structure a weak one landed 2.7 m off).
+    relocalised = relocaliser_.relocalise(map_, frame, usable, result, [&](PassResult& r) {
+      track_local_map(frame, usable, anchor, r);
+      return precise_pose(r, config_.tracking.min_inliers_ok);
+    });
+    tracked = relocalised;
+  }
+  result.timings.motion_model_ms =
+      ms_since(t_motion) - result.timings.motion_ba_ms - result.timings.local_map_ms;
   if (!tracked) {
     result.failure = "motion model and relocalisation found too few matches";
     result.timings.total_ms = ms_since(t0);
     return result;
   }
-  track_local_map(frame, usable, anchor, result);
+  if (!relocalised) track_local_map(frame, usable, anchor, result);
   result.valid = result.n_inliers >= config_.tracking.min_inliers_recovering;
   if (!result.valid) result.failure = "only " + std::to_string(result.n_inliers) + " inliers";
   result.timings.total_ms = ms_since(t0);
@@ -403,7 +414,37 @@ int Tracker::carry_over_matches(const PreparedFrame& frame, const PassResult& an
   return carried;
 }
 
-bool Tracker::update_state(const PassResult& result) {
+namespace {
+
+std::string not_precise_reason(const PassResult& result) {
+  return "relocalised pose not precise: " + std::to_string(result.n_inliers) + " inliers, position sigma " +
+         std::to_string(position_sigma_m(result)) + " m";
+}
+
+}  // namespace
+
+Tracker::HoldVerdict Tracker::judge_hold(const PreparedFrame& frame, const PassResult& result) const {
+  // A relocalisation must start precise and stay so while it is held (see
+  // RelocalisationHold::fails()); else it is dropped and the next frame
+  // relocalises anew. While held, a frame counts towards OK only when its
+  // pose is precise also with the map points' own errors (distant points
+  // seen before from elsewhere can hold a pose 0.1 m off at a small sigma).
+  HoldVerdict v;
+  const bool starts_hold = result.relocalised || state_ == TrackingState::kLost;
+  const bool held = starts_hold || hold_.holding();
+  v.precise = result.valid && precise_pose(result, config_.tracking.min_inliers_ok);
+  double map_sigma_m = 0.0;
+  if (held && v.precise) {
+    map_sigma_m = map_.read([&](const map::MapData& data) {
+      return map_aware_position_sigma_m(camera_, pyramid_, frame, data, result);
+    });
+  }
+  v.confirmed = v.precise && map_sigma_m <= kMaxHeldMapAwareSigmaM;
+  v.dropped = result.valid && ((starts_hold && !v.precise) || (!starts_hold && hold_.fails(v.precise)));
+  return v;
+}
+
+bool Tracker::update_state(const PassResult& result, bool precise, bool confirmed) {
   // After a relocalisation the last pose is stale (the machine drove on
   // while tracking was lost): no velocity from it, and no OK until the new
   // pose has held for relocalisation_hold_frames frames with enough inliers.
@@ -412,9 +453,7 @@ bool Tracker::update_state(const PassResult& result) {
     ++counters_.relocalisations;
     hold_.restart();
   }
-  const bool precise =
-      result.n_inliers >= config_.tracking.min_inliers_ok && position_sigma_m(result) <= kMaxOkPositionSigmaM;
-  hold_.update(precise);
+  hold_.update(precise, confirmed);
   state_ = precise && !hold_.holding() ? TrackingState::kOk : TrackingState::kRecovering;
   return relocalised;
 }
@@ -463,19 +502,21 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
     return pose;
   }
 
-  if (!result.valid) {
+  const HoldVerdict verdict = judge_hold(frame, result);
+  if (!result.valid || verdict.dropped) {
+    if (verdict.dropped) hold_.stop();
     ++counters_.frames_lost;
     state_ = TrackingState::kLost;
     has_velocity_ = false;
     last_close_points_.clear();
     pose.state = TrackingState::kLost;
-    pose.state_reason = result.failure;
+    pose.state_reason = verdict.dropped ? not_precise_reason(result) : result.failure;
     // Keep the last pose for relocalisation; the outputs carry LOST.
     if (has_last_) pose.T_world_cam = last_T_cam_world_.inverse();
     return pose;
   }
 
-  const bool relocalised = update_state(result);
+  const bool relocalised = update_state(result, verdict.precise, verdict.confirmed);
   has_velocity_ = has_last_ && !relocalised;
   if (has_velocity_) velocity_ = result.T_cam_world * last_T_cam_world_.inverse();
   last_T_cam_world_ = result.T_cam_world;

@@ -8,12 +8,14 @@
 //                        PnP RANSAC, motion-only BA, then a projection
 //                        search over the candidate's covisible neighbourhood
 //                        and BA again. const: reads the map, changes nothing.
-//   RelocalisationHold — after a relocalisation, counts the frames in a row
-//                        whose pose has enough inliers; the tracker reports
-//                        OK only once the hold is over.
+//   RelocalisationHold — after a relocalisation, counts the frames whose
+//                        pose is precise; the tracker reports OK only once
+//                        the hold is over, and drops the relocalisation when
+//                        the pose stops being precise.
 //
 // Thread: the track stage's thread; the map is read through SharedMap.
 
+#include <functional>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
@@ -45,17 +47,45 @@ inline constexpr double kMaxOkPositionSigmaM = 0.02;
 // result's covariance; +inf without one.
 double position_sigma_m(const PassResult& result);
 
+// Precise enough for OK while tracking: min_inliers_ok inliers and a
+// position sigma within kMaxOkPositionSigmaM.
+bool precise_pose(const PassResult& result, int min_inliers_ok);
+
+// The position sigma of result's pose when its map points are not exact:
+// each inlier's point carries the error of a stereo point triangulated at
+// its present distance along its mean viewing direction (depth z^2 / bf,
+// across z / f, for one pixel), propagated into the observation's noise.
+// position_sigma_m() takes the points as exact; after a relocalisation to a
+// place seen before only from afar, from another angle, the pose inherits
+// the distant points' depth errors (measured: 0.11 m off at a sigma below
+// 0.02 m), which this sigma shows. +inf without enough inliers. Call under
+// SharedMap::read().
+double map_aware_position_sigma_m(const StereoCamera& camera, const map::ScalePyramid& pyramid,
+                                  const PreparedFrame& frame, const map::MapData& map,
+                                  const PassResult& result);
+
+// While a relocalisation is held, a frame counts towards OK only with a
+// map-aware position sigma within this.
+inline constexpr double kMaxHeldMapAwareSigmaM = 0.02;
+
 class Relocaliser {
  public:
   // Reads tracking.min_inliers_ok and the motion-only BA settings.
   Relocaliser(const StereoCamera& camera, const config::TrackingConfig& tracking,
               const map::ScalePyramid& pyramid);
 
-  // Tries the map's candidate places, best first; true with result's pose,
-  // matches and relocalised = true at the first that gives min_inliers_ok
-  // inliers. On false, result holds the last attempt's leftovers only.
+  // The caller's last word on a candidate's pose (e.g. track the local map
+  // from it and require a precise pose); may refine result.
+  using Verify = std::function<bool(PassResult& result)>;
+
+  // Tries the map's candidate places: per candidate, PnP, motion-only BA
+  // and verify (when given). True with result's pose, matches and
+  // relocalised = true when at least one place passes and no other place
+  // more than 0.5 m away passes too (a repeated scene: neither
+  // is trusted). On false, result is as given.
   bool relocalise(const map::SharedMap& map, const PreparedFrame& frame,
-                  const std::vector<std::uint8_t>& usable, PassResult& result) const;
+                  const std::vector<std::uint8_t>& usable, PassResult& result,
+                  const Verify& verify = {}) const;
 
   // One candidate place; see relocalise().
   bool relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -76,22 +106,33 @@ class RelocalisationHold {
   void restart() {
     holding_ = true;
     held_frames_ = 0;
+    misses_in_a_row_ = 0;
   }
-  // One more frame tracked after it; the hold ends after hold_frames frames
-  // in a row with enough inliers.
-  void update(bool enough_inliers) {
+  // One more frame tracked after it. Confirmed frames (precise, and
+  // precise with the map points' errors) count towards the end of the hold
+  // (hold_frames of them); an imprecise one does not count, and
+  // kMaxMissesInARow of them in a row fail the hold (see fails()).
+  void update(bool precise, bool confirmed) {
     if (!holding_) return;
-    held_frames_ = enough_inliers ? held_frames_ + 1 : 0;
+    if (confirmed) ++held_frames_;
+    misses_in_a_row_ = precise ? 0 : misses_in_a_row_ + 1;
     if (held_frames_ >= hold_frames_) holding_ = false;
   }
+  // Whether update(precise) would fail the hold: the relocalisation is then
+  // dropped rather than tracked on (it may sit on a repeated structure's
+  // twin), and the next frame relocalises anew.
+  bool fails(bool precise) const { return holding_ && !precise && misses_in_a_row_ + 1 >= kMaxMissesInARow; }
+  void stop() { holding_ = false; }
   bool holding() const { return holding_; }
   int held_frames() const { return held_frames_; }
   int hold_frames() const { return hold_frames_; }
 
  private:
+  static constexpr int kMaxMissesInARow = 2;
   int hold_frames_;
   bool holding_ = false;
   int held_frames_ = 0;
+  int misses_in_a_row_ = 0;
 };
 
 }  // namespace sitepose::tracking

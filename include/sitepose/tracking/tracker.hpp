@@ -145,9 +145,20 @@ class Tracker {
   void optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
                      const std::vector<int>& match_of_keypoint, PassResult& result) const;
 
+  // What a committed `result` means for a relocalisation's hold: precise
+  // (good enough for OK), confirmed (counts towards the hold's end: precise
+  // also with the map points' errors while held), dropped (a held
+  // relocalisation that stopped being precise: LOST, relocalise anew).
+  struct HoldVerdict {
+    bool precise = false;
+    bool confirmed = false;
+    bool dropped = false;
+  };
+  HoldVerdict judge_hold(const PreparedFrame& frame, const PassResult& result) const;
   // The state after a valid `result`: RECOVERING after a relocalisation
-  // until the pose has held (see commit()); returns whether it relocalised.
-  bool update_state(const PassResult& result);
+  // until the hold is over (see judge_hold()); returns whether it
+  // relocalised.
+  bool update_state(const PassResult& result, bool precise, bool confirmed);
   std::string state_reason(const PassResult& result) const;  // empty when OK
   bool initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable);
   bool need_keyframe(const PreparedFrame& frame, const PassResult& result,
