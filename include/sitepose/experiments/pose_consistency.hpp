@@ -33,8 +33,9 @@ namespace sitepose::experiments {
 
 struct NeesOptions {
   int frames = 0;  // 0 = all of the source
-  // The daemon's shipped outputs.covariance and outputs.integrity (a test
-  // checks these against daemon::DaemonConfig).
+  // Copies of the daemon's shipped outputs.covariance and
+  // outputs.integrity (daemon::DaemonConfig's defaults; the sitepose tool
+  // does not link the daemon module): keep them in step.
   output::CovarianceOptions covariance{1.0, 0.005, 0.02};
   double alert_limit_m = 0.10;
   std::function<void(int, int)> on_frame;  // (frame done, frames)
