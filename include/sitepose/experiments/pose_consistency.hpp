@@ -34,8 +34,8 @@ namespace sitepose::experiments {
 struct NeesOptions {
   int frames = 0;  // 0 = all of the source
   // Copies of the daemon's shipped outputs.covariance and
-  // outputs.integrity (daemon::DaemonConfig's defaults; the sitepose tool
-  // does not link the daemon module): keep them in step.
+  // outputs.integrity (the sitepose tool does not link the daemon module;
+  // experiments_unit_test checks them against daemon::DaemonConfig).
   output::CovarianceOptions covariance{1.0, 0.005, 0.02};
   double alert_limit_m = 0.10;
   std::function<void(int, int)> on_frame;  // (frame done, frames)

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "sitepose/daemon/daemon_config.hpp"
 #include "sitepose/experiments/pose_consistency.hpp"
 
 namespace sitepose::experiments {
@@ -39,6 +40,22 @@ TEST(PoseConsistency, IntegrityCountsSplitAlarmsByTheTrueError) {
   EXPECT_EQ(r.false_alarms(), 1);
   EXPECT_EQ(r.missed_detections(), 1);
   EXPECT_DOUBLE_EQ(r.bound_coverage(), 0.75);
+}
+
+}  // namespace
+}  // namespace sitepose::experiments
+
+namespace sitepose::experiments {
+namespace {
+
+// bench nees scores what siteposed ships.
+TEST(PoseConsistency, OptionsAreTheDaemonsShippedDefaults) {
+  const daemon::DaemonConfig shipped;
+  const NeesOptions options;
+  EXPECT_EQ(options.covariance.scale, shipped.covariance.scale);
+  EXPECT_EQ(options.covariance.floor_position_m, shipped.covariance.floor_position_m);
+  EXPECT_EQ(options.covariance.floor_attitude_deg, shipped.covariance.floor_attitude_deg);
+  EXPECT_EQ(options.alert_limit_m, shipped.integrity_alert_limit_m);
 }
 
 }  // namespace
