@@ -1,0 +1,136 @@
+// `sitepose bench nees`: is the published covariance consistent? A
+// simulated scenario tracked frame by frame (mode full, the scenario's
+// labels), each OK pose scored against ground truth under the covariance the
+// daemon publishes (shipped outputs.covariance, no site anchor): mean NEES
+// of position (3 dof) and pose (6 dof) with the chi-square 95 % band of the
+// window mean, and the integrity flag's false alarms and missed detections
+// at the shipped alert limit (experiments/pose_consistency.hpp). Figures
+// only, never pass/fail.
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <numbers>
+#include <optional>
+
+#include "command_config.hpp"
+#include "command_registry.hpp"
+#include "sitepose/experiments/pose_consistency.hpp"
+
+namespace sitepose::cli {
+namespace {
+
+constexpr const char* kCommand = "bench nees";
+
+struct Args {
+  std::string scenario = "static";
+  int frames = 0;
+  std::optional<int> seed;
+  std::optional<int> width;
+  std::optional<int> height;
+  std::string mode = "full";
+  std::string config_path;
+  std::string csv;
+  experiments::NeesOptions nees;
+};
+
+Status write_csv(const std::string& path, const experiments::NeesResult& r) {
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "w"), &std::fclose);
+  if (!f) return make_error(ErrorCode::kIoError, "--csv " + path + ": cannot open for writing");
+  std::fprintf(f.get(),
+               "frame,t_s,ex_m,ey_m,ez_m,erx_rad,ery_rad,erz_rad,error_position_m,error_rotation_deg,"
+               "nees_position,nees_pose,bound_3sigma_m,alert,features_used\n");
+  for (const auto& s : r.samples) {
+    std::fprintf(f.get(), "%d,%.6f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%d,%d\n", s.frame,
+                 s.t_s, s.error_position_m.x(), s.error_position_m.y(), s.error_position_m.z(),
+                 s.error_rotation_rad.x(), s.error_rotation_rad.y(), s.error_rotation_rad.z(),
+                 s.error_position_m.norm(), s.error_rotation_rad.norm() * 180.0 / std::numbers::pi,
+                 s.nees_position, s.nees_pose, s.bound_3sigma_m, s.alert ? 1 : 0, s.features_used);
+  }
+  if (std::fflush(f.get()) != 0 || std::ferror(f.get()))
+    return make_error(ErrorCode::kIoError, "--csv " + path + ": write failed");
+  return {};
+}
+
+double share(int count, int total) { return total > 0 ? static_cast<double>(count) / total : 0.0; }
+
+void print_result(const experiments::NeesResult& r, const Args& args) {
+  const int n = static_cast<int>(r.samples.size());
+  std::printf(
+      "bench nees: %s, %d frames, %d OK (first OK frame %d defines the SLAM frame: offset to the "
+      "ground truth's %.3g m; not scored), %d scored\n",
+      r.name.c_str(), r.frames, r.frames_ok, r.anchor_frame, r.anchor_offset_m, n);
+  std::printf("published covariance: scale %g x tracker + floor %g m / %g deg (isotropic), no anchor\n",
+              args.nees.covariance.scale, args.nees.covariance.floor_position_m,
+              args.nees.covariance.floor_attitude_deg);
+  const auto band3 = experiments::chi_square_mean_band_95(n, 3);
+  const auto band6 = experiments::chi_square_mean_band_95(n, 6);
+  std::printf("mean NEES position (3 dof): %.3f   95 %% band of the mean [%.3f, %.3f]\n",
+              r.mean_nees_position(), band3.low, band3.high);
+  std::printf("mean NEES pose     (6 dof): %.3f   95 %% band of the mean [%.3f, %.3f]\n", r.mean_nees_pose(),
+              band6.low, band6.high);
+  std::printf("(band: chi-square quantiles by Wilson-Hilferty, frames taken as independent)\n");
+  std::printf("3-sigma bound covers the position error in %.1f %% of scored frames\n",
+              100.0 * r.bound_coverage());
+  std::printf(
+      "integrity at alert limit %.3f m: %d alerts, %d frames with error > limit; false alarms %d "
+      "(%.1f %% of scored frames), missed detections %d (%.1f %% of scored frames, %.1f %% of "
+      "frames over the limit)\n",
+      r.alert_limit_m, r.alerts(), r.errors_over_limit(), r.false_alarms(),
+      100.0 * share(r.false_alarms(), n), r.missed_detections(), 100.0 * share(r.missed_detections(), n),
+      100.0 * share(r.missed_detections(), r.errors_over_limit()));
+}
+
+int run(const Args& args) {
+  auto config = load_command_config(args.config_path, args.mode);
+  if (!config) return fail(kCommand, config.error().message, 2);
+  auto source = experiments::open_simulated(args.scenario, args.frames, args.seed, args.width, args.height);
+  if (!source) return fail(kCommand, source.error().message, 2);
+  experiments::NeesOptions options = args.nees;
+  options.frames = args.frames;
+  options.on_frame = [](int done, int frames) {
+    if (done % 50 == 0 || done == frames) std::fprintf(stderr, "bench nees: %d/%d frames\n", done, frames);
+  };
+  auto result = experiments::run_nees(**source, *config, options);
+  if (!result) return fail(kCommand, result.error().message, 1);
+  print_result(*result, args);
+  if (!args.csv.empty()) {
+    if (auto st = write_csv(args.csv, *result); !st) return fail(kCommand, st.error().message, 1);
+  }
+  return 0;
+}
+
+const CommandRegistrar kBenchNees{
+    {"bench", "nees",
+     "NEES of the published pose covariance and integrity false-alarm / missed-detection rates on a "
+     "simulated scenario",
+     [](CLI::App& sub) -> CommandAction {
+       auto args = std::make_shared<Args>();
+       sub.add_option("--scenario", args->scenario, "Scenario name or YAML (default static)");
+       sub.add_option("--frames", args->frames, "Frames (0 = the scenario's)")
+           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+       sub.add_option("--seed", args->seed, "Rendering seed (default the scenario's)");
+       sub.add_option("--width", args->width, "Render width (same field of view)")
+           ->check(CLI::Range(64, 8192));
+       sub.add_option("--height", args->height, "Render height")->check(CLI::Range(64, 8192));
+       sub.add_option("--mode", args->mode, "Masking mode (default full)");
+       sub.add_option("--config", args->config_path, "sitepose YAML config");
+       sub.add_option("--scale", args->nees.covariance.scale,
+                      "outputs.covariance.scale to score (default the shipped)")
+           ->check(CLI::Range(1e-6, 1e6));
+       sub.add_option("--floor-position-m", args->nees.covariance.floor_position_m,
+                      "outputs.covariance.floor_position_m (default the shipped)")
+           ->check(CLI::Range(0.0, 100.0));
+       sub.add_option("--floor-attitude-deg", args->nees.covariance.floor_attitude_deg,
+                      "outputs.covariance.floor_attitude_deg (default the shipped)")
+           ->check(CLI::Range(0.0, 90.0));
+       sub.add_option("--alert-limit-m", args->nees.alert_limit_m,
+                      "outputs.integrity.alert_limit_m (default the shipped)")
+           ->check(CLI::Range(0.0, 1000.0));
+       sub.add_option("--csv", args->csv, "Write one row per scored frame");
+       return [args] { return run(*args); };
+     }}};
+
+}  // namespace
+}  // namespace sitepose::cli
