@@ -26,20 +26,22 @@ constexpr int kMinPoints = 30;
 }  // namespace
 
 std::vector<MapCheck> MotionClassifier::check_against_map(
-    const tracking::PreparedFrame& frame, const std::vector<std::optional<Eigen::Vector3d>>& map_point_of_keypoint,
-    const ObjectFeatures& current, const std::vector<std::uint16_t>& instances) {
+    const tracking::PreparedFrame& frame,
+    const std::vector<std::optional<Eigen::Vector3d>>& map_point_of_keypoint, const ObjectFeatures& current,
+    const std::vector<std::uint16_t>& instances) {
   std::vector<MapCheck> out;
   if (config_.classifier == config::ClassifierMode::kPaper) return out;  // the paper has no such test
   std::optional<Matrix6d> pose_covariance;
-  if (current.covariance) pose_covariance = *current.covariance * clamped_variance_factor(current.variance_factor);
+  if (current.covariance)
+    pose_covariance = *current.covariance * clamped_variance_factor(current.variance_factor);
   for (std::uint16_t instance : instances) {
     std::vector<detail::PointDisplacement> points;
     for (int k = 0; k < frame.size(); ++k) {
       if (frame.instance[k] != instance || !map_point_of_keypoint[k]) continue;
       if (!detail::gives_trusted_point(frame, k, max_depth_m_)) continue;
-      const auto sighting = to_world(frame.uv_px[k], frame.features.u_right[k], frame.octave[k],
-                                     current.variance_factor, current.T_world_cam,
-                                     pose_covariance ? &*pose_covariance : nullptr);
+      const auto sighting =
+          to_world(frame.uv_px[k], frame.features.u_right[k], frame.octave[k], current.variance_factor,
+                   current.T_world_cam, pose_covariance ? &*pose_covariance : nullptr);
       if (!sighting) continue;
       detail::PointDisplacement p;
       p.d = sighting->p - *map_point_of_keypoint[k];

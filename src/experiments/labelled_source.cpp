@@ -31,7 +31,8 @@ class SimulatedSource final : public LabelledSource {
   const StereoCamera& camera() const override { return simulator_.camera(); }
   Expected<LabelledFrame> read(int i) const override {
     if (i < 0 || i >= size()) {
-      return make_error(ErrorCode::kInvalidArgument, name_ + ": frame " + std::to_string(i) + " out of range");
+      return make_error(ErrorCode::kInvalidArgument,
+                        name_ + ": frame " + std::to_string(i) + " out of range");
     }
     sim::SimFrame f = simulator_.render(i);
     LabelledFrame out;
@@ -144,7 +145,7 @@ std::unique_ptr<LabelledSource> cache_frames(std::unique_ptr<LabelledSource> sou
 }
 
 Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceRequest& request,
-                                                              std::string* written_dir) {
+                                                               std::string* written_dir) {
   if (request.sequence.empty() == request.scenario.empty()) {
     return make_error(ErrorCode::kInvalidArgument, "give exactly one of --sequence DIR and --scenario NAME");
   }
@@ -161,8 +162,8 @@ Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceReque
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) return make_error(ErrorCode::kIoError, "cannot create " + dir + ": " + ec.message());
-    std::fprintf(stderr, "simulating %s (%d frames) into %s\n", scenario.name.c_str(), simulator.frame_count(),
-                 dir.c_str());
+    std::fprintf(stderr, "simulating %s (%d frames) into %s\n", scenario.name.c_str(),
+                 simulator.frame_count(), dir.c_str());
     SITEPOSE_TRY(sim::WriteSummary summary, sim::write_sequence(simulator, dir));
     (void)summary;
   }

@@ -33,10 +33,8 @@ struct Error {
       case ErrorCode::kInvalidArgument:
       case ErrorCode::kNotFound:
       case ErrorCode::kParseError:
-      case ErrorCode::kUnsupported:
-        return 2;
-      default:
-        return 1;
+      case ErrorCode::kUnsupported: return 2;
+      default: return 1;
     }
   }
 };

@@ -73,6 +73,6 @@ struct SourceRequest {
   std::string temp_dir;  // where a scenario is written; empty = a fresh folder under /tmp
 };
 Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceRequest& request,
-                                                              std::string* written_dir = nullptr);
+                                                               std::string* written_dir = nullptr);
 
 }  // namespace sitepose::experiments

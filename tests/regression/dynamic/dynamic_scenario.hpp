@@ -78,8 +78,9 @@ class Scenario {
         for (const auto& o : r.objects) {
           std::printf("   obj %u %s raw %s state %s score %.2f pooled %.1f points %d ref %lld map %.1f\n",
                       o.verdict.instance, o.verdict.class_name.c_str(), dynamic::to_string(o.verdict.raw),
-                      dynamic::to_string(o.verdict.state), o.verdict.score, o.verdict.pooled_statistic, o.verdict.points,
-                      static_cast<long long>(o.verdict.reference_seq), o.verdict.map_statistic.value_or(-1.0));
+                      dynamic::to_string(o.verdict.state), o.verdict.score, o.verdict.pooled_statistic,
+                      o.verdict.points, static_cast<long long>(o.verdict.reference_seq),
+                      o.verdict.map_statistic.value_or(-1.0));
         }
       };
     }
@@ -90,13 +91,14 @@ class Scenario {
     f.ate_m = result->ate_m();
     f.coverage = result->coverage_ok();
     f.max_masked = result->max_masked_ratio;
-    std::printf("[figures] %-9s %-12s %-8s %s ATE %.4f m  max %.4f m  coverage %.1f %%  max masked %.2f  "
-                "pixel-mask calls %d  pass 2 rejected %d  re-masked by the map check %d\n",
-                source_->name().c_str(), config::to_string(mode), config::to_string(classifier),
-                detector.empty() ? "labels" : detector.c_str(), f.ate_m,
-                result->evaluation ? result->evaluation->ate_m.max : NAN, 100.0 * f.coverage, f.max_masked,
-                result->recorder.pixel_mask_calls(), result->recorder.pass2_rejections(),
-                result->recorder.map_check_remasks());
+    std::printf(
+        "[figures] %-9s %-12s %-8s %s ATE %.4f m  max %.4f m  coverage %.1f %%  max masked %.2f  "
+        "pixel-mask calls %d  pass 2 rejected %d  re-masked by the map check %d\n",
+        source_->name().c_str(), config::to_string(mode), config::to_string(classifier),
+        detector.empty() ? "labels" : detector.c_str(), f.ate_m,
+        result->evaluation ? result->evaluation->ate_m.max : NAN, 100.0 * f.coverage, f.max_masked,
+        result->recorder.pixel_mask_calls(), result->recorder.pass2_rejections(),
+        result->recorder.map_check_remasks());
     f.run = std::move(*result);
     return f;
   }
