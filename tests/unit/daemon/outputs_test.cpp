@@ -27,6 +27,18 @@ TimeBase::Clock fixed_clock(std::int64_t system_ns = kUtcNow_ns) {
   return [system_ns] { return TimeBase::Now{system_ns, kSteadyNow}; };
 }
 
+// An LCM publisher that keeps every encoded message in `sent` instead of
+// sending it.
+Expected<std::unique_ptr<output::LcmPublisher>> recording_publisher(
+    std::vector<std::vector<std::uint8_t>>& sent) {
+  return output::LcmPublisher::create_with_sender(
+      output::LcmOptions{}, [&sent](const std::string&, const void* data, unsigned size) {
+        const auto* b = static_cast<const std::uint8_t*>(data);
+        sent.emplace_back(b, b + size);
+        return 0;
+      });
+}
+
 pipeline::PosePacket packet(std::int64_t t_ns, pipeline::SteadyTime captured, std::int64_t seq = 0) {
   pipeline::PosePacket p;
   p.pose.t_ns = t_ns;
@@ -83,12 +95,7 @@ TEST(DaemonOutputs, PoseHealthCanStampsAndN2kDateTimeShareOneUtcClock) {
   a.time_base() = TimeBase(fixed_clock());
 
   std::vector<std::vector<std::uint8_t>> sent;
-  auto publisher = output::LcmPublisher::create_with_sender(
-      output::LcmOptions{}, [&](const std::string&, const void* data, unsigned size) {
-        const auto* b = static_cast<const std::uint8_t*>(data);
-        sent.emplace_back(b, b + size);
-        return 0;
-      });
+  auto publisher = recording_publisher(sent);
   ASSERT_TRUE(publisher);
   LcmOutput lcm(std::move(*publisher), a);
   auto sink = std::make_unique<RecordingSink>();
@@ -158,12 +165,7 @@ Published publish_all(const GeoConfig& geo, const PublishOptions& options,
   if (!anchoring) return out;
   (*anchoring)->time_base() = TimeBase(fixed_clock());
   std::vector<std::vector<std::uint8_t>> sent;
-  auto publisher = output::LcmPublisher::create_with_sender(
-      output::LcmOptions{}, [&](const std::string&, const void* data, unsigned size) {
-        const auto* b = static_cast<const std::uint8_t*>(data);
-        sent.emplace_back(b, b + size);
-        return 0;
-      });
+  auto publisher = recording_publisher(sent);
   LcmOutput lcm(std::move(*publisher), **anchoring);
   auto sink = std::make_unique<RecordingSink>();
   RecordingSink* frames = sink.get();
