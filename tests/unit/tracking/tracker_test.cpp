@@ -14,6 +14,15 @@
 namespace sitepose::tracking {
 namespace {
 
+// The tracker's link to a local mapper run by the test (as SlamSystem links them).
+MapperLink link_to(mapping::LocalMapper& mapper) {
+  MapperLink link;
+  link.enqueue = [&mapper](map::KeyFrameId id) { mapper.enqueue(id); };
+  link.queue_size = [&mapper] { return static_cast<int>(mapper.queue_size()); };
+  link.is_idle = [&mapper] { return mapper.is_idle(); };
+  return link;
+}
+
 // A small simulated site (480x270) keeps the test fast.
 struct SmallSite {
   sim::Simulator simulator;
@@ -77,11 +86,7 @@ BlindSpell track_blind_spell() {
   map::SharedMap map;
   const config::SiteposeConfig config = small_config();
   mapping::LocalMapper mapper(site.simulator.camera(), config.mapping, config.tracking, map);
-  MapperLink link;
-  link.enqueue = [&](map::KeyFrameId id) { mapper.enqueue(id); };
-  link.queue_size = [&] { return static_cast<int>(mapper.queue_size()); };
-  link.is_idle = [&] { return mapper.is_idle(); };
-  Tracker tracker(site.simulator.camera(), config, map, std::move(link));
+  Tracker tracker(site.simulator.camera(), config, map, link_to(mapper));
   for (int i = 0; i < BlindSpell::kFrames; ++i) {
     sim::SimFrame truth;
     auto pose = tracker.track(site.frame(i, &truth));
@@ -299,11 +304,7 @@ TEST(Tracker, RenewsTheBackgroundWhileStaticObjectsKeepTheTotalHigh) {
     map::SharedMap map;
     const config::SiteposeConfig config = small_config();
     mapping::LocalMapper mapper(site.simulator.camera(), config.mapping, config.tracking, map);
-    MapperLink link;
-    link.enqueue = [&](map::KeyFrameId id) { mapper.enqueue(id); };
-    link.queue_size = [&] { return static_cast<int>(mapper.queue_size()); };
-    link.is_idle = [&] { return mapper.is_idle(); };
-    Tracker tracker(site.simulator.camera(), config, map, std::move(link));
+    Tracker tracker(site.simulator.camera(), config, map, link_to(mapper));
     Run out;
     for (int i = 0; i < kFrames; ++i) {
       const StereoFrame frame = site.frame(i);
