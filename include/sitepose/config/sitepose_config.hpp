@@ -91,8 +91,8 @@ struct DynamicConfig {
   double chi2_static_3dof = 7.815;         // sitepose mode: Mahalanobis gate
   int hysteresis_frames = 2;               // sitepose mode: frames to flip a state
   int min_object_points = 8;               // fewer -> unknown (stays masked)
-  std::vector<std::string> dynamic_classes{"truck", "roller", "excavator", "dozer",
-                                           "car",   "person", "machine"};
+  std::vector<std::string> dynamic_classes{"truck", "roller", "excavator", "loader",
+                                           "dozer", "car",    "person",    "machine"};
 
   bool operator==(const DynamicConfig&) const = default;
 };

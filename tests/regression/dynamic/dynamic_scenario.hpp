@@ -55,8 +55,6 @@ class Scenario {
     config::SiteposeConfig config;
     config.dynamic.mode = mode;
     config.dynamic.classifier = classifier;
-    // The simulator's wheel loader (scenario slewing) is a machine too.
-    config.dynamic.dynamic_classes.push_back("loader");
     DynamicRunOptions options;
     std::unique_ptr<detect::Detector> made;
     if (!detector.empty()) {
