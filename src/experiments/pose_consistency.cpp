@@ -9,6 +9,7 @@
 
 #include "sitepose/experiments/dynamic_run.hpp"
 #include "sitepose/geo/site_frame.hpp"
+#include "sitepose/output/travelled_distance.hpp"
 
 namespace sitepose::experiments {
 namespace {
@@ -25,6 +26,7 @@ double chi_square_quantile(double z, double dof) {
 struct OkPose {
   int frame = 0;
   PoseEstimate pose;
+  double travelled_m = 0.0;  // TravelledDistance at this pose, as the daemon counts it
 };
 
 // e^T P^-1 e; NaN when P is not positive definite.
@@ -37,7 +39,7 @@ double nees(const Eigen::Matrix<double, N, 1>& e, const Eigen::Matrix<double, N,
 
 NeesSample score(const OkPose& ok, const SE3& T_slam_cam_gt, const NeesOptions& options) {
   const PoseEstimate published =
-      output::published_pose(ok.pose, Eigen::Vector3d::Zero(), options.covariance, 0.0, 0.0);
+      output::published_pose(ok.pose, Eigen::Vector3d::Zero(), options.covariance, 0.0, 0.0, ok.travelled_m);
   // [dp; dtheta] covariance, as the daemon forms it for its protection level.
   const Matrix6d P = geo::site_covariance(SE3::identity(), published.T_world_cam, published.covariance);
   NeesSample s;
@@ -53,6 +55,9 @@ NeesSample score(const OkPose& ok, const SE3& T_slam_cam_gt, const NeesOptions& 
   s.bound_3sigma_m = output::position_bound_3sigma_m(P_position);
   s.alert = output::integrity_alert(s.bound_3sigma_m, options.alert_limit_m);
   s.features_used = ok.pose.counters.features_used;
+  s.travelled_m = ok.travelled_m;
+  s.position_m = published.T_world_cam.translation();
+  s.tracker_covariance = geo::site_covariance(SE3::identity(), ok.pose.T_world_cam, ok.pose.covariance);
   return s;
 }
 
@@ -97,6 +102,19 @@ int NeesResult::alerts() const {
   return count_if(samples, [](const NeesSample& s) { return s.alert; });
 }
 
+NeesResult::IntegrityCounts NeesResult::integrity_at(double limit_m) const {
+  IntegrityCounts c;
+  for (const NeesSample& s : samples) {
+    const bool alert = output::integrity_alert(s.bound_3sigma_m, limit_m);
+    const double error_m = s.error_position_m.norm();
+    c.alerts += alert ? 1 : 0;
+    c.errors_over_limit += error_m > limit_m ? 1 : 0;
+    c.false_alarms += alert && error_m < limit_m ? 1 : 0;
+    c.missed_detections += !alert && error_m > limit_m ? 1 : 0;
+  }
+  return c;
+}
+
 double NeesResult::bound_coverage() const {
   if (samples.empty()) return std::numeric_limits<double>::quiet_NaN();
   const int covered =
@@ -107,10 +125,12 @@ double NeesResult::bound_coverage() const {
 Expected<NeesResult> run_nees(const LabelledSource& source, const config::SiteposeConfig& config,
                               const NeesOptions& options) {
   std::vector<OkPose> ok;
+  output::TravelledDistance travelled;  // over every pose the daemon would publish, OK or not
   DynamicRunOptions run_options;
   run_options.frames = options.frames;
   run_options.on_frame = [&](int i, int frames, const slam::FrameReport& report) {
-    if (report.pose.state == TrackingState::kOk) ok.push_back({i, report.pose});
+    const double travelled_m = travelled.update(report.pose);
+    if (report.pose.state == TrackingState::kOk) ok.push_back({i, report.pose, travelled_m});
     if (options.on_frame) options.on_frame(i + 1, frames);
   };
   SITEPOSE_TRY(DynamicRunResult run, run_dynamic(source, config, run_options));

@@ -1,5 +1,6 @@
 #include "sitepose/output/published_pose.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -7,6 +8,9 @@
 #include <numbers>
 
 namespace sitepose::output {
+namespace {
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+}  // namespace
 
 Expected<Eigen::Matrix3d> rotation_cam_machine(geo::ForwardAxis forward) {
   const Eigen::Vector3d x = geo::axis_vector(forward);
@@ -41,13 +45,20 @@ Matrix6d isotropic_point_covariance(const Eigen::Vector3d& p_world, double posit
   return 0.5 * (out + out.transpose());
 }
 
+DriftStd drift_std(const CovarianceOptions& covariance, double travelled_m) {
+  const double root_m = std::isfinite(travelled_m) ? std::sqrt(std::max(travelled_m, 0.0)) : 0.0;
+  return {covariance.drift_m_per_sqrt_m * root_m, covariance.drift_deg_per_sqrt_m * kDegToRad * root_m};
+}
+
 PoseEstimate published_pose(const PoseEstimate& camera, const Eigen::Vector3d& lever_arm_cam_m,
                             const CovarianceOptions& covariance, double extra_position_std_m,
-                            double extra_attitude_std_rad) {
+                            double extra_attitude_std_rad, double travelled_m) {
   PoseEstimate out = reference_pose(camera, lever_arm_cam_m);
-  const double position_std_m = std::hypot(covariance.floor_position_m, extra_position_std_m);
+  const DriftStd drift = drift_std(covariance, travelled_m);
+  const double position_std_m =
+      std::hypot(covariance.floor_position_m, extra_position_std_m, drift.position_m);
   const double attitude_std_rad =
-      std::hypot(covariance.floor_attitude_deg * std::numbers::pi / 180.0, extra_attitude_std_rad);
+      std::hypot(covariance.floor_attitude_deg * kDegToRad, extra_attitude_std_rad, drift.attitude_rad);
   Matrix6d tracker = camera.covariance;
   if (!tracker.allFinite()) tracker.setZero();
   out.covariance = covariance.scale * tracker + isotropic_point_covariance(out.T_world_cam.translation(),

@@ -40,13 +40,23 @@ Status write_csv(const std::string& path, const experiments::NeesResult& r) {
   if (!f) return make_error(ErrorCode::kIoError, "--csv " + path + ": cannot open for writing");
   std::fprintf(f.get(),
                "frame,t_s,ex_m,ey_m,ez_m,erx_rad,ery_rad,erz_rad,error_position_m,error_rotation_deg,"
-               "nees_position,nees_pose,bound_3sigma_m,alert,features_used\n");
+               "nees_position,nees_pose,bound_3sigma_m,alert,features_used,travelled_m,x_m,y_m,z_m");
+  // The tracker's own [dp; dtheta] covariance, upper triangle row by row
+  // (tools/nees_calibrate.py re-scores other settings from it).
+  for (int i = 0; i < 6; ++i)
+    for (int j = i; j < 6; ++j) std::fprintf(f.get(), ",tracker_c%d%d", i, j);
+  std::fprintf(f.get(), "\n");
   for (const auto& s : r.samples) {
-    std::fprintf(f.get(), "%d,%.6f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%d,%d\n", s.frame,
-                 s.t_s, s.error_position_m.x(), s.error_position_m.y(), s.error_position_m.z(),
+    std::fprintf(f.get(),
+                 "%d,%.6f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%d,%d,%.6g,%.6g,%.6g,%.6g",
+                 s.frame, s.t_s, s.error_position_m.x(), s.error_position_m.y(), s.error_position_m.z(),
                  s.error_rotation_rad.x(), s.error_rotation_rad.y(), s.error_rotation_rad.z(),
                  s.error_position_m.norm(), s.error_rotation_rad.norm() * 180.0 / std::numbers::pi,
-                 s.nees_position, s.nees_pose, s.bound_3sigma_m, s.alert ? 1 : 0, s.features_used);
+                 s.nees_position, s.nees_pose, s.bound_3sigma_m, s.alert ? 1 : 0, s.features_used,
+                 s.travelled_m, s.position_m.x(), s.position_m.y(), s.position_m.z());
+    for (int i = 0; i < 6; ++i)
+      for (int j = i; j < 6; ++j) std::fprintf(f.get(), ",%.9g", s.tracker_covariance(i, j));
+    std::fprintf(f.get(), "\n");
   }
   if (std::fflush(f.get()) != 0 || std::ferror(f.get()))
     return make_error(ErrorCode::kIoError, "--csv " + path + ": write failed");
@@ -61,9 +71,12 @@ void print_result(const experiments::NeesResult& r, const Args& args) {
       "bench nees: %s, %d frames, %d OK (first OK frame %d defines the SLAM frame: offset to the "
       "ground truth's %.3g m; not scored), %d scored\n",
       r.name.c_str(), r.frames, r.frames_ok, r.anchor_frame, r.anchor_offset_m, n);
-  std::printf("published covariance: scale %g x tracker + floor %g m / %g deg (isotropic), no anchor\n",
-              args.nees.covariance.scale, args.nees.covariance.floor_position_m,
-              args.nees.covariance.floor_attitude_deg);
+  const output::CovarianceOptions& c = args.nees.covariance;
+  std::printf(
+      "published covariance: scale %g x tracker + floor %g m / %g deg + drift %g m / %g deg x "
+      "sqrt(m travelled) (isotropic), no anchor; %.1f m travelled\n",
+      c.scale, c.floor_position_m, c.floor_attitude_deg, c.drift_m_per_sqrt_m, c.drift_deg_per_sqrt_m,
+      r.samples.empty() ? 0.0 : r.samples.back().travelled_m);
   const auto band3 = experiments::chi_square_mean_band_95(n, 3);
   const auto band6 = experiments::chi_square_mean_band_95(n, 6);
   std::printf("mean NEES position (3 dof): %.3f   95 %% band of the mean [%.3f, %.3f]\n",
@@ -80,6 +93,13 @@ void print_result(const experiments::NeesResult& r, const Args& args) {
       r.alert_limit_m, r.alerts(), r.errors_over_limit(), r.false_alarms(),
       100.0 * share(r.false_alarms(), n), r.missed_detections(), 100.0 * share(r.missed_detections(), n),
       100.0 * share(r.missed_detections(), r.errors_over_limit()));
+  for (const double limit_m : {0.03, 0.05}) {
+    const auto c = r.integrity_at(limit_m);
+    std::printf(
+        "  at %.2f m: %d alerts, %d over; false alarms %d (%.1f %%), missed detections %d (%.1f %%)\n",
+        limit_m, c.alerts, c.errors_over_limit, c.false_alarms, 100.0 * share(c.false_alarms, n),
+        c.missed_detections, 100.0 * share(c.missed_detections, n));
+  }
 }
 
 int run(const Args& args) {
@@ -125,6 +145,12 @@ const CommandRegistrar kBenchNees{
        sub.add_option("--floor-attitude-deg", args->nees.covariance.floor_attitude_deg,
                       "outputs.covariance.floor_attitude_deg (default the shipped)")
            ->check(CLI::Range(0.0, 90.0));
+       sub.add_option("--drift-m-per-sqrt-m", args->nees.covariance.drift_m_per_sqrt_m,
+                      "outputs.covariance.drift_m_per_sqrt_m (default the shipped)")
+           ->check(CLI::Range(0.0, 1.0));
+       sub.add_option("--drift-deg-per-sqrt-m", args->nees.covariance.drift_deg_per_sqrt_m,
+                      "outputs.covariance.drift_deg_per_sqrt_m (default the shipped)")
+           ->check(CLI::Range(0.0, 10.0));
        sub.add_option("--alert-limit-m", args->nees.alert_limit_m,
                       "outputs.integrity.alert_limit_m (default the shipped)")
            ->check(CLI::Range(0.0, 1000.0));

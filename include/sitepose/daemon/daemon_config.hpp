@@ -138,9 +138,9 @@ struct DaemonConfig {
   TrajectoryOutputConfig trajectory;
   CanOutputConfig can;
   LcmOutputConfig lcm;
-  output::ReferencePointOptions reference_point;           // outputs.reference_point
-  output::CovarianceOptions covariance{1.0, 0.005, 0.02};  // outputs.covariance
-  double integrity_alert_limit_m = 0.10;                   // outputs.integrity.alert_limit_m
+  output::ReferencePointOptions reference_point;                         // outputs.reference_point
+  output::CovarianceOptions covariance{1.0, 0.005, 0.02, 0.005, 0.007};  // outputs.covariance
+  double integrity_alert_limit_m = 0.10;                                 // outputs.integrity.alert_limit_m
   GeoConfig geo;
   config::SiteposeConfig sitepose;
   MapPersistenceConfig map;

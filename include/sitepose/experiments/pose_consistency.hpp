@@ -36,7 +36,7 @@ struct NeesOptions {
   // Copies of the daemon's shipped outputs.covariance and
   // outputs.integrity (the sitepose tool does not link the daemon module;
   // experiments_unit_test checks them against daemon::DaemonConfig).
-  output::CovarianceOptions covariance{1.0, 0.005, 0.02};
+  output::CovarianceOptions covariance{1.0, 0.005, 0.02, 0.005, 0.007};
   double alert_limit_m = 0.10;
   std::function<void(int, int)> on_frame;  // (frame done, frames)
 };
@@ -51,6 +51,11 @@ struct NeesSample {
   double bound_3sigma_m = 0.0;  // protection level, as published
   bool alert = false;           // integrity flag, as published
   int features_used = 0;
+  double travelled_m = 0.0;  // distance of the map-drift term (output::TravelledDistance)
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  // the estimate (SLAM world, like the error)
+  // The tracker's own covariance over [dp; dtheta] (before scale, floor and
+  // drift), so a calibration can re-score other settings without re-running.
+  Matrix6d tracker_covariance = Matrix6d::Zero();
 };
 
 // The chi-square band for the mean of N independent chi2(k) values:
@@ -78,6 +83,16 @@ struct NeesResult {
   int errors_over_limit() const;  // |dp| > alert limit
   int alerts() const;
   double bound_coverage() const;  // share of samples with |dp| <= 3-sigma bound
+
+  // The same counts had the alert limit been limit_m (alert: 3-sigma bound
+  // over it, output::integrity_alert).
+  struct IntegrityCounts {
+    int alerts = 0;
+    int errors_over_limit = 0;
+    int false_alarms = 0;
+    int missed_detections = 0;
+  };
+  IntegrityCounts integrity_at(double limit_m) const;
 };
 
 Expected<NeesResult> run_nees(const LabelledSource& source, const config::SiteposeConfig& config,

@@ -55,6 +55,8 @@ TEST(PoseConsistency, OptionsAreTheDaemonsShippedDefaults) {
   EXPECT_EQ(options.covariance.scale, shipped.covariance.scale);
   EXPECT_EQ(options.covariance.floor_position_m, shipped.covariance.floor_position_m);
   EXPECT_EQ(options.covariance.floor_attitude_deg, shipped.covariance.floor_attitude_deg);
+  EXPECT_EQ(options.covariance.drift_m_per_sqrt_m, shipped.covariance.drift_m_per_sqrt_m);
+  EXPECT_EQ(options.covariance.drift_deg_per_sqrt_m, shipped.covariance.drift_deg_per_sqrt_m);
   EXPECT_EQ(options.alert_limit_m, shipped.integrity_alert_limit_m);
 }
 

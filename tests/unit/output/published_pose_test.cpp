@@ -3,6 +3,7 @@
 // through a left twist, STYLE.md §8), the floor, and the velocity.
 
 #include "sitepose/output/published_pose.hpp"
+#include "sitepose/output/travelled_distance.hpp"
 
 #include <gtest/gtest.h>
 
@@ -117,6 +118,62 @@ TEST(PublishedCovariance, ScaleAndIsotropicExtraAreWhatTheyClaim) {
   expected.topLeftCorner<3, 3>() += pos_var * Eigen::Matrix3d::Identity();
   expected.bottomRightCorner<3, 3>() += att_var * Eigen::Matrix3d::Identity();
   EXPECT_TRUE(published.isApprox(expected, 1e-9));
+}
+
+TEST(PublishedCovariance, MapDriftIsARandomWalkOverTheDistanceTravelled) {
+  PoseEstimate camera;
+  camera.T_world_cam = some_pose();
+  camera.covariance = random_covariance(5);
+  CovarianceOptions options{1.5, 0.005, 0.02, 0.002, 0.01};
+  const Matrix6d tracker = geo::site_covariance(SE3::identity(), camera.T_world_cam, camera.covariance);
+  for (const double travelled_m : {0.0, 10.0, 40.0}) {
+    const PoseEstimate out =
+        published_pose(camera, Eigen::Vector3d::Zero(), options, 0.02, 0.001, travelled_m);
+    const Matrix6d published = geo::site_covariance(SE3::identity(), out.T_world_cam, out.covariance);
+    // Variances grow linearly with the distance.
+    const double pos_var = 0.005 * 0.005 + 0.02 * 0.02 + 0.002 * 0.002 * travelled_m;
+    const double att_var = std::pow(0.02 * std::numbers::pi / 180.0, 2) + 0.001 * 0.001 +
+                           std::pow(0.01 * std::numbers::pi / 180.0, 2) * travelled_m;
+    Matrix6d expected = 1.5 * tracker;
+    expected.topLeftCorner<3, 3>() += pos_var * Eigen::Matrix3d::Identity();
+    expected.bottomRightCorner<3, 3>() += att_var * Eigen::Matrix3d::Identity();
+    EXPECT_TRUE(published.isApprox(expected, 1e-9)) << travelled_m << " m";
+  }
+  // No drift configured, or no distance (negative, NaN): the term is 0.
+  EXPECT_EQ(drift_std({1.0, 0.0, 0.0, 0.0, 0.0}, 100.0).position_m, 0.0);
+  EXPECT_EQ(drift_std(options, -5.0).position_m, 0.0);
+  EXPECT_EQ(drift_std(options, std::nan("")).attitude_rad, 0.0);
+  EXPECT_DOUBLE_EQ(drift_std(options, 25.0).position_m, 0.01);
+}
+
+TEST(TravelledDistance, PathLengthOfTrackedPosesWithoutStandingJitterOrLostPoses) {
+  TravelledDistance d;
+  PoseEstimate pose;
+  pose.state = TrackingState::kOk;
+  const auto at = [&](double x, double y, TrackingState state = TrackingState::kOk) {
+    pose.T_world_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, y, 0.0));
+    pose.state = state;
+    return d.update(pose);
+  };
+  EXPECT_EQ(at(0.0, 0.0), 0.0);  // the first pose: the reference
+  EXPECT_DOUBLE_EQ(at(1.0, 0.0), 1.0);
+  // 1000 frames of 2 mm jitter while standing add nothing.
+  for (int i = 0; i < 1000; ++i) at(1.0 + ((i % 2) != 0 ? 0.002 : -0.002), 0.0);
+  EXPECT_DOUBLE_EQ(d.metres(), 1.0);
+  // Slow driving, 1 cm a frame, is counted in steps of at least 5 cm (the
+  // last one not yet counted).
+  constexpr double kStepM = TravelledDistance::kMinStepM;
+  for (int i = 1; i <= 100; ++i) at(1.0 + 0.01 * i, 0.0);
+  EXPECT_NEAR(d.metres(), 2.0, kStepM);
+  EXPECT_NEAR(at(2.5, 0.0), 2.5, 1e-9);
+  // Back over the same 1.5 m: a path length, it grows (conservative).
+  EXPECT_NEAR(at(1.0, 0.0), 4.0, 1e-9);
+  // LOST poses (the last pose repeated, or anything) are skipped; the
+  // relocalised pose counts as a straight step from the last tracked one.
+  EXPECT_NEAR(at(50.0, 50.0, TrackingState::kLost), 4.0, 1e-9);
+  EXPECT_NEAR(at(1.0, 3.0, TrackingState::kRecovering), 7.0, 1e-9);
+  pose.T_world_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(std::nan(""), 0.0, 0.0));
+  EXPECT_NEAR(d.update(pose), 7.0, 1e-9);
 }
 
 TEST(PublishedCovariance, TheFirstPoseWithAZeroCovarianceIsNotPublishedWithOne) {
