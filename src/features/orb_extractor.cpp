@@ -88,8 +88,8 @@ OrbExtractor::OrbExtractor(const config::OrbConfig& config, TaskPool* pool) : co
   // One instance per level, so the levels can be described concurrently.
   descriptors_.resize(n);
   for (auto& descriptor : descriptors_) {
-    descriptor = cv::ORB::create(config.n_features, static_cast<float>(config.scale_factor), 1, kEdgeMarginPx, 0,
-                                 2, cv::ORB::HARRIS_SCORE, kPatchSizePx, config.ini_fast_threshold);
+    descriptor = cv::ORB::create(config.n_features, static_cast<float>(config.scale_factor), 1, kEdgeMarginPx,
+                                 0, 2, cv::ORB::HARRIS_SCORE, kPatchSizePx, config.ini_fast_threshold);
   }
 }
 

@@ -49,10 +49,10 @@ Expected<StereoExtractor> StereoExtractor::create(const config::OrbConfig& orb,
   SITEPOSE_TRY_STATUS(validate(orb));
   SITEPOSE_TRY_STATUS(StereoMatcher::create(stereo, camera.bf()));  // checks config and bf
   if (options.masked_area_features < 0 || options.masked_area_features > kMaxFeatures) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "stereo extraction: masked_area_features = " +
-                          std::to_string(options.masked_area_features) + ": must be in [0, " +
-                          std::to_string(kMaxFeatures) + "]");
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        "stereo extraction: masked_area_features = " + std::to_string(options.masked_area_features) +
+            ": must be in [0, " + std::to_string(kMaxFeatures) + "]");
   }
   return StereoExtractor(orb, stereo, camera, options);
 }
@@ -73,10 +73,10 @@ Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv:
                                                   const cv::Mat& left_mask) {
   if (left.size() != right.size() || left.type() != right.type()) {
     return make_error(ErrorCode::kInvalidArgument,
-                      "stereo extraction: left " + std::to_string(left.cols) + "x" + std::to_string(left.rows) +
-                          " type " + std::to_string(left.type()) + " and right " + std::to_string(right.cols) +
-                          "x" + std::to_string(right.rows) + " type " + std::to_string(right.type()) +
-                          " must have the same size and type");
+                      "stereo extraction: left " + std::to_string(left.cols) + "x" +
+                          std::to_string(left.rows) + " type " + std::to_string(left.type()) + " and right " +
+                          std::to_string(right.cols) + "x" + std::to_string(right.rows) + " type " +
+                          std::to_string(right.type()) + " must have the same size and type");
   }
   // Two jobs that share nothing (separate OrbExtractor instances); the
   // matcher needs both.

@@ -10,8 +10,8 @@ namespace sitepose::features {
 struct TaskPool::Batch {
   const std::function<void(int)>* job = nullptr;
   int n_jobs = 0;
-  int next = 0;      // guarded by the pool's mutex
-  int finished = 0;  // guarded by the pool's mutex
+  int next = 0;              // guarded by the pool's mutex
+  int finished = 0;          // guarded by the pool's mutex
   std::exception_ptr error;  // the first one a job threw; guarded by the mutex
   std::condition_variable done;
 };

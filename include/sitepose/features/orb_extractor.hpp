@@ -18,8 +18,8 @@
 // One extract() at a time per instance (it owns OpenCV state); separate
 // instances are independent (StereoExtractor runs two at once).
 
-#include <opencv2/core.hpp>
 #include <functional>
+#include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 #include <vector>
 
@@ -97,7 +97,8 @@ class OrbExtractor {
   // job(level) for every level, on the pool when there is one.
   void for_each_level(const std::function<void(int)>& job) const;
   // FAST candidates of one level (level pixels), masked ones dropped.
-  std::vector<cv::KeyPoint> detect_candidates(const ImagePyramid& pyramid, int level, const cv::Mat& mask) const;
+  std::vector<cv::KeyPoint> detect_candidates(const ImagePyramid& pyramid, int level,
+                                              const cv::Mat& mask) const;
   // Orientation and descriptors of the level's picked keypoints (level
   // pixels in, level-0 pixels out).
   void describe(const ImagePyramid& pyramid, int level, std::vector<cv::KeyPoint>& kps,

@@ -37,10 +37,10 @@ struct StereoTimings {
 
 // Features of one stereo pair, indexed by left keypoint.
 struct StereoFeatures {
-  std::vector<cv::KeyPoint> keypoints;  // left, level-0 pixels (see OrbExtractor)
-  cv::Mat descriptors;                  // N x 32 CV_8UC1, row i = keypoints[i]
-  std::vector<double> u_right;          // right column of the match, kNoMatch (< 0) if none
-  std::vector<double> depth_m;          // bf / disparity, kNoMatch (< 0) if none
+  std::vector<cv::KeyPoint> keypoints;         // left, level-0 pixels (see OrbExtractor)
+  cv::Mat descriptors;                         // N x 32 CV_8UC1, row i = keypoints[i]
+  std::vector<double> u_right;                 // right column of the match, kNoMatch (< 0) if none
+  std::vector<double> depth_m;                 // bf / disparity, kNoMatch (< 0) if none
   std::vector<std::uint8_t> stereo_ambiguous;  // 1 = repeated texture (StereoMatches::ambiguous)
   // Right-image features (unmasked), for matchers that need both images.
   std::vector<cv::KeyPoint> right_keypoints;
@@ -70,8 +70,7 @@ class StereoExtractor {
   StereoExtractor(const config::OrbConfig& orb, const config::StereoMatchConfig& stereo,
                   const StereoCamera& camera, const StereoExtractorOptions& options = {});
   static Expected<StereoExtractor> create(const config::OrbConfig& orb,
-                                          const config::StereoMatchConfig& stereo,
-                                          const StereoCamera& camera,
+                                          const config::StereoMatchConfig& stereo, const StereoCamera& camera,
                                           const StereoExtractorOptions& options = {});
 
   // left/right: rectified CV_8UC1 images of equal size; left_mask: empty or

@@ -64,8 +64,8 @@ struct SlamOptions {
 class SlamSystem {
  public:
   static Expected<std::unique_ptr<SlamSystem>> create(const StereoCamera& camera,
-                                                     const config::SiteposeConfig& config,
-                                                     const SlamOptions& options = {});
+                                                      const config::SiteposeConfig& config,
+                                                      const SlamOptions& options = {});
   ~SlamSystem();
   SlamSystem(const SlamSystem&) = delete;
   SlamSystem& operator=(const SlamSystem&) = delete;
@@ -102,8 +102,7 @@ class SlamSystem {
   std::size_t point_count() const;
 
  private:
-  SlamSystem(const StereoCamera& camera, const config::SiteposeConfig& config,
-             const SlamOptions& options);
+  SlamSystem(const StereoCamera& camera, const config::SiteposeConfig& config, const SlamOptions& options);
 
   Status run_inline_mapping(FrameReport& report);
   void fill_map_trace(FrameReport& report) const;

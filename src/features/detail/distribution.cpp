@@ -194,7 +194,8 @@ std::vector<int> strongest_of_final_nodes(const QuadTree& tree, const std::vecto
   std::vector<int> picked;
   picked.reserve(final_nodes.size());
   for (const int id : final_nodes) {
-    if (std::find(dropped.begin(), dropped.end(), id) == dropped.end()) picked.push_back(tree.strongest_member(id));
+    if (std::find(dropped.begin(), dropped.end(), id) == dropped.end())
+      picked.push_back(tree.strongest_member(id));
   }
   std::sort(picked.begin(), picked.end());
   return picked;

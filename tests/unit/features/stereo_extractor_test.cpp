@@ -70,7 +70,8 @@ cv::Mat band_mask() {
 }
 
 bool in_mask(const cv::Mat& mask, const cv::KeyPoint& kp) {
-  return mask.at<std::uint8_t>(static_cast<int>(std::lround(kp.pt.y)), static_cast<int>(std::lround(kp.pt.x))) != 0;
+  return mask.at<std::uint8_t>(static_cast<int>(std::lround(kp.pt.y)),
+                               static_cast<int>(std::lround(kp.pt.x))) != 0;
 }
 
 TEST(StereoExtractor, PooledAndSerialGiveIdenticalFeatures) {

@@ -18,7 +18,8 @@ TEST(TaskPool, RunsEveryJobOnceWithAnyNumberOfWorkers) {
     for (const int n : {0, 1, 2, 37}) {
       std::vector<std::atomic<int>> calls(static_cast<std::size_t>(n));
       pool.run(n, [&](int i) { ++calls[static_cast<std::size_t>(i)]; });
-      for (int i = 0; i < n; ++i) EXPECT_EQ(calls[static_cast<std::size_t>(i)].load(), 1) << workers << " " << i;
+      for (int i = 0; i < n; ++i)
+        EXPECT_EQ(calls[static_cast<std::size_t>(i)].load(), 1) << workers << " " << i;
     }
   }
 }
