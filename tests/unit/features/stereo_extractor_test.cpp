@@ -12,16 +12,10 @@ namespace {
 
 const cv::Size kSize(960, 540);
 
-struct Pair {
-  cv::Mat left;
-  cv::Mat right;
-};
+using Pair = testing::StereoImages;
 
 Pair shapes_pair(std::uint64_t seed) {
-  Pair p;
-  p.left = testing::make_shapes_scene(kSize, seed);
-  p.right = testing::render_right(p.left, {270, 540}, {12.4, 31.6});
-  return p;
+  return testing::shapes_stereo_pair(kSize, seed, {270, 540}, {12.4, 31.6});
 }
 
 StereoExtractor make_extractor(TaskPool* pool, int masked_area_features = 0) {
