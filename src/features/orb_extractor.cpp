@@ -144,10 +144,6 @@ Status check_extract_inputs(const cv::Mat& image, const cv::Mat& mask) {
   return ok_status();
 }
 
-}  // namespace
-
-namespace {
-
 // The area of a level where keypoints may lie (empty when the level is too
 // small).
 cv::Rect keypoint_area(const cv::Mat& level_image) {
