@@ -56,7 +56,7 @@ Status validate(const config::OrbConfig& c) {
   return ok_status();
 }
 
-OrbExtractor::OrbExtractor(const config::OrbConfig& config) : config_(config) {
+OrbExtractor::OrbExtractor(const config::OrbConfig& config, TaskPool* pool) : config_(config), pool_(pool) {
   SITEPOSE_CHECK(validate(config).has_value());
   const int n = config.n_levels;
   scale_factors_.resize(n);
@@ -85,13 +85,17 @@ OrbExtractor::OrbExtractor(const config::OrbConfig& config) : config_(config) {
   // One level per compute() call: the keypoints are given in that level's
   // pixels, so OpenCV blurs exactly our level image (7x7, sigma 2) and uses
   // our angle; its border filter is kEdgeMarginPx, which our keypoints meet.
-  descriptor_ = cv::ORB::create(config.n_features, static_cast<float>(config.scale_factor), 1, kEdgeMarginPx,
-                                0, 2, cv::ORB::HARRIS_SCORE, kPatchSizePx, config.ini_fast_threshold);
+  // One instance per level, so the levels can be described concurrently.
+  descriptors_.resize(n);
+  for (auto& descriptor : descriptors_) {
+    descriptor = cv::ORB::create(config.n_features, static_cast<float>(config.scale_factor), 1, kEdgeMarginPx,
+                                 0, 2, cv::ORB::HARRIS_SCORE, kPatchSizePx, config.ini_fast_threshold);
+  }
 }
 
-Expected<OrbExtractor> OrbExtractor::create(const config::OrbConfig& config) {
+Expected<OrbExtractor> OrbExtractor::create(const config::OrbConfig& config, TaskPool* pool) {
   SITEPOSE_TRY_STATUS(validate(config));
-  return OrbExtractor(config);
+  return OrbExtractor(config, pool);
 }
 
 ImagePyramid OrbExtractor::build_pyramid(const cv::Mat& image) const {
@@ -140,68 +144,102 @@ Status check_extract_inputs(const cv::Mat& image, const cv::Mat& mask) {
   return ok_status();
 }
 
+// The area of a level where keypoints may lie (empty when the level is too
+// small).
+cv::Rect keypoint_area(const cv::Mat& level_image) {
+  return {kEdgeMarginPx, kEdgeMarginPx, level_image.cols - 2 * kEdgeMarginPx,
+          level_image.rows - 2 * kEdgeMarginPx};
+}
+
 }  // namespace
+
+void OrbExtractor::for_each_level(const std::function<void(int)>& job) const {
+  if (pool_ != nullptr) {
+    pool_->run(config_.n_levels, job);
+  } else {
+    for (int level = 0; level < config_.n_levels; ++level) job(level);
+  }
+}
+
+std::vector<cv::KeyPoint> OrbExtractor::detect_candidates(const ImagePyramid& pyramid, int level,
+                                                          const cv::Mat& mask) const {
+  const cv::Mat& img = pyramid.levels[level];
+  const cv::Rect area = keypoint_area(img);
+  if (area.width <= 0 || area.height <= 0) return {};
+  // Masked candidates go before cells are judged and before the
+  // distribution, so the budget moves to unmasked areas.
+  auto is_masked = [&](float x, float y) {
+    if (mask.empty()) return false;
+    const cv::Point2d p0 = pyramid.to_level0(level, cv::Point2d(x, y));
+    // Test exactly the pixel the returned float keypoint rounds to.
+    const int u = std::clamp(static_cast<int>(std::lround(float(p0.x))), 0, mask.cols - 1);
+    const int v = std::clamp(static_cast<int>(std::lround(float(p0.y))), 0, mask.rows - 1);
+    return mask.at<std::uint8_t>(v, u) != 0;
+  };
+  return detail::detect_fast_per_cell(img, area, config_.grid_cell_px, config_.ini_fast_threshold,
+                                      config_.min_fast_threshold, is_masked);
+}
+
+void OrbExtractor::describe(const ImagePyramid& pyramid, int level, std::vector<cv::KeyPoint>& kps,
+                            cv::Mat& descriptors) const {
+  const cv::Mat& img = pyramid.levels[level];
+  for (cv::KeyPoint& kp : kps) {
+    kp.angle = static_cast<float>(
+        intensity_centroid_angle_deg(img, static_cast<int>(kp.pt.x), static_cast<int>(kp.pt.y)));
+    kp.octave = 0;  // level-local for compute(); set to `level` below
+    kp.size = float(kPatchSizePx);
+    kp.class_id = -1;
+  }
+  const size_t n_before = kps.size();
+  descriptors_[level]->compute(img, kps, descriptors);
+  // Our keypoints satisfy OpenCV's border filter, so none may be dropped
+  // and rows stay aligned with keypoints.
+  SITEPOSE_CHECK(kps.size() == n_before && descriptors.rows == static_cast<int>(n_before));
+  for (cv::KeyPoint& kp : kps) {
+    const cv::Point2d p0 = pyramid.to_level0(level, cv::Point2d(kp.pt.x, kp.pt.y));
+    kp.pt = cv::Point2f(float(p0.x), float(p0.y));
+    kp.octave = level;
+    kp.size = float(kPatchSizePx * scale_factors_[level]);
+  }
+}
 
 Expected<OrbFeatures> OrbExtractor::extract(const cv::Mat& image, const cv::Mat& mask) {
   SITEPOSE_TRY_STATUS(check_extract_inputs(image, mask));
   OrbFeatures out;
   out.pyramid = build_pyramid(image);
   const ImagePyramid& pyramid = out.pyramid;
-  std::vector<cv::Mat> level_descriptors;
-  int carried_budget = 0;
+  const int n_levels = config_.n_levels;
+  std::vector<std::vector<cv::KeyPoint>> candidates(n_levels);
+  std::vector<std::vector<cv::KeyPoint>> keypoints(n_levels);
+  std::vector<cv::Mat> descriptors(n_levels);
 
-  for (int level = 0; level < config_.n_levels; ++level) {
-    const cv::Mat& img = pyramid.levels[level];
+  // Candidates do not depend on the budget: one job per level.
+  for_each_level([&](int level) { candidates[level] = detect_candidates(pyramid, level, mask); });
+  // The budget does (unused budget of a texture-poor or masked level moves
+  // to the next level): in level order.
+  int carried_budget = 0;
+  for (int level = 0; level < n_levels; ++level) {
     const int budget = features_per_level_[level] + carried_budget;
     carried_budget = budget;
-    const cv::Rect area(kEdgeMarginPx, kEdgeMarginPx, img.cols - 2 * kEdgeMarginPx,
-                        img.rows - 2 * kEdgeMarginPx);
-    if (area.width <= 0 || area.height <= 0 || budget <= 0) continue;
-
-    // Masked candidates go before cells are judged and before the
-    // distribution, so the budget moves to unmasked areas.
-    auto is_masked = [&](float x, float y) {
-      if (mask.empty()) return false;
-      const cv::Point2d p0 = pyramid.to_level0(level, cv::Point2d(x, y));
-      // Test exactly the pixel the returned float keypoint rounds to.
-      const int u = std::clamp(static_cast<int>(std::lround(float(p0.x))), 0, mask.cols - 1);
-      const int v = std::clamp(static_cast<int>(std::lround(float(p0.y))), 0, mask.rows - 1);
-      return mask.at<std::uint8_t>(v, u) != 0;
-    };
-    const std::vector<cv::KeyPoint> candidates = detail::detect_fast_per_cell(
-        img, area, config_.grid_cell_px, config_.ini_fast_threshold, config_.min_fast_threshold, is_masked);
+    if (budget <= 0) continue;
+    const cv::Rect area = keypoint_area(pyramid.levels[level]);
     const std::vector<int> picked = detail::distribute_quadtree(
-        candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)), budget);
+        candidates[level], cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)),
+        budget);
     if (picked.empty()) continue;
-    // Unused budget (texture-poor or masked level) moves to the next level.
     carried_budget = budget - static_cast<int>(picked.size());
+    keypoints[level].reserve(picked.size());
+    for (const int i : picked) keypoints[level].push_back(candidates[level][i]);
+  }
+  for_each_level([&](int level) {
+    if (!keypoints[level].empty()) describe(pyramid, level, keypoints[level], descriptors[level]);
+  });
 
-    std::vector<cv::KeyPoint> kps;
-    kps.reserve(picked.size());
-    for (const int i : picked) {
-      cv::KeyPoint kp = candidates[i];
-      kp.angle = static_cast<float>(
-          intensity_centroid_angle_deg(img, static_cast<int>(kp.pt.x), static_cast<int>(kp.pt.y)));
-      kp.octave = 0;  // level-local for compute(); set to `level` below
-      kp.size = float(kPatchSizePx);
-      kp.class_id = -1;
-      kps.push_back(kp);
-    }
-    cv::Mat desc;
-    const size_t n_before = kps.size();
-    descriptor_->compute(img, kps, desc);
-    // Our keypoints satisfy OpenCV's border filter, so none may be dropped
-    // and rows stay aligned with keypoints.
-    SITEPOSE_CHECK(kps.size() == n_before && desc.rows == static_cast<int>(n_before));
-
-    for (cv::KeyPoint& kp : kps) {
-      const cv::Point2d p0 = pyramid.to_level0(level, cv::Point2d(kp.pt.x, kp.pt.y));
-      kp.pt = cv::Point2f(float(p0.x), float(p0.y));
-      kp.octave = level;
-      kp.size = float(kPatchSizePx * scale_factors_[level]);
-      out.keypoints.push_back(kp);
-    }
-    level_descriptors.push_back(desc);
+  std::vector<cv::Mat> level_descriptors;
+  for (int level = 0; level < n_levels; ++level) {
+    if (keypoints[level].empty()) continue;
+    out.keypoints.insert(out.keypoints.end(), keypoints[level].begin(), keypoints[level].end());
+    level_descriptors.push_back(descriptors[level]);
   }
   if (!level_descriptors.empty()) cv::vconcat(level_descriptors, out.descriptors);
   return out;

@@ -33,7 +33,12 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
     link.queue_size = [this] { return static_cast<int>(mapper_->queue_size()); };
     link.is_idle = [this] { return mapper_->is_idle(); };
   }
-  tracker_ = std::make_unique<tracking::Tracker>(camera, config, map_, std::move(link));
+  features::TaskPool* pool = options.extraction_pool;
+  if (pool == nullptr) {
+    own_pool_ = std::make_unique<features::TaskPool>(1);
+    pool = own_pool_.get();
+  }
+  tracker_ = std::make_unique<tracking::Tracker>(camera, config, map_, std::move(link), pool);
   two_pass_ = std::make_unique<TwoPassTracker>(*tracker_, camera, config, options.fps, options.trace);
   if (options_.mapper_thread && config.mapping.enabled) mapper_->start();
 }

@@ -1,7 +1,6 @@
 #include "sitepose/tracking/tracker.hpp"
 
 #include <algorithm>
-#include <future>
 #include <iterator>
 #include <set>
 
@@ -35,10 +34,11 @@ SearchParams local_map_search(double radius_px) {
 // machines, small enough not to starve the background.
 constexpr double kObjectBudgetFraction = 0.4;
 
-config::OrbConfig object_orb_config(const config::OrbConfig& orb) {
-  config::OrbConfig object = orb;
-  object.n_features = std::max(100, static_cast<int>(orb.n_features * kObjectBudgetFraction));
-  return object;
+features::StereoExtractorOptions extraction_options(const config::OrbConfig& orb, features::TaskPool* pool) {
+  features::StereoExtractorOptions options;
+  options.pool = pool;
+  options.masked_area_features = std::max(100, static_cast<int>(orb.n_features * kObjectBudgetFraction));
+  return options;
 }
 
 Status check_frame(const StereoFrame& frame, const cv::Mat& instance_labels, const StereoCamera& camera) {
@@ -83,15 +83,12 @@ void tag_keypoints(const cv::Mat& instance_labels, PreparedFrame& out) {
 }  // namespace
 
 Tracker::Tracker(const StereoCamera& camera, const config::SiteposeConfig& config, map::SharedMap& map,
-                 MapperLink mapper)
+                 MapperLink mapper, features::TaskPool* pool)
     : camera_(camera),
       config_(config),
       map_(map),
       mapper_(std::move(mapper)),
-      left_extractor_(config.orb),
-      right_extractor_(config.orb),
-      object_extractor_(object_orb_config(config.orb)),
-      matcher_(config.stereo, camera.bf()),
+      extractor_(config.orb, config.stereo, camera, extraction_options(config.orb, pool)),
       motion_ba_(camera, config.tracking),
       pyramid_{config.orb.scale_factor, config.orb.n_levels},
       relocaliser_(camera, config.tracking, pyramid_),
@@ -109,60 +106,14 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
   PreparedFrame out;
   out.seq = frame.seq;
   out.t_ns = frame.t_ns();
-  SITEPOSE_TRY(out.features, extract(frame, extraction_mask, out.timings));
+  // The background gets the full budget, the masked area a share of its own.
+  SITEPOSE_TRY(out.features, extractor_.extract(frame, extraction_mask));
+  out.timings.extract_left_ms = out.features.timings.extract_left_ms;
+  out.timings.extract_right_ms = out.features.timings.extract_right_ms;
+  out.timings.stereo_match_ms = out.features.timings.stereo_match_ms;
   tag_keypoints(instance_labels, out);
   out.grid = map::KeypointGrid(camera_.width, camera_.height, out.uv_px, out.octave);
   out.timings.total_ms = ms_since(start);
-  return out;
-}
-
-Expected<features::StereoFeatures> Tracker::extract(const StereoFrame& frame, const cv::Mat& extraction_mask,
-                                                    PrepareTimings& timings) {
-  // Left on this thread, right concurrently; with an extraction mask the
-  // background gets the full budget and the masked area a share of its own.
-  // One stereo matching over the union.
-  auto right_future = std::async(std::launch::async, [&] {
-    const auto t = SteadyClock::now();
-    auto right = right_extractor_.extract(frame.right);
-    return std::make_pair(std::move(right), ms_since(t));
-  });
-  const auto t_left = SteadyClock::now();
-  const bool split_budget = !extraction_mask.empty() && cv::countNonZero(extraction_mask) > 0;
-  auto left = left_extractor_.extract(frame.left, split_budget ? extraction_mask : cv::Mat());
-  const auto extract_objects = [&]() -> Expected<features::OrbFeatures> {
-    if (!split_budget) return features::OrbFeatures{};
-    cv::Mat inverse_mask;
-    cv::bitwise_not(extraction_mask, inverse_mask);
-    return object_extractor_.extract(frame.left, inverse_mask);
-  };
-  Expected<features::OrbFeatures> objects = extract_objects();
-  timings.extract_left_ms = ms_since(t_left);
-  auto [right, right_ms] = right_future.get();
-  timings.extract_right_ms = right_ms;
-  if (!left) return Unexpected{left.error()};
-  if (!objects) return Unexpected{objects.error()};
-  if (!right) return Unexpected{right.error()};
-  if (!objects->keypoints.empty()) {
-    left->keypoints.insert(left->keypoints.end(), objects->keypoints.begin(), objects->keypoints.end());
-    if (left->descriptors.empty()) {
-      left->descriptors = objects->descriptors;
-    } else {
-      cv::vconcat(left->descriptors, objects->descriptors, left->descriptors);
-    }
-  }
-  const auto t_match = SteadyClock::now();
-  SITEPOSE_TRY(auto stereo, matcher_.match(*left, *right));
-  timings.stereo_match_ms = ms_since(t_match);
-  features::StereoFeatures out;
-  out.keypoints = std::move(left->keypoints);
-  out.descriptors = left->descriptors;
-  out.u_right = std::move(stereo.u_right);
-  out.depth_m = std::move(stereo.depth_m);
-  out.stereo_ambiguous = std::move(stereo.ambiguous);
-  out.right_keypoints = std::move(right->keypoints);
-  out.right_descriptors = right->descriptors;
-  out.left_pyramid = std::move(left->pyramid);
-  out.stats = stereo.stats;
   return out;
 }
 

@@ -12,15 +12,20 @@
 // Coordinates: keypoints are returned in level-0 pixels (x right, y down,
 // pixel centres at integers), with octave = pyramid level, angle in degrees
 // [0, 360) in image axes, response = FAST score, size = 31 * level scale.
-// Threads: one extract() at a time per instance (it owns OpenCV state);
-// separate instances are independent (StereoExtractor runs two at once).
+// Threads: with a TaskPool, the levels' FAST and their descriptors run as
+// one job per level on the pool (the result does not depend on it; the
+// budget carried from level to level is settled in order in between).
+// One extract() at a time per instance (it owns OpenCV state); separate
+// instances are independent (StereoExtractor runs two at once).
 
+#include <functional>
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
+#include "sitepose/features/task_pool.hpp"
 
 namespace sitepose::features {
 
@@ -64,8 +69,10 @@ class OrbExtractor {
  public:
   // Precondition: validate(config) passed (load_config does it); aborts
   // otherwise. Use create() for configs that did not go through load_config.
-  explicit OrbExtractor(const config::OrbConfig& config);
-  static Expected<OrbExtractor> create(const config::OrbConfig& config);
+  // pool: lent worker threads for the levels (must outlive the extractor);
+  // nullptr = all on the caller's thread.
+  explicit OrbExtractor(const config::OrbConfig& config, TaskPool* pool = nullptr);
+  static Expected<OrbExtractor> create(const config::OrbConfig& config, TaskPool* pool = nullptr);
 
   // image: CV_8UC1, at least 2 * (kEdgeMarginPx + 1) pixels each way.
   // mask: empty, or CV_8UC1 of the image's size, nonzero = masked. No
@@ -87,6 +94,15 @@ class OrbExtractor {
 
  private:
   ImagePyramid build_pyramid(const cv::Mat& image) const;
+  // job(level) for every level, on the pool when there is one.
+  void for_each_level(const std::function<void(int)>& job) const;
+  // FAST candidates of one level (level pixels), masked ones dropped.
+  std::vector<cv::KeyPoint> detect_candidates(const ImagePyramid& pyramid, int level,
+                                              const cv::Mat& mask) const;
+  // Orientation and descriptors of the level's picked keypoints (level
+  // pixels in, level-0 pixels out).
+  void describe(const ImagePyramid& pyramid, int level, std::vector<cv::KeyPoint>& kps,
+                cv::Mat& descriptors) const;
 
   config::OrbConfig config_;
   std::vector<double> scale_factors_;
@@ -94,7 +110,8 @@ class OrbExtractor {
   std::vector<double> level_sigma2_;
   std::vector<double> inv_level_sigma2_;
   std::vector<int> features_per_level_;
-  cv::Ptr<cv::ORB> descriptor_;  // used only for its rBRIEF compute()
+  std::vector<cv::Ptr<cv::ORB>> descriptors_;  // per level; used only for rBRIEF compute()
+  TaskPool* pool_;
 };
 
 // Orientation of the patch around (x, y) by the intensity centroid over a

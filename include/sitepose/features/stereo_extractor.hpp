@@ -1,15 +1,21 @@
 #pragma once
 // One call per stereo pair: masked ORB on the left image and ORB on the
-// right image, extracted concurrently, then stereo matching.
+// right image, extracted concurrently, then stereo matching. The one
+// extraction path of the tracker and the tools.
 //
 // Only the left image is masked (METHOD.md "What the authors' public code
 // does"): the tracker uses left keypoints; right ones only serve as match
-// candidates. Threads: extract() runs the right image on one short-lived
-// extra thread and the left on the caller's; one extract() at a time per
-// instance. Ownership: the result owns its data (cv::Mat headers share the
-// pyramid buffers allocated for this call, never the caller's images except
-// level 0).
+// candidates. The mask keeps the left budget away from its pixels; with
+// masked_area_features > 0 the masked area gets that many features of its
+// own (so a later pass can unmask objects), appended after the others.
+// Threads: the left (with the masked area) and the right image are two jobs
+// on the lent TaskPool, each with one job per pyramid level (no pool: all
+// on the caller's thread, same result); one extract() at a time per
+// instance. Ownership: the result owns its data (cv::Mat headers
+// share the pyramid buffers allocated for this call, never the caller's
+// images except level 0).
 
+#include <optional>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
@@ -18,15 +24,23 @@
 #include "sitepose/core/stereo_frame.hpp"
 #include "sitepose/features/orb_extractor.hpp"
 #include "sitepose/features/stereo_matcher.hpp"
+#include "sitepose/features/task_pool.hpp"
 
 namespace sitepose::features {
 
+// Wall time of the steps of one extract().
+struct StereoTimings {
+  double extract_left_ms = 0.0;  // left image, with the masked area's share
+  double extract_right_ms = 0.0;
+  double stereo_match_ms = 0.0;
+};
+
 // Features of one stereo pair, indexed by left keypoint.
 struct StereoFeatures {
-  std::vector<cv::KeyPoint> keypoints;  // left, level-0 pixels (see OrbExtractor)
-  cv::Mat descriptors;                  // N x 32 CV_8UC1, row i = keypoints[i]
-  std::vector<double> u_right;          // right column of the match, kNoMatch (< 0) if none
-  std::vector<double> depth_m;          // bf / disparity, kNoMatch (< 0) if none
+  std::vector<cv::KeyPoint> keypoints;         // left, level-0 pixels (see OrbExtractor)
+  cv::Mat descriptors;                         // N x 32 CV_8UC1, row i = keypoints[i]
+  std::vector<double> u_right;                 // right column of the match, kNoMatch (< 0) if none
+  std::vector<double> depth_m;                 // bf / disparity, kNoMatch (< 0) if none
   std::vector<std::uint8_t> stereo_ambiguous;  // 1 = repeated texture (StereoMatches::ambiguous)
   // Right-image features (unmasked), for matchers that need both images.
   std::vector<cv::KeyPoint> right_keypoints;
@@ -34,23 +48,34 @@ struct StereoFeatures {
   // Left pyramid (level 0 = the caller's left image), e.g. for patch checks.
   ImagePyramid left_pyramid;
   StereoMatchStats stats;
+  StereoTimings timings;
 
   int size() const { return static_cast<int>(keypoints.size()); }
   bool has_depth(int i) const { return depth_m[i] > 0.0; }
 };
 
+struct StereoExtractorOptions {
+  // Worker threads for the images and their levels; must outlive the
+  // extractor. nullptr: everything on the caller's thread (same result).
+  TaskPool* pool = nullptr;
+  // Feature budget of the left mask's area (0: no keypoints there).
+  int masked_area_features = 0;
+};
+
 class StereoExtractor {
  public:
-  // Preconditions: both configs validated and camera.bf() > 0 (aborts
-  // otherwise); create() checks and returns the error instead.
+  // Preconditions: both configs validated, camera.bf() > 0 and
+  // options.masked_area_features in [0, 100000] (aborts otherwise);
+  // create() checks and returns the error instead.
   StereoExtractor(const config::OrbConfig& orb, const config::StereoMatchConfig& stereo,
-                  const StereoCamera& camera);
+                  const StereoCamera& camera, const StereoExtractorOptions& options = {});
   static Expected<StereoExtractor> create(const config::OrbConfig& orb,
-                                          const config::StereoMatchConfig& stereo,
-                                          const StereoCamera& camera);
+                                          const config::StereoMatchConfig& stereo, const StereoCamera& camera,
+                                          const StereoExtractorOptions& options = {});
 
   // left/right: rectified CV_8UC1 images of equal size; left_mask: empty or
-  // CV_8UC1 of the image size, nonzero = masked (applied to the left only).
+  // CV_8UC1 of the image size, nonzero = masked (applied to the left only;
+  // an all-zero mask is the same as none).
   Expected<StereoFeatures> extract(const cv::Mat& left, const cv::Mat& right,
                                    const cv::Mat& left_mask = cv::Mat());
   Expected<StereoFeatures> extract(const StereoFrame& frame, const cv::Mat& left_mask = cv::Mat()) {
@@ -62,9 +87,14 @@ class StereoExtractor {
   const StereoMatcher& matcher() const { return matcher_; }
 
  private:
+  // The left image with the mask's budget split (see the file comment).
+  Expected<OrbFeatures> extract_left(const cv::Mat& left, const cv::Mat& left_mask);
+
   OrbExtractor left_;
   OrbExtractor right_;
+  std::optional<OrbExtractor> masked_area_;  // when masked_area_features > 0
   StereoMatcher matcher_;
+  TaskPool* pool_;
 };
 
 }  // namespace sitepose::features

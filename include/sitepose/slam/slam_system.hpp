@@ -22,6 +22,9 @@
 // them; pass 1 leaves no trace in the tracker (Tracker::estimate is const).
 // The masking modes run in TwoPassTracker.
 //
+// Extraction threading: the tracker's extraction jobs run on
+// SlamOptions::extraction_pool or on the system's own pool (see there).
+//
 // Mapper threading: with `mapper_thread` the local mapper runs on its own
 // thread (the daemon); without it, queued keyframes are processed on the
 // caller's thread right after the frame that created them, which makes runs
@@ -36,6 +39,7 @@
 #include "sitepose/core/stereo_frame.hpp"
 #include "sitepose/dynamic/masking.hpp"
 #include "sitepose/dynamic/motion_classifier.hpp"
+#include "sitepose/features/task_pool.hpp"
 #include "sitepose/map/shared_map.hpp"
 #include "sitepose/mapping/local_mapper.hpp"
 #include "sitepose/slam/frame_report.hpp"
@@ -51,13 +55,17 @@ struct SlamOptions {
   double fps = 6.0;
   // Fill FrameReport::trace (keypoints, boxes, map size) for the views.
   bool trace = false;
+  // Worker threads for feature extraction, lent by the caller (it must
+  // outlive the system). nullptr: the system owns a pool of one worker, so
+  // the two images of a pair are extracted concurrently.
+  features::TaskPool* extraction_pool = nullptr;
 };
 
 class SlamSystem {
  public:
   static Expected<std::unique_ptr<SlamSystem>> create(const StereoCamera& camera,
-                                                     const config::SiteposeConfig& config,
-                                                     const SlamOptions& options = {});
+                                                      const config::SiteposeConfig& config,
+                                                      const SlamOptions& options = {});
   ~SlamSystem();
   SlamSystem(const SlamSystem&) = delete;
   SlamSystem& operator=(const SlamSystem&) = delete;
@@ -94,8 +102,7 @@ class SlamSystem {
   std::size_t point_count() const;
 
  private:
-  SlamSystem(const StereoCamera& camera, const config::SiteposeConfig& config,
-             const SlamOptions& options);
+  SlamSystem(const StereoCamera& camera, const config::SiteposeConfig& config, const SlamOptions& options);
 
   Status run_inline_mapping(FrameReport& report);
   void fill_map_trace(FrameReport& report) const;
@@ -104,6 +111,7 @@ class SlamSystem {
   SlamOptions options_;
   map::SharedMap map_;
   std::unique_ptr<mapping::LocalMapper> mapper_;
+  std::unique_ptr<features::TaskPool> own_pool_;  // when options.extraction_pool is nullptr
   std::unique_ptr<tracking::Tracker> tracker_;
   std::unique_ptr<TwoPassTracker> two_pass_;  // the masking modes
 };

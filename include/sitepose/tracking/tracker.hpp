@@ -3,8 +3,9 @@
 // tracking"), split in three steps so the dynamic layer can run two passes
 // on one extraction:
 //
-//   prepare()  — ORB extraction (left and right concurrently) and stereo
-//                matching, once per frame; tags keypoints with instance ids.
+//   prepare()  — ORB extraction (features::StereoExtractor: left and right
+//                concurrently on the lent pool) and stereo matching, once
+//                per frame; tags keypoints with instance ids.
 //   estimate() — a pose from the keypoints marked usable: motion model (or
 //                relocalisation), then the local map, with motion-only BA.
 //                const: changes no tracker or map state, so pass 1 leaves no
@@ -56,8 +57,10 @@ struct TrackerCounters {
 
 class Tracker {
  public:
+  // pool: worker threads for extraction, owned by the caller (SlamSystem)
+  // and outliving the tracker; nullptr = extraction on the caller's thread.
   Tracker(const StereoCamera& camera, const config::SiteposeConfig& config, map::SharedMap& map,
-          MapperLink mapper = {});
+          MapperLink mapper = {}, features::TaskPool* pool = nullptr);
 
   // instance_labels: empty, or CV_16UC1 of the image size with the detector
   // instance id under each pixel (0 = background). extraction_mask: empty
@@ -114,10 +117,6 @@ class Tracker {
   std::optional<SE3> last_T_world_cam() const;
 
  private:
-  // ORB extraction of both images (left and right concurrently, the masked
-  // area with its own budget) and stereo matching.
-  Expected<features::StereoFeatures> extract(const StereoFrame& frame, const cv::Mat& extraction_mask,
-                                             PrepareTimings& timings);
   // The motion model (relocaliser_ when it fails), then the local map; see
   // estimate().
   bool track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -172,10 +171,7 @@ class Tracker {
   config::SiteposeConfig config_;
   map::SharedMap& map_;
   MapperLink mapper_;
-  features::OrbExtractor left_extractor_;
-  features::OrbExtractor right_extractor_;   // runs concurrently with the left
-  features::OrbExtractor object_extractor_;  // smaller budget for masked areas
-  features::StereoMatcher matcher_;
+  features::StereoExtractor extractor_;  // the masked area with a smaller budget of its own
   optim::MotionOnlyBa motion_ba_;
   map::ScalePyramid pyramid_;
 

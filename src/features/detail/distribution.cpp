@@ -80,36 +80,98 @@ std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const
 
 namespace {
 
+// A quadtree node: a rectangle and its candidates, the range
+// [begin, end) of QuadTree::members (which splits reorder in place, so no
+// node allocates).
 struct Node {
   float x0, y0, x1, y1;
-  std::vector<int> members;
+  int begin, end;
+  int size() const { return end - begin; }
   float area() const { return (x1 - x0) * (y1 - y0); }
 };
 
-// Near-square root nodes side by side over `area`, so that splits in four
-// keep cells near-square; each candidate joins the root that holds its x.
-std::vector<Node> root_nodes(const std::vector<cv::KeyPoint>& candidates, const cv::Rect2f& area) {
+class QuadTree {
+ public:
+  explicit QuadTree(const std::vector<cv::KeyPoint>& candidates) : candidates_(candidates) {}
+
+  // Near-square root nodes side by side over `area`, so that splits in four
+  // keep cells near-square; each candidate joins the root that holds its x.
+  // Returns the number of roots (node ids 0 .. n - 1, empty ones included).
+  int add_roots(const cv::Rect2f& area);
+  // Splits node `id` in four at its centre; appends the non-empty children
+  // (in order top-left, top-right, bottom-left, bottom-right) and returns
+  // their ids through `children`.
+  void split(int id, std::vector<int>& children);
+  // The member with the strongest response (the lowest index among equals).
+  int strongest_member(int id) const;
+
+  const Node& node(int id) const { return nodes_[id]; }
+
+ private:
+  const std::vector<cv::KeyPoint>& candidates_;
+  std::vector<Node> nodes_;
+  std::vector<int> members_;
+  std::vector<int> scratch_;
+};
+
+int QuadTree::add_roots(const cv::Rect2f& area) {
   const int n_roots = std::max(1, static_cast<int>(std::lround(area.width / std::max(area.height, 1.0f))));
   const float root_w = area.width / n_roots;
-  std::vector<Node> nodes;
-  nodes.reserve(static_cast<std::size_t>(n_roots));
+  const int n = static_cast<int>(candidates_.size());
+  // Counting sort by root: members_ holds each root's candidates in one range.
+  std::vector<int> root_of(n);
+  std::vector<int> count(n_roots + 1, 0);
+  for (int i = 0; i < n; ++i) {
+    root_of[i] = std::clamp(static_cast<int>((candidates_[i].pt.x - area.x) / root_w), 0, n_roots - 1);
+    ++count[root_of[i] + 1];
+  }
+  std::partial_sum(count.begin(), count.end(), count.begin());
   for (int r = 0; r < n_roots; ++r) {
-    nodes.push_back({area.x + r * root_w, area.y, area.x + (r + 1) * root_w, area.y + area.height, {}});
+    nodes_.push_back({area.x + r * root_w, area.y, area.x + (r + 1) * root_w, area.y + area.height, count[r],
+                      count[r + 1]});
   }
-  for (int i = 0; i < static_cast<int>(candidates.size()); ++i) {
-    const float x = candidates[i].pt.x;
-    const int r = std::clamp(static_cast<int>((x - area.x) / root_w), 0, n_roots - 1);
-    nodes[r].members.push_back(i);
-  }
-  return nodes;
+  members_.resize(n);
+  for (int i = 0; i < n; ++i) members_[count[root_of[i]]++] = i;
+  return n_roots;
 }
 
-// The member with the strongest response (the lowest index among equals).
-int strongest_member(const Node& node, const std::vector<cv::KeyPoint>& candidates) {
-  int best = node.members.front();
-  for (const int m : node.members) {
-    if (candidates[m].response > candidates[best].response ||
-        (candidates[m].response == candidates[best].response && m < best)) {
+void QuadTree::split(int id, std::vector<int>& children) {
+  const Node parent = nodes_[id];
+  const float xm = 0.5f * (parent.x0 + parent.x1);
+  const float ym = 0.5f * (parent.y0 + parent.y1);
+  const Node quadrants[4] = {{parent.x0, parent.y0, xm, ym, 0, 0},
+                             {xm, parent.y0, parent.x1, ym, 0, 0},
+                             {parent.x0, ym, xm, parent.y1, 0, 0},
+                             {xm, ym, parent.x1, parent.y1, 0, 0}};
+  auto quadrant_of = [&](int m) {
+    const cv::Point2f& p = candidates_[m].pt;
+    return (p.x < xm ? 0 : 1) + (p.y < ym ? 0 : 2);
+  };
+  int start[5] = {0, 0, 0, 0, 0};
+  for (int k = parent.begin; k < parent.end; ++k) ++start[quadrant_of(members_[k]) + 1];
+  for (int q = 0; q < 4; ++q) start[q + 1] += start[q];
+  scratch_.resize(parent.size());
+  int fill[4] = {start[0], start[1], start[2], start[3]};
+  for (int k = parent.begin; k < parent.end; ++k) scratch_[fill[quadrant_of(members_[k])]++] = members_[k];
+  std::copy(scratch_.begin(), scratch_.end(), members_.begin() + parent.begin);
+  children.clear();
+  for (int q = 0; q < 4; ++q) {
+    if (start[q + 1] == start[q]) continue;
+    Node child = quadrants[q];
+    child.begin = parent.begin + start[q];
+    child.end = parent.begin + start[q + 1];
+    nodes_.push_back(child);
+    children.push_back(static_cast<int>(nodes_.size()) - 1);
+  }
+}
+
+int QuadTree::strongest_member(int id) const {
+  const Node& n = nodes_[id];
+  int best = members_[n.begin];
+  for (int k = n.begin + 1; k < n.end; ++k) {
+    const int m = members_[k];
+    if (candidates_[m].response > candidates_[best].response ||
+        (candidates_[m].response == candidates_[best].response && m < best)) {
       best = m;
     }
   }
@@ -119,21 +181,21 @@ int strongest_member(const Node& node, const std::vector<cv::KeyPoint>& candidat
 // The strongest member of each final node, ascending. The last split may
 // overshoot the target by up to three nodes: the weakest `overshoot` of its
 // children are left out, so the spread elsewhere is untouched.
-std::vector<int> strongest_of_final_nodes(const std::vector<Node>& nodes, const std::vector<int>& final_nodes,
+std::vector<int> strongest_of_final_nodes(const QuadTree& tree, const std::vector<int>& final_nodes,
                                           std::vector<int> last_children, int overshoot,
                                           const std::vector<cv::KeyPoint>& candidates) {
-  std::vector<char> dropped(nodes.size(), 0);
+  std::vector<int> dropped;
   if (overshoot > 0) {
     std::sort(last_children.begin(), last_children.end(), [&](int a, int b) {
-      return candidates[strongest_member(nodes[a], candidates)].response <
-             candidates[strongest_member(nodes[b], candidates)].response;
+      return candidates[tree.strongest_member(a)].response < candidates[tree.strongest_member(b)].response;
     });
-    for (int k = 0; k < overshoot; ++k) dropped[last_children[k]] = 1;
+    dropped.assign(last_children.begin(), last_children.begin() + overshoot);
   }
   std::vector<int> picked;
   picked.reserve(final_nodes.size());
   for (const int id : final_nodes) {
-    if (!dropped[id]) picked.push_back(strongest_member(nodes[id], candidates));
+    if (std::find(dropped.begin(), dropped.end(), id) == dropped.end())
+      picked.push_back(tree.strongest_member(id));
   }
   std::sort(picked.begin(), picked.end());
   return picked;
@@ -151,18 +213,16 @@ std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates
     return picked;
   }
 
-  std::vector<Node> nodes = root_nodes(candidates, area);
-  const int n_roots = static_cast<int>(nodes.size());
+  QuadTree tree(candidates);
+  const int n_roots = tree.add_roots(area);
 
   // Largest node first, so cells shrink evenly over the image (spatial
   // spread); among equal sizes the more crowded one, then creation order.
-  auto larger_first = [&nodes](int a, int b) {
-    const float area_a = nodes[a].area();
-    const float area_b = nodes[b].area();
+  auto larger_first = [&tree](int a, int b) {
+    const float area_a = tree.node(a).area();
+    const float area_b = tree.node(b).area();
     if (area_a != area_b) return area_a < area_b;
-    if (nodes[a].members.size() != nodes[b].members.size()) {
-      return nodes[a].members.size() < nodes[b].members.size();
-    }
+    if (tree.node(a).size() != tree.node(b).size()) return tree.node(a).size() < tree.node(b).size();
     return a > b;
   };
   std::priority_queue<int, std::vector<int>, decltype(larger_first)> splittable(larger_first);
@@ -170,15 +230,15 @@ std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates
   int n_nodes = 0;
   // A node narrower than a pixel cannot separate candidates any more.
   auto enqueue = [&](int id) {
-    const Node& n = nodes[id];
-    if (n.members.size() > 1 && n.x1 - n.x0 > 1.0f && n.y1 - n.y0 > 1.0f) {
+    const Node& n = tree.node(id);
+    if (n.size() > 1 && n.x1 - n.x0 > 1.0f && n.y1 - n.y0 > 1.0f) {
       splittable.push(id);
     } else {
       final_nodes.push_back(id);
     }
   };
   for (int r = 0; r < n_roots; ++r) {
-    if (nodes[r].members.empty()) continue;
+    if (tree.node(r).size() == 0) continue;
     ++n_nodes;
     enqueue(r);
   }
@@ -187,33 +247,16 @@ std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates
   while (n_nodes < target && !splittable.empty()) {
     const int id = splittable.top();
     splittable.pop();
-    const Node parent = std::move(nodes[id]);
-    const float xm = 0.5f * (parent.x0 + parent.x1);
-    const float ym = 0.5f * (parent.y0 + parent.y1);
-    Node children[4] = {{parent.x0, parent.y0, xm, ym, {}},
-                        {xm, parent.y0, parent.x1, ym, {}},
-                        {parent.x0, ym, xm, parent.y1, {}},
-                        {xm, ym, parent.x1, parent.y1, {}}};
-    for (const int m : parent.members) {
-      const cv::Point2f& p = candidates[m].pt;
-      children[(p.x < xm ? 0 : 1) + (p.y < ym ? 0 : 2)].members.push_back(m);
-    }
-    --n_nodes;
-    last_children.clear();
-    for (Node& child : children) {
-      if (child.members.empty()) continue;
-      ++n_nodes;
-      nodes.push_back(std::move(child));
-      last_children.push_back(static_cast<int>(nodes.size()) - 1);
-      enqueue(last_children.back());
-    }
+    tree.split(id, last_children);
+    n_nodes += static_cast<int>(last_children.size()) - 1;
+    for (const int child : last_children) enqueue(child);
   }
   while (!splittable.empty()) {
     final_nodes.push_back(splittable.top());
     splittable.pop();
   }
 
-  return strongest_of_final_nodes(nodes, final_nodes, std::move(last_children), n_nodes - target, candidates);
+  return strongest_of_final_nodes(tree, final_nodes, std::move(last_children), n_nodes - target, candidates);
 }
 
 }  // namespace sitepose::features::detail

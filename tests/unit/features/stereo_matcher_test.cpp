@@ -39,16 +39,10 @@ bool clean(const cv::KeyPoint& kp, double scale) {
   return kp.pt.x - kBandDisparity[band_of(kp.pt.y)] > margin;
 }
 
-struct Pair {
-  cv::Mat left;
-  cv::Mat right;
-};
+using Pair = testing::StereoImages;
 
 Pair make_pair(std::uint64_t seed) {
-  Pair p;
-  p.left = testing::make_shapes_scene(kSize, seed);
-  p.right = testing::render_right(p.left, kBandEnds, kBandDisparity);
-  return p;
+  return testing::shapes_stereo_pair(kSize, seed, kBandEnds, kBandDisparity);
 }
 
 StereoFeatures extract_ok(StereoExtractor& extractor, const Pair& pair, const cv::Mat& mask = cv::Mat()) {
@@ -123,8 +117,8 @@ TEST(StereoMatcher, NoMatchOutsideTheDisparityRange) {
     const cv::KeyPoint& kp = f.keypoints[i];
     if (band_of(kp.pt.y) != 2 || !clean(kp, scales[kp.octave])) continue;
     ++far_band;
-    EXPECT_FALSE(f.has_depth(i)) << "band disparity 80 > max 60, matched at " << kp.pt << " d="
-                                 << kp.pt.x - f.u_right[i];
+    EXPECT_FALSE(f.has_depth(i)) << "band disparity 80 > max 60, matched at " << kp.pt
+                                 << " d=" << kp.pt.x - f.u_right[i];
   }
   EXPECT_GT(far_band, 200);
 
@@ -175,7 +169,8 @@ TEST(StereoMatcher, RepeatedTextureFlagsMatchesAmbiguous) {
   cv::repeat(tile, 1, kSize.width / kPeriodPx, periodic.left);
   periodic.right = cv::Mat::zeros(kSize, CV_8UC1);
   constexpr int kDisparityPx = 12;  // right = left shifted left
-  periodic.left.colRange(kDisparityPx, kSize.width).copyTo(periodic.right.colRange(0, kSize.width - kDisparityPx));
+  periodic.left.colRange(kDisparityPx, kSize.width)
+      .copyTo(periodic.right.colRange(0, kSize.width - kDisparityPx));
   const StereoFeatures repeated = extract_ok(extractor, periodic);
 
   const double random_fraction = ambiguous_fraction(random);
@@ -249,8 +244,9 @@ TEST(StereoMatcher, LeftMaskAppliesToLeftOnly) {
   for (const auto& kp : f.keypoints) {
     ASSERT_EQ(mask.at<std::uint8_t>(int(std::lround(kp.pt.y)), int(std::lround(kp.pt.x))), 0);
   }
-  const auto right_in_mask = std::count_if(f.right_keypoints.begin(), f.right_keypoints.end(),
-                                           [](const cv::KeyPoint& kp) { return kp.pt.x > 220 && kp.pt.x < 480; });
+  const auto right_in_mask =
+      std::count_if(f.right_keypoints.begin(), f.right_keypoints.end(),
+                    [](const cv::KeyPoint& kp) { return kp.pt.x > 220 && kp.pt.x < 480; });
   EXPECT_GT(right_in_mask, 100);
   EXPECT_EQ(f.right_descriptors.rows, static_cast<int>(f.right_keypoints.size()));
   EXPECT_EQ(f.left_pyramid.levels[0].data, pair.left.data);  // level 0 shares the caller's image

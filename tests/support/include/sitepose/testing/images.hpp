@@ -50,7 +50,8 @@ inline cv::Mat with_contrast(const cv::Mat& image, const cv::Rect& strong, doubl
   for (int y = 0; y < image.rows; ++y) {
     for (int x = 0; x < image.cols; ++x) {
       const double g = strong.contains(cv::Point(x, y)) ? 1.0 : weak_gain;
-      out.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(128.0 + g * (image.at<std::uint8_t>(y, x) - 128.0));
+      out.at<std::uint8_t>(y, x) =
+          cv::saturate_cast<std::uint8_t>(128.0 + g * (image.at<std::uint8_t>(y, x) - 128.0));
     }
   }
   return out;
@@ -73,6 +74,21 @@ inline cv::Mat render_right(const cv::Mat& left, const std::vector<int>& band_en
   cv::Mat right;
   cv::remap(left, right, map_x, map_y, cv::INTER_CUBIC, cv::BORDER_REFLECT_101);
   return right;
+}
+
+// A rectified pair: a shape scene (make_shapes_scene) on the left and its
+// right image of the given row bands' disparities (render_right).
+struct StereoImages {
+  cv::Mat left;
+  cv::Mat right;
+};
+inline StereoImages shapes_stereo_pair(cv::Size size, std::uint64_t seed,
+                                       const std::vector<int>& band_end_rows,
+                                       const std::vector<double>& band_disparity_px) {
+  StereoImages pair;
+  pair.left = make_shapes_scene(size, seed);
+  pair.right = render_right(pair.left, band_end_rows, band_disparity_px);
+  return pair;
 }
 
 }  // namespace sitepose::testing
