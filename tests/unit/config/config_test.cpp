@@ -50,6 +50,7 @@ TEST(Config, DocumentedFileAgreesWithTheTable) {
 TEST(Config, ReadsEverySectionFromText) {
   const auto config = load_config_from_string(
       "camera:\n"
+      "  channel_order: rgb\n"
       "  stereo: {fx: 710, fy: 705, cx: 470.5, cy: 260, baseline_m: 0.9, width: 960, "
       "height: 540}\n"
       "orb: {n_features: 2000, scale_factor: 1.25, n_levels: 6, ini_fast_threshold: 18, "
@@ -74,6 +75,7 @@ TEST(Config, ReadsEverySectionFromText) {
   ASSERT_TRUE(config->camera.stereo.has_value());
   EXPECT_DOUBLE_EQ(config->camera.stereo->cx, 470.5);
   EXPECT_DOUBLE_EQ(config->camera.stereo->baseline_m, 0.9);
+  EXPECT_EQ(config->camera.channel_order, ChannelOrder::kRgb);
   EXPECT_EQ(config->orb.n_features, 2000);
   EXPECT_EQ(config->orb.grid_cell_px, 30);
   EXPECT_DOUBLE_EQ(config->stereo.max_disparity_px, 200.0);
@@ -104,6 +106,7 @@ TEST(Config, ToYamlRoundTripsDefaultsAndChangedValues) {
 
   SiteposeConfig changed;
   changed.camera.stereo = StereoCamera{712.123456789, 711.5, 479.25, 269.75, 0.987654321, 960, 540};
+  changed.camera.channel_order = ChannelOrder::kRgb;
   changed.orb.scale_factor = 1.0 + 1.0 / 3.0;  // needs all 17 digits to round-trip
   changed.tracking.chi2_mono = 0.1 + 0.2;
   changed.mapping.enabled = false;
