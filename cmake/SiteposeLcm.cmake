@@ -58,8 +58,8 @@ endfunction()
 #   <prefix>_python  the package <name>/ (<type>.py, __init__.py); encode and
 #                    decode need only the standard library (Debian 12 has no
 #                    Python lcm module);
-#   <prefix>_java    <name>-lcmtypes.jar, compiled against liblcm-java's
-#                    lcm.jar (SITEPOSE_LCM_JAR).
+#   <prefix>_java    <name>-lcmtypes.jar (a link to <name>-lcmtypes-<version>.jar),
+#                    compiled against liblcm-java's lcm.jar (SITEPOSE_LCM_JAR).
 # Their folders: the target properties SITEPOSE_INCLUDE_DIR (C),
 # SITEPOSE_PYTHON_DIR (python) and the jar's JAR_FILE (java).
 find_file(SITEPOSE_LCM_JAR lcm.jar PATHS /usr/share/java NO_DEFAULT_PATH)
@@ -115,8 +115,11 @@ function(sitepose_lcm_bindings prefix)
     DEPENDS ${ARG_LCM_FILES}
     COMMENT "lcm-gen: Java message types"
     VERBATIM)
+  # <name>-lcmtypes-<version>.jar and the link <name>-lcmtypes.jar, as
+  # Debian's Java policy names public jars.
   add_jar(${prefix}_java
     SOURCES ${java_files}
     INCLUDE_JARS ${SITEPOSE_LCM_JAR}
-    OUTPUT_NAME ${ARG_PACKAGE}-lcmtypes)
+    OUTPUT_NAME ${ARG_PACKAGE}-lcmtypes
+    VERSION ${PROJECT_VERSION})
 endfunction()

@@ -46,7 +46,8 @@ install(DIRECTORY ${PROJECT_BINARY_DIR}/src/output/lcm_bindings/c/include/sitepo
 install(DIRECTORY ${PROJECT_BINARY_DIR}/src/output/lcm_bindings/python/sitepose
   DESTINATION lib/python3/dist-packages COMPONENT dev FILES_MATCHING PATTERN "*.py"
   PATTERN __pycache__ EXCLUDE)
-# Java: sitepose-lcmtypes.jar beside liblcm-java's lcm.jar.
+# Java: sitepose-lcmtypes-<version>.jar and the link sitepose-lcmtypes.jar
+# beside liblcm-java's lcm.jar.
 install_jar(sitepose_lcm_bindings_java DESTINATION share/java COMPONENT dev)
 install(FILES examples/lcm/README.md examples/lcm/pose_subscriber.cpp examples/lcm/pose_subscriber.c
   examples/lcm/pose_subscriber.py examples/lcm/PoseSubscriber.java

@@ -52,7 +52,7 @@ assert "lcm" not in sys.modules, "the generated classes imported an lcm module"
 m = pose_t()
 m.seq, m.utime, m.state, m.position = 7, 1780000000123456, pose_t.STATE_OK, [1.5, -2.0, 0.25]
 back = pose_t.decode(m.encode())
-assert (back.seq, back.utime, back.state, back.position) == (7, 1780000000123456, 0, [1.5, -2.0, 0.25])
+assert (back.seq, back.utime, back.state, list(back.position)) == (7, 1780000000123456, 0, [1.5, -2.0, 0.25])
 print("python: pose_t round trip without an lcm module")
 PY
   fail "the Python package does not round-trip a pose_t"
