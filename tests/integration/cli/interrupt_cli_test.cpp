@@ -218,7 +218,8 @@ TEST_F(InterruptCli, SigintInSimLeavesACompleteShorterSequence) {
 TEST_F(InterruptCli, SigintInBenchTrackPrintsThePartialFigures) {
   const fs::path out = dir_->path() / "bench";
   fs::create_directories(out);
-  const pid_t pid = start_sitepose({"bench", "track", "--scenario", "static"}, out / "out.txt", out / "err.txt");
+  const pid_t pid =
+      start_sitepose({"bench", "track", "--scenario", "static"}, out / "out.txt", out / "err.txt");
   std::this_thread::sleep_for(std::chrono::seconds(3));
   ::kill(pid, SIGINT);
   EXPECT_EQ(exit_status(pid), 130) << testing::read_text(out / "err.txt");

@@ -122,8 +122,9 @@ TEST(Config, ToYamlRoundTripsDefaultsAndChangedValues) {
 
 TEST(Config, UnknownKeyIsNamedWithSuggestion) {
   const std::string message = load_error("dynamic:\n  modee: full\n");
-  EXPECT_TRUE(contains(message, "t.yaml:2: dynamic.modee: unknown key (expected one of: mode, "
-                                "tau_mar, classifier"))
+  EXPECT_TRUE(contains(message,
+                       "t.yaml:2: dynamic.modee: unknown key (expected one of: mode, "
+                       "tau_mar, classifier"))
       << message;
   EXPECT_TRUE(contains(message, "did you mean mode?")) << message;
 }
@@ -142,16 +143,13 @@ TEST(Config, WrongTypeIsNamed) {
 TEST(Config, OutOfRangeIsNamed) {
   EXPECT_EQ(load_error("tracking:\n  min_inliers_ok: -3\n"),
             "t.yaml:2: tracking.min_inliers_ok = -3: must be >= 10");
-  EXPECT_EQ(load_error("dynamic: {tau_mar: 1.5}\n"),
-            "t.yaml:1: dynamic.tau_mar = 1.5: must be in [0, 1]");
-  EXPECT_EQ(load_error("orb: {scale_factor: 1.0}\n"),
-            "t.yaml:1: orb.scale_factor = 1.0: must be > 1");
+  EXPECT_EQ(load_error("dynamic: {tau_mar: 1.5}\n"), "t.yaml:1: dynamic.tau_mar = 1.5: must be in [0, 1]");
+  EXPECT_EQ(load_error("orb: {scale_factor: 1.0}\n"), "t.yaml:1: orb.scale_factor = 1.0: must be > 1");
 }
 
 TEST(Config, BadEnumNamesTheChoices) {
   const std::string message = load_error("dynamic:\n  mode: fulll\n  classifier: best\n");
-  EXPECT_TRUE(contains(message, "t.yaml:2: dynamic.mode = \"fulll\": unknown masking mode"))
-      << message;
+  EXPECT_TRUE(contains(message, "t.yaml:2: dynamic.mode = \"fulll\": unknown masking mode")) << message;
   EXPECT_TRUE(contains(message, "none, bbox, pixel, hierarchical, full")) << message;
   EXPECT_TRUE(contains(message, "t.yaml:3: dynamic.classifier = \"best\"")) << message;
   EXPECT_TRUE(contains(message, "paper, sitepose")) << message;
@@ -209,8 +207,9 @@ TEST(Config, OrbSlam2FileGivenAsConfigIsNamed) {
   const auto config = load_config(kSourceDir + "/config/orbslam2/sitepose_default_stereo.yaml");
   ASSERT_FALSE(config.has_value());
   EXPECT_EQ(config.error().code, ErrorCode::kInvalidArgument);
-  EXPECT_TRUE(contains(config.error().message, "sitepose_default_stereo.yaml:1: this is an OpenCV "
-                                               "FileStorage file"))
+  EXPECT_TRUE(contains(config.error().message,
+                       "sitepose_default_stereo.yaml:1: this is an OpenCV "
+                       "FileStorage file"))
       << config.error().message;
 }
 
