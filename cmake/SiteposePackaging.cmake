@@ -3,8 +3,11 @@
 #   sitepose      the commands, the detector plugins, the systemd unit, the
 #                 default daemon config (/etc/sitepose/siteposed.yaml, a
 #                 conffile), the LCM types, the DBC, firmware-config, docs;
-#   sitepose-dev  the detector plugin ABI header and the generated C++ LCM
-#                 message classes, for integrators' own plugins and receivers.
+#   sitepose-dev  the detector plugin ABI header and the LCM message types
+#                 generated at build time for C++ (headers), C (headers and
+#                 a static library), Python (the package `sitepose`) and Java
+#                 (a jar), for integrators' own plugins and receivers
+#                 (examples/lcm/ shows each).
 #
 # Depends: comes from dpkg-shlibdeps on the installed binaries. The maintainer
 # scripts are packaging/deb/{postinst,prerm,postrm}. Build the packages with
@@ -35,6 +38,20 @@ install(FILES include/sitepose/detect/plugin_abi.h DESTINATION include/sitepose/
 # lcm-gen's classes (#include "sitepose/pose_t.hpp"), generated in the build tree.
 install(DIRECTORY ${PROJECT_BINARY_DIR}/src/output/lcm_gen/sitepose/
   DESTINATION include/sitepose COMPONENT dev FILES_MATCHING PATTERN "*.hpp")
+# C: #include <sitepose/sitepose_pose_t.h>, -lsitepose_lcmtypes -llcm.
+install(TARGETS sitepose_lcm_bindings_c ARCHIVE DESTINATION lib COMPONENT dev)
+install(DIRECTORY ${PROJECT_BINARY_DIR}/src/output/lcm_bindings/c/include/sitepose/
+  DESTINATION include/sitepose COMPONENT dev FILES_MATCHING PATTERN "*.h")
+# Python: `from sitepose import pose_t` (standard library only).
+install(DIRECTORY ${PROJECT_BINARY_DIR}/src/output/lcm_bindings/python/sitepose
+  DESTINATION lib/python3/dist-packages COMPONENT dev FILES_MATCHING PATTERN "*.py"
+  PATTERN __pycache__ EXCLUDE)
+# Java: sitepose-lcmtypes-<version>.jar and the link sitepose-lcmtypes.jar
+# beside liblcm-java's lcm.jar.
+install_jar(sitepose_lcm_bindings_java DESTINATION share/java COMPONENT dev)
+install(FILES examples/lcm/README.md examples/lcm/pose_subscriber.cpp examples/lcm/pose_subscriber.c
+  examples/lcm/pose_subscriber.py examples/lcm/PoseSubscriber.java
+  DESTINATION share/doc/sitepose-dev/examples COMPONENT dev)
 
 # Debian's per-package copyright and changelog (compressed, as policy asks).
 set(SITEPOSE_DEB_STAGE ${PROJECT_BINARY_DIR}/packaging)
@@ -91,11 +108,15 @@ set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_EXTRA
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME sitepose-dev)
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
-set(CPACK_DEBIAN_DEV_PACKAGE_ARCHITECTURE all)
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "liblcm-dev")
+# Java receivers need LCM's own classes; Python ones only python3.
+set(CPACK_DEBIAN_DEV_PACKAGE_SUGGESTS "liblcm-java, python3")
 set(CPACK_DEBIAN_DEV_DESCRIPTION
-  "stereo visual positioning service - plugin ABI and LCM message classes
-Headers for building against sitepose: the C ABI of detector plugins
-(sitepose/detect/plugin_abi.h) and the C++ classes of the LCM messages
-siteposed publishes (sitepose/pose_t.hpp, health_t.hpp, gnss_fix_t.hpp).")
+  "stereo visual positioning service - plugin ABI and LCM message types
+Files for building against sitepose: the C ABI of detector plugins
+(sitepose/detect/plugin_abi.h) and the LCM messages siteposed publishes
+(pose_t, health_t, gnss_fix_t) for C++ (sitepose/pose_t.hpp), C
+(sitepose/sitepose_pose_t.h, libsitepose_lcmtypes.a), Python (the package
+sitepose, no lcm module needed) and Java (sitepose-lcmtypes.jar), with a
+subscriber example in each language.")
 include(CPack)

@@ -20,6 +20,9 @@ packages=(
   proj-data
   # middleware and devices
   liblcm-dev liblcm-bin libaravis-dev aravis-tools libusb-1.0-0-dev
+  # LCM's Java classes (lcm.jar) and a JDK: the Java LCM bindings are built
+  # and their subscriber example run (examples/lcm)
+  liblcm-java default-jdk-headless
   libsystemd-dev systemd libv4l-dev
   # test helpers: network namespaces, CAN log decoding, rendering the run
   # report (sitepose report) in a headless browser

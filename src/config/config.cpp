@@ -34,8 +34,10 @@ Section<StereoCamera> stereo_camera_section() {
 
 Section<CameraConfig> camera_section() {
   Section<CameraConfig> s;
-  s.optional_section("stereo", &CameraConfig::stereo, stereo_camera_section(),
-                     "stereo calibration from the sequence (calib.txt)");
+  s.choice("channel_order", &CameraConfig::channel_order,
+           {Choice<ChannelOrder>{ChannelOrder::kBgr, "bgr"}, Choice<ChannelOrder>{ChannelOrder::kRgb, "rgb"}})
+      .optional_section("stereo", &CameraConfig::stereo, stereo_camera_section(),
+                        "stereo calibration from the sequence (calib.txt)");
   return s;
 }
 
@@ -225,6 +227,7 @@ Expected<SiteposeConfig> load_config_from_string(std::string_view text, const st
 }
 
 bool operator==(const CameraConfig& a, const CameraConfig& b) {
+  if (a.channel_order != b.channel_order) return false;
   if (a.stereo.has_value() != b.stereo.has_value()) return false;
   if (!a.stereo) return true;
   const StereoCamera& x = *a.stereo;
@@ -237,26 +240,19 @@ bool operator==(const CameraConfig& a, const CameraConfig& b) {
 
 const char* to_string(MaskingMode mode) {
   switch (mode) {
-    case MaskingMode::kNone:
-      return "none";
-    case MaskingMode::kBbox:
-      return "bbox";
-    case MaskingMode::kPixel:
-      return "pixel";
-    case MaskingMode::kHierarchical:
-      return "hierarchical";
-    case MaskingMode::kFull:
-      return "full";
+    case MaskingMode::kNone: return "none";
+    case MaskingMode::kBbox: return "bbox";
+    case MaskingMode::kPixel: return "pixel";
+    case MaskingMode::kHierarchical: return "hierarchical";
+    case MaskingMode::kFull: return "full";
   }
   return "unknown";
 }
 
 const char* to_string(ClassifierMode mode) {
   switch (mode) {
-    case ClassifierMode::kPaper:
-      return "paper";
-    case ClassifierMode::kSitepose:
-      return "sitepose";
+    case ClassifierMode::kPaper: return "paper";
+    case ClassifierMode::kSitepose: return "sitepose";
   }
   return "unknown";
 }

@@ -10,9 +10,9 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -284,16 +284,28 @@ Expected<OrbSlam2Settings> read_text(const std::string& text, const std::string&
 }  // namespace
 
 Expected<OrbSlam2Settings> load_orbslam2_settings(const std::string& path) {
-  // Read the text here so a missing file is kNotFound, not an OpenCV error.
+  // Read the text here so a missing file is kNotFound, not an OpenCV error;
+  // a path that siteposed's settings name may be anything (a folder,
+  // /dev/zero): read at most the config files' limit.
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "cannot read ORB-SLAM2 settings file " + path + ": is a directory");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     return make_error(ErrorCode::kNotFound,
                       "cannot open ORB-SLAM2 settings file " + path + ": " + std::strerror(errno));
   }
-  std::ostringstream text;
-  text << in.rdbuf();
+  std::string text(kMaxYamlBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
   if (in.bad()) return make_error(ErrorCode::kIoError, "cannot read ORB-SLAM2 settings file " + path);
-  return read_text(text.str(), path);
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > kMaxYamlBytes) {
+    return make_error(ErrorCode::kInvalidArgument, "ORB-SLAM2 settings file " + path + ": larger than " +
+                                                       std::to_string(kMaxYamlBytes) + " bytes");
+  }
+  return read_text(text, path);
 }
 
 Expected<OrbSlam2Settings> load_orbslam2_settings_from_string(const std::string& text,
@@ -303,6 +315,7 @@ Expected<OrbSlam2Settings> load_orbslam2_settings_from_string(const std::string&
 
 void apply_orbslam2_settings(const OrbSlam2Settings& settings, SiteposeConfig& config) {
   config.camera.stereo = settings.camera;
+  config.camera.channel_order = settings.rgb ? ChannelOrder::kRgb : ChannelOrder::kBgr;
   const int grid_cell_px = config.orb.grid_cell_px;
   config.orb = settings.orb;
   config.orb.grid_cell_px = grid_cell_px;

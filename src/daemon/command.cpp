@@ -38,6 +38,12 @@ int run_siteposed(const Invocation& invocation) {
       invocation.log_level.empty() ? config->sitepose.logging.level : invocation.log_level;
   if (auto st = set_log_level(level); !st) return fail("--log-level: " + st.error().message, 2);
 
+  if (!config->orbslam2_ignored_keys.empty()) {
+    std::string keys;
+    for (const std::string& key : config->orbslam2_ignored_keys) keys += (keys.empty() ? "" : ", ") + key;
+    spdlog::warn("source.orbslam2_settings {}: keys sitepose does not use, ignored: {}",
+                 config->orbslam2_settings, keys);
+  }
   const std::string resolved = to_yaml(*config);
   if (invocation.check_config) {
     if (auto st = check_startable(*config); !st) return fail(st.error().message, 2);

@@ -50,7 +50,7 @@ Expected<std::unique_ptr<pipeline::FrameSource>> open_source(const DaemonConfig&
     if (!source) return make_error(source.error().code, "source.v4l2." + source.error().message);
     return std::unique_ptr<pipeline::FrameSource>(std::move(*source));
   }
-  SITEPOSE_TRY(auto replay, pipeline::ReplaySource::open(config.replay));
+  SITEPOSE_TRY(auto replay, pipeline::ReplaySource::open(replay_options(config)));
   return std::unique_ptr<pipeline::FrameSource>(std::move(replay));
 }
 
@@ -106,6 +106,21 @@ double detector_deadline_ms(const DaemonConfig& config, const pipeline::FrameSou
   return source.live() ? 1000.0 / fps : kLosslessDeadlineMs;
 }
 
+// camera.stereo (or what source.orbslam2_settings put there) must have the
+// size of the source's images: found at start, not at the first frame.
+Expected<StereoCamera> tracking_camera(const DaemonConfig& config, const StereoCamera& source) {
+  if (!config.sitepose.camera.stereo) return source;
+  const StereoCamera& camera = *config.sitepose.camera.stereo;
+  if (camera.width == source.width && camera.height == source.height) return camera;
+  const std::string from = config.orbslam2_settings.empty()
+                               ? ""
+                               : " (from source.orbslam2_settings " + config.orbslam2_settings + ")";
+  return make_error(ErrorCode::kInvalidArgument,
+                    "camera.stereo" + from + " is " + std::to_string(camera.width) + "x" +
+                        std::to_string(camera.height) + " but the source's images are " +
+                        std::to_string(source.width) + "x" + std::to_string(source.height));
+}
+
 Status check_output(bool enabled, const std::string& key, const std::string& path) {
   if (!enabled) return ok_status();
   auto st = io::check_output_path(path);
@@ -118,11 +133,12 @@ Status check_output(bool enabled, const std::string& key, const std::string& pat
 Status check_startable(const DaemonConfig& config) {
   std::optional<StereoCamera> camera;
   if (config.source_type == "replay") {
-    auto source = pipeline::ReplaySource::open(config.replay);
+    auto source = pipeline::ReplaySource::open(replay_options(config));
     if (!source) {
       return make_error(ErrorCode::kInvalidArgument, "source.replay.sequence: " + source.error().message);
     }
     camera = (*source)->camera();
+    SITEPOSE_TRY_STATUS(tracking_camera(config, *camera));
   }
   SITEPOSE_TRY_STATUS(check_detector(config, camera));
   if (auto anchoring = Anchoring::create(config.geo, publish_options(config)); !anchoring) {
@@ -152,8 +168,7 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
     SITEPOSE_TRY(source, open_source(config));
   }
   spdlog::info("source: {}", source->describe());
-  StereoCamera camera = source->camera();
-  if (config.sitepose.camera.stereo) camera = *config.sitepose.camera.stereo;
+  SITEPOSE_TRY(const StereoCamera camera, tracking_camera(config, source->camera()));
   SITEPOSE_TRY(auto tracker,
                pipeline::SlamPoseTracker::create(camera, config.sitepose, source->frame_rate_hz()));
   d->tracker_ = tracker.get();

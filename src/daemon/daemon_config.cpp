@@ -8,6 +8,7 @@
 #include <filesystem>
 
 #include "sitepose/config/config.hpp"
+#include "sitepose/config/orbslam2_settings.hpp"
 #include "sitepose/config/yaml_reader.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/drivers/aravis/aravis_source.hpp"
@@ -156,6 +157,7 @@ Section<DaemonConfig> source_group() {
   Section<DaemonConfig> s;
   s.key("type", &DaemonConfig::source_type, config::one_of({"replay", "aravis", "v4l2"}))
       .key("wait_for_camera_s", &DaemonConfig::wait_for_camera_s, in_range(0.0, 86400.0))
+      .key("orbslam2_settings", &DaemonConfig::orbslam2_settings)
       .section("replay", &DaemonConfig::replay, replay_section())
       .section("aravis", &DaemonConfig::aravis, aravis_section())
       .section("v4l2", &DaemonConfig::v4l2, v4l2_section())
@@ -501,7 +503,27 @@ Section<DaemonConfig> make_daemon_sections() {
   return s;
 }
 
+// source.orbslam2_settings over the sitepose sections it overrides; its
+// errors name the key and the file (exit 2 at start, like any bad key).
+Status import_orbslam2_settings(DaemonConfig& c, const std::string& source_name) {
+  if (c.orbslam2_settings.empty()) return ok_status();
+  auto settings = config::load_orbslam2_settings(c.orbslam2_settings);
+  if (!settings) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      source_name + ": source.orbslam2_settings: " + settings.error().message);
+  }
+  config::apply_orbslam2_settings(*settings, c.sitepose);
+  c.orbslam2_ignored_keys = settings->ignored_keys;
+  return ok_status();
+}
+
 }  // namespace
+
+pipeline::ReplayOptions replay_options(const DaemonConfig& config) {
+  pipeline::ReplayOptions o = config.replay;
+  o.channel_order = config.sitepose.camera.channel_order;
+  return o;
+}
 
 drivers::v4l2::V4l2SourceOptions v4l2_source_options(const DaemonConfig& config) {
   drivers::v4l2::V4l2SourceOptions o = config.v4l2.options;
@@ -524,9 +546,10 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text, c
   SITEPOSE_TRY_STATUS(reader.finish());
   for (std::string* path :
        {&c.replay.sequence_dir, &c.aravis.calibration, &c.v4l2.options.calibration_file, &c.trajectory.path,
-        &c.can.path, &c.geo.nmea_file, &c.geo.geoid, &c.map.map_file}) {
+        &c.can.path, &c.geo.nmea_file, &c.geo.geoid, &c.map.map_file, &c.orbslam2_settings}) {
     *path = resolve(base_dir, *path);
   }
+  SITEPOSE_TRY_STATUS(import_orbslam2_settings(c, source_name));
   c.geo.anchor = anchor_options(c.geo);
   detect::add_inherent_dynamic_classes(c.sitepose.detector, c.sitepose.dynamic);
   if (auto st = pipeline::check_pipeline_options(c.pipeline); !st) {

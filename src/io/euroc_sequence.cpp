@@ -40,11 +40,13 @@ class EurocSequence final : public Sequence {
                                                          std::to_string(size()) + " frames)");
     }
     const StereoEntry& e = entries_[i];
-    SITEPOSE_TRY(const cv::Mat raw_left, load_gray_image(e.left_path, i));
-    SITEPOSE_TRY(const cv::Mat raw_right, load_gray_image(e.right_path, i));
+    SITEPOSE_TRY(const cv::Mat raw_left, load_gray_image(e.left_path, i, channel_order_));
+    SITEPOSE_TRY(const cv::Mat raw_right, load_gray_image(e.right_path, i, channel_order_));
     const StereoCamera& cam = rect_.camera;
-    SITEPOSE_TRY_STATUS(check_image_size(raw_left, cam.width, cam.height, e.left_path, i, "cam0 sensor.yaml resolution"));
-    SITEPOSE_TRY_STATUS(check_image_size(raw_right, cam.width, cam.height, e.right_path, i, "cam1 sensor.yaml resolution"));
+    SITEPOSE_TRY_STATUS(
+        check_image_size(raw_left, cam.width, cam.height, e.left_path, i, "cam0 sensor.yaml resolution"));
+    SITEPOSE_TRY_STATUS(
+        check_image_size(raw_right, cam.width, cam.height, e.right_path, i, "cam1 sensor.yaml resolution"));
     StereoFrame frame;
     cv::remap(raw_left, frame.left, rect_.map0_a, rect_.map0_b, cv::INTER_LINEAR);
     cv::remap(raw_right, frame.right, rect_.map1_a, rect_.map1_b, cv::INTER_LINEAR);
@@ -73,19 +75,25 @@ class EurocSequence final : public Sequence {
   std::vector<std::optional<SE3>> gt_;
   std::vector<LabelBox> no_boxes_;
   std::size_t unpaired_ = 0;
+  ChannelOrder channel_order_ = ChannelOrder::kBgr;
 };
 
 Expected<std::unique_ptr<Sequence>> EurocSequence::open(const std::string& dir, const std::string& mav0,
                                                         const SequenceOptions& options) {
   auto seq = std::make_unique<EurocSequence>();
   seq->dir_ = dir;
+  seq->channel_order_ = options.channel_order;
   const fs::path root(mav0);
-  SITEPOSE_TRY(const EurocCameraSensor cam0, read_euroc_sensor_yaml((root / "cam0" / "sensor.yaml").string()));
-  SITEPOSE_TRY(const EurocCameraSensor cam1, read_euroc_sensor_yaml((root / "cam1" / "sensor.yaml").string()));
+  SITEPOSE_TRY(const EurocCameraSensor cam0,
+               read_euroc_sensor_yaml((root / "cam0" / "sensor.yaml").string()));
+  SITEPOSE_TRY(const EurocCameraSensor cam1,
+               read_euroc_sensor_yaml((root / "cam1" / "sensor.yaml").string()));
   SITEPOSE_TRY(seq->rect_, make_euroc_rectification(cam0, cam1));
 
-  SITEPOSE_TRY(const std::vector<EurocImageEntry> left, read_euroc_image_list((root / "cam0" / "data.csv").string()));
-  SITEPOSE_TRY(const std::vector<EurocImageEntry> right, read_euroc_image_list((root / "cam1" / "data.csv").string()));
+  SITEPOSE_TRY(const std::vector<EurocImageEntry> left,
+               read_euroc_image_list((root / "cam0" / "data.csv").string()));
+  SITEPOSE_TRY(const std::vector<EurocImageEntry> right,
+               read_euroc_image_list((root / "cam1" / "data.csv").string()));
   std::unordered_map<std::int64_t, const EurocImageEntry*> right_by_time;
   for (const EurocImageEntry& e : right) right_by_time.emplace(e.t_ns, &e);
   for (const EurocImageEntry& l : left) {
@@ -97,18 +105,21 @@ Expected<std::unique_ptr<Sequence>> EurocSequence::open(const std::string& dir, 
   seq->unpaired_ = (left.size() - seq->entries_.size()) + (right.size() - seq->entries_.size());
   if (seq->entries_.empty()) {
     return make_error(ErrorCode::kInvalidArgument,
-                      mav0 + ": no cam0/cam1 image pair with equal timestamps (cam0 " + std::to_string(left.size()) +
-                          " images, cam1 " + std::to_string(right.size()) + ")");
+                      mav0 + ": no cam0/cam1 image pair with equal timestamps (cam0 " +
+                          std::to_string(left.size()) + " images, cam1 " + std::to_string(right.size()) +
+                          ")");
   }
   if (seq->unpaired_ > 0) {
-    spdlog::warn("seq={} EuRoC: {} of {} cam0 and {} cam1 images have no partner with the same timestamp; dropped",
-                 dir, seq->unpaired_, left.size(), right.size());
+    spdlog::warn(
+        "seq={} EuRoC: {} of {} cam0 and {} cam1 images have no partner with the same timestamp; dropped",
+        dir, seq->unpaired_, left.size(), right.size());
   }
   for (std::size_t i = 0; i < seq->entries_.size(); ++i) {
     for (const std::string* p : {&seq->entries_[i].left_path, &seq->entries_[i].right_path}) {
       std::error_code ec;
       if (!fs::is_regular_file(*p, ec)) {
-        return make_error(ErrorCode::kNotFound, "frame " + std::to_string(i) + ": image " + *p + " does not exist");
+        return make_error(ErrorCode::kNotFound,
+                          "frame " + std::to_string(i) + ": image " + *p + " does not exist");
       }
     }
   }

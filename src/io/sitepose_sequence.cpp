@@ -18,8 +18,9 @@ namespace fs = std::filesystem;
 
 bool is_frame_png(const fs::path& p) {
   const std::string stem = p.stem().string();
-  return p.extension() == ".png" && stem.size() == 6 &&
-         std::all_of(stem.begin(), stem.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; });
+  return p.extension() == ".png" && stem.size() == 6 && std::all_of(stem.begin(), stem.end(), [](char c) {
+           return std::isdigit(static_cast<unsigned char>(c)) != 0;
+         });
 }
 
 // Every frame's image must exist and no extra frame images may lie there.
@@ -43,10 +44,10 @@ Status check_image_folder(const fs::path& folder, std::size_t n_frames, const st
   }
   if (ec) return make_error(ErrorCode::kIoError, folder.string() + ": cannot list: " + ec.message());
   if (count != n_frames) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      folder.string() + " holds " + std::to_string(count) + " frame images but " +
-                          times_path + " has " + std::to_string(n_frames) +
-                          " times; expected one image per frame");
+    return make_error(ErrorCode::kInvalidArgument, folder.string() + " holds " + std::to_string(count) +
+                                                       " frame images but " + times_path + " has " +
+                                                       std::to_string(n_frames) +
+                                                       " times; expected one image per frame");
   }
   return ok_status();
 }
@@ -89,10 +90,10 @@ class SiteposeSequence final : public Sequence {
     const std::string left_path = (fs::path(dir_) / "image_0" / frame_file_name(i)).string();
     const std::string right_path = (fs::path(dir_) / "image_1" / frame_file_name(i)).string();
     StereoFrame frame;
-    SITEPOSE_TRY(frame.left, load_gray_image(left_path, i));
-    SITEPOSE_TRY(frame.right, load_gray_image(right_path, i));
-    SITEPOSE_TRY_STATUS(check_image_size(frame.left, camera_.width, camera_.height, left_path, i,
-                                         "size of frame 0"));
+    SITEPOSE_TRY(frame.left, load_gray_image(left_path, i, channel_order_));
+    SITEPOSE_TRY(frame.right, load_gray_image(right_path, i, channel_order_));
+    SITEPOSE_TRY_STATUS(
+        check_image_size(frame.left, camera_.width, camera_.height, left_path, i, "size of frame 0"));
     SITEPOSE_TRY_STATUS(check_image_size(frame.right, camera_.width, camera_.height, right_path, i,
                                          "size of the left image"));
     frame.seq = static_cast<std::int64_t>(i);
@@ -137,12 +138,14 @@ class SiteposeSequence final : public Sequence {
   std::vector<LabelBox> boxes_;
   bool has_masks_ = false;
   std::optional<std::string> meta_path_;
+  ChannelOrder channel_order_ = ChannelOrder::kBgr;
 };
 
 Expected<std::unique_ptr<Sequence>> SiteposeSequence::open(const std::string& dir,
                                                            const SequenceOptions& options) {
   auto seq = std::make_unique<SiteposeSequence>();
   seq->dir_ = dir;
+  seq->channel_order_ = options.channel_order;
   const fs::path root(dir);
   std::error_code ec;
 
@@ -157,7 +160,8 @@ Expected<std::unique_ptr<Sequence>> SiteposeSequence::open(const std::string& di
   const std::size_t n = times_s.size();
 
   if (!fs::is_directory(root / "image_1", ec)) {
-    return make_error(ErrorCode::kNotFound, (root / "image_1").string() + ": right image folder does not exist");
+    return make_error(ErrorCode::kNotFound,
+                      (root / "image_1").string() + ": right image folder does not exist");
   }
   SITEPOSE_TRY_STATUS(check_image_folder(root / "image_0", n, times_path));
   SITEPOSE_TRY_STATUS(check_image_folder(root / "image_1", n, times_path));
@@ -165,15 +169,16 @@ Expected<std::unique_ptr<Sequence>> SiteposeSequence::open(const std::string& di
   // Image size comes from frame 0; the calibration must fit inside it.
   const std::string first_left = (root / "image_0" / frame_file_name(0)).string();
   const std::string first_right = (root / "image_1" / frame_file_name(0)).string();
-  SITEPOSE_TRY(const cv::Mat left0, load_gray_image(first_left, 0));
-  SITEPOSE_TRY(const cv::Mat right0, load_gray_image(first_right, 0));
-  SITEPOSE_TRY_STATUS(check_image_size(right0, left0.cols, left0.rows, first_right, 0, "size of the left image"));
+  SITEPOSE_TRY(const cv::Mat left0, load_gray_image(first_left, 0, options.channel_order));
+  SITEPOSE_TRY(const cv::Mat right0, load_gray_image(first_right, 0, options.channel_order));
+  SITEPOSE_TRY_STATUS(
+      check_image_size(right0, left0.cols, left0.rows, first_right, 0, "size of the left image"));
   seq->camera_.width = left0.cols;
   seq->camera_.height = left0.rows;
   if (Status valid = seq->camera_.validate(); !valid) {
-    return make_error(ErrorCode::kInvalidArgument, (root / "calib.txt").string() + " with images of " +
-                                                       std::to_string(left0.cols) + "x" +
-                                                       std::to_string(left0.rows) + ": " + valid.error().message);
+    return make_error(ErrorCode::kInvalidArgument,
+                      (root / "calib.txt").string() + " with images of " + std::to_string(left0.cols) + "x" +
+                          std::to_string(left0.rows) + ": " + valid.error().message);
   }
 
   // Ground truth: the explicit file wins over <seq>/poses.txt.

@@ -11,16 +11,16 @@ Expected<ReplayRate> parse_replay_rate(const std::string& name) {
                     "unknown replay rate \"" + name + "\" (expected one of: recorded, max)");
 }
 
-const char* to_string(ReplayRate rate) {
-  return rate == ReplayRate::kRecorded ? "recorded" : "max";
-}
+const char* to_string(ReplayRate rate) { return rate == ReplayRate::kRecorded ? "recorded" : "max"; }
 
 Expected<std::unique_ptr<ReplaySource>> ReplaySource::open(const ReplayOptions& options) {
   if (options.max_frames < 0) {
     return make_error(ErrorCode::kInvalidArgument,
                       "replay max_frames = " + std::to_string(options.max_frames) + ": must be >= 0");
   }
-  SITEPOSE_TRY(auto sequence, io::open_sequence(options.sequence_dir));
+  io::SequenceOptions sequence_options;
+  sequence_options.channel_order = options.channel_order;
+  SITEPOSE_TRY(auto sequence, io::open_sequence(options.sequence_dir, sequence_options));
   if (sequence->size() == 0) {
     return make_error(ErrorCode::kInvalidArgument,
                       "replay sequence " + options.sequence_dir + ": has no frames");
@@ -30,9 +30,8 @@ Expected<std::unique_ptr<ReplaySource>> ReplaySource::open(const ReplayOptions& 
 
 ReplaySource::ReplaySource(const ReplayOptions& options, std::unique_ptr<io::Sequence> sequence)
     : options_(options), sequence_(std::move(sequence)) {
-  frames_per_pass_ = options_.max_frames > 0
-                         ? std::min<std::size_t>(options_.max_frames, sequence_->size())
-                         : sequence_->size();
+  frames_per_pass_ = options_.max_frames > 0 ? std::min<std::size_t>(options_.max_frames, sequence_->size())
+                                             : sequence_->size();
   const std::int64_t t0 = sequence_->time_ns(0);
   const std::int64_t duration = sequence_->time_ns(frames_per_pass_ - 1) - t0;
   const std::int64_t mean_interval =
@@ -42,8 +41,8 @@ ReplaySource::ReplaySource(const ReplayOptions& options, std::unique_ptr<io::Seq
 }
 
 std::string ReplaySource::describe() const {
-  return "replay " + sequence_->directory() + " (" + std::to_string(frames_per_pass_) +
-         " frames) at " + (options_.rate == ReplayRate::kRecorded ? "the recorded rate" : "max rate") +
+  return "replay " + sequence_->directory() + " (" + std::to_string(frames_per_pass_) + " frames) at " +
+         (options_.rate == ReplayRate::kRecorded ? "the recorded rate" : "max rate") +
          (options_.loop ? ", looping" : "");
 }
 

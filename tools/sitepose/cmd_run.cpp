@@ -247,10 +247,12 @@ int resolve_camera(const RunArgs& args, const config::SiteposeConfig& config, co
   camera = *config.camera.stereo;
   const StereoCamera& images = sequence.camera();
   if (camera.width != images.width || camera.height != images.height) {
+    const std::string from =
+        args.orbslam2_settings.empty() ? "" : " (from --orbslam2-settings " + args.orbslam2_settings + ")";
     return fail(kCommand,
-                "camera.stereo is " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
-                    " but the images of " + args.sequence + " are " + std::to_string(images.width) + "x" +
-                    std::to_string(images.height),
+                "camera.stereo" + from + " is " + std::to_string(camera.width) + "x" +
+                    std::to_string(camera.height) + " but the images of " + args.sequence + " are " +
+                    std::to_string(images.width) + "x" + std::to_string(images.height),
                 2);
   }
   return 0;
@@ -332,6 +334,7 @@ int run(const RunArgs& args) {
   if (const int status = check_outputs(args); status != 0) return status;
   io::SequenceOptions options;
   options.gt_path = args.gt;
+  options.channel_order = config.camera.channel_order;
   auto sequence = io::open_sequence(args.sequence, options);
   if (!sequence) return fail(kCommand, sequence.error().message, 2);
   StereoCamera camera;

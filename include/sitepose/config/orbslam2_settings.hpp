@@ -28,11 +28,11 @@
 namespace sitepose::config {
 
 struct OrbSlam2Settings {
-  StereoCamera camera;               // rectified pinhole pair, validated
-  OrbConfig orb;                     // grid_cell_px keeps its default (not in the file)
-  double close_depth_baselines = 0;  // ThDepth
-  double fps_hz = 0;                 // Camera.fps
-  bool rgb = false;                  // Camera.RGB: colour images are RGB (else BGR)
+  StereoCamera camera;                    // rectified pinhole pair, validated
+  OrbConfig orb;                          // grid_cell_px keeps its default (not in the file)
+  double close_depth_baselines = 0;       // ThDepth
+  double fps_hz = 0;                      // Camera.fps
+  bool rgb = false;                       // Camera.RGB: colour images are RGB (else BGR; absent = BGR)
   std::vector<std::string> ignored_keys;  // present in the file, unused by sitepose
 };
 
@@ -41,8 +41,9 @@ Expected<OrbSlam2Settings> load_orbslam2_settings(const std::string& path);
 Expected<OrbSlam2Settings> load_orbslam2_settings_from_string(const std::string& text,
                                                               const std::string& source_name);
 
-// Overrides the fields the file defines: camera.stereo, orb (all but
-// grid_cell_px), tracking.close_depth_baselines and
+// Overrides the fields the file defines: camera.stereo,
+// camera.channel_order (Camera.RGB; absent = 0 = BGR, as ORB-SLAM2 reads
+// it), orb (all but grid_cell_px), tracking.close_depth_baselines and
 // tracking.keyframe_max_interval_frames = round(fps) (ORB-SLAM2 inserts a
 // keyframe at least every fps frames). Everything else is left as it is.
 void apply_orbslam2_settings(const OrbSlam2Settings& settings, SiteposeConfig& config);

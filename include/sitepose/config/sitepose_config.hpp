@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "sitepose/core/channel_order.hpp"
 #include "sitepose/core/stereo_camera.hpp"
 
 namespace sitepose::config {
@@ -19,6 +20,9 @@ namespace sitepose::config {
 // Optional camera override; sequences normally bring calib.txt.
 struct CameraConfig {
   std::optional<StereoCamera> stereo;  // absent = take it from the source
+  // Colour image files (sequences, replay) are made gray in this order;
+  // cameras deliver gray, Bayer or YUV, whose pixel format says the order.
+  ChannelOrder channel_order = ChannelOrder::kBgr;
 
   // StereoCamera (core) has no operator==; compare every field here.
   friend bool operator==(const CameraConfig& a, const CameraConfig& b);

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -127,6 +128,12 @@ struct DetectDeadlineConfig {
 
 struct DaemonConfig {
   std::string source_type = "replay";  // replay | aravis | v4l2
+  // source.orbslam2_settings: an ORB-SLAM2 stereo settings file whose camera
+  // and ORB values load_daemon_config applies over the sitepose sections
+  // (config::apply_orbslam2_settings, as `sitepose run --orbslam2-settings`);
+  // empty: none. Its keys sitepose does not use, for the start-up log:
+  std::string orbslam2_settings;
+  std::vector<std::string> orbslam2_ignored_keys;
   // A camera source: how long to wait at start for an absent camera (0:
   // fail at once). Lost cameras later are reconnected whatever this says.
   double wait_for_camera_s = 0.0;
@@ -149,6 +156,8 @@ struct DaemonConfig {
 
 // The V4L2 source's options from source.v4l2 and source.wait_for_camera_s.
 drivers::v4l2::V4l2SourceOptions v4l2_source_options(const DaemonConfig& config);
+// The replay's options from source.replay and camera.channel_order.
+pipeline::ReplayOptions replay_options(const DaemonConfig& config);
 
 // The table of the settings file; defaults are DaemonConfig's initialisers.
 const config::Section<DaemonConfig>& daemon_sections();

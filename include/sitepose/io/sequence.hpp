@@ -19,6 +19,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "sitepose/core/channel_order.hpp"
 #include "sitepose/core/expected.hpp"
 #include "sitepose/core/se3.hpp"
 #include "sitepose/core/stereo_camera.hpp"
@@ -45,6 +46,9 @@ struct SequenceOptions {
   // this far apart; frames in longer GT dropouts get no GT. 50 ms = 10
   // samples of the 200 Hz EuRoC estimate.
   std::int64_t euroc_max_gt_gap_ns = 50'000'000;
+  // Colour images are made gray with this channel order (camera.channel_order,
+  // ORB-SLAM2's Camera.RGB); gray images are kept as they are.
+  ChannelOrder channel_order = ChannelOrder::kBgr;
 };
 
 class Sequence {

@@ -17,6 +17,7 @@
 #include <mutex>
 #include <string>
 
+#include "sitepose/core/channel_order.hpp"
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/pipeline/frame_source.hpp"
 
@@ -33,6 +34,8 @@ struct ReplayOptions {
   ReplayRate rate = ReplayRate::kRecorded;
   bool loop = false;
   std::int64_t max_frames = 0;  // frames per pass, 0 = the whole sequence
+  // How colour images become gray (siteposed: camera.channel_order).
+  ChannelOrder channel_order = ChannelOrder::kBgr;
 };
 
 class ReplaySource final : public FrameSource {
@@ -58,7 +61,7 @@ class ReplaySource final : public FrameSource {
   std::size_t frames_per_pass_ = 0;
   std::int64_t pass_period_ns_ = 0;  // t shift between passes
   double frame_rate_hz_ = 0.0;
-  std::size_t next_index_ = 0;       // over all passes
+  std::size_t next_index_ = 0;  // over all passes
   bool started_ = false;
   SteadyTime start_{};
   // Interruptible timed waits (pacing); nothing else is guarded.

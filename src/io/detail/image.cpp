@@ -7,7 +7,7 @@
 
 namespace sitepose::io::detail {
 
-Expected<cv::Mat> load_gray_image(const std::string& path, std::size_t frame_index) {
+Expected<cv::Mat> load_gray_image(const std::string& path, std::size_t frame_index, ChannelOrder order) {
   const std::string frame = "frame " + std::to_string(frame_index) + " (" + path + "): ";
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
@@ -22,11 +22,15 @@ Expected<cv::Mat> load_gray_image(const std::string& path, std::size_t frame_ind
   cv::Mat gray;
   switch (raw.channels()) {
     case 1: return raw;
-    case 3: cv::cvtColor(raw, gray, cv::COLOR_BGR2GRAY); return gray;
-    case 4: cv::cvtColor(raw, gray, cv::COLOR_BGRA2GRAY); return gray;
+    case 3:
+      cv::cvtColor(raw, gray, order == ChannelOrder::kRgb ? cv::COLOR_RGB2GRAY : cv::COLOR_BGR2GRAY);
+      return gray;
+    case 4:
+      cv::cvtColor(raw, gray, order == ChannelOrder::kRgb ? cv::COLOR_RGBA2GRAY : cv::COLOR_BGRA2GRAY);
+      return gray;
     default:
-      return make_error(ErrorCode::kParseError, frame + "expected 1, 3 or 4 channels, got " +
-                                                    std::to_string(raw.channels()));
+      return make_error(ErrorCode::kParseError,
+                        frame + "expected 1, 3 or 4 channels, got " + std::to_string(raw.channels()));
   }
 }
 

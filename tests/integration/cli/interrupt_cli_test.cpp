@@ -212,6 +212,23 @@ TEST_F(InterruptCli, SigintInSimLeavesACompleteShorterSequence) {
   EXPECT_EQ(exit_status(run), 0) << testing::read_text(run_out / "err.txt");
 }
 
+// The benches stop the same way: the figures of the frames tracked, marked
+// partial, exit 130 (bench track renders and tracks its scenario frame by
+// frame, far longer than the 3 s it is given here).
+TEST_F(InterruptCli, SigintInBenchTrackPrintsThePartialFigures) {
+  const fs::path out = dir_->path() / "bench";
+  fs::create_directories(out);
+  const pid_t pid =
+      start_sitepose({"bench", "track", "--scenario", "static"}, out / "out.txt", out / "err.txt");
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  ::kill(pid, SIGINT);
+  EXPECT_EQ(exit_status(pid), 130) << testing::read_text(out / "err.txt");
+  const std::string printed = testing::read_text(out / "out.txt");
+  EXPECT_NE(printed.find("(interrupted: partial)"), std::string::npos) << printed;
+  EXPECT_NE(testing::read_text(out / "err.txt").find("interrupted (SIGINT)"), std::string::npos)
+      << testing::read_text(out / "err.txt");
+}
+
 TEST_F(InterruptCli, GlobalOptionsAfterTheSubcommand) {
   const fs::path out = dir_->path() / "global";
   fs::create_directories(out);

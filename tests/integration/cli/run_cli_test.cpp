@@ -127,6 +127,25 @@ TEST_F(RunCli, BadCameraSizeAndMaskExitTwo) {
   EXPECT_NE(r.err.find("000003.png: expected a 16-bit single-channel PNG"), std::string::npos) << r.err;
 }
 
+// issue 21: ORB-SLAM2 settings whose image size is not the sequence's were
+// found only at frame 0 (exit 1, "frame 0: frame 0 ..."), and the keys
+// sitepose does not use were never printed.
+TEST_F(RunCli, OrbSlam2SettingsPrintIgnoredKeysAndAWrongSizeExitsTwoBeforeTracking) {
+  const std::string settings =
+      std::string(SITEPOSE_SOURCE_DIR) + "/config/orbslam2/sitepose_default_stereo.yaml";
+  const RunResult r = sitepose(run_args("--mode none --orbslam2-settings " + settings));
+  EXPECT_EQ(r.exit_status, 2) << r.err;
+  EXPECT_NE(r.err.find("keys sitepose does not use, ignored: Viewer.KeyFrameSize, Viewer.KeyFrameLineWidth"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("camera.stereo (from --orbslam2-settings " + settings +
+                       ") is 960x540 but the images of " + seq().string() + " are 320x180"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("frame 0"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "traj.txt"));
+}
+
 // issue 20: `--states-out /dev/full` and a full stdout exited 0.
 TEST_F(RunCli, FullOutputsExitOne) {
   const RunResult states = sitepose(run_args("--mode full --states-out /dev/full"));

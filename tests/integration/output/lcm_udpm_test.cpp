@@ -1,17 +1,11 @@
 // Real LCM over UDP multicast (udpm) between two processes.
 //
-// Set-up (PLATFORM.md): udpm needs a multicast route, and the root
-// namespace's default route would carry the packets off the machine, so the
-// test builds its own network namespace:
-//   ip netns add sitepose_lcm_<pid>
-//   ip -n sitepose_lcm_<pid> link set lo up
-//   ip -n sitepose_lcm_<pid> route add 224.0.0.0/4 dev lo
-// then forks a subscriber and a publisher, each entering the namespace with
-// setns(/var/run/netns/<name>) before opening
-// udpm://239.255.76.67:7667?ttl=0. The namespace is deleted at the end
-// (ip netns del), also when an assertion fails. Without root, or where
-// `ip netns add` is not permitted (e.g. an unprivileged container), the
-// tests skip and say why. CI runs as root.
+// Set-up: a network namespace sitepose_lcm_<pid> with a multicast route on
+// lo (sitepose/testing/network_namespace.hpp); a subscriber and a publisher
+// are forked, each entering the namespace before opening
+// udpm://239.255.76.67:7667?ttl=0. Without root, or where `ip netns add` is
+// not permitted (e.g. an unprivileged container), the tests skip and say
+// why. CI runs as root.
 
 #include <fcntl.h>
 #include <poll.h>
@@ -32,7 +26,7 @@
 
 #include "sitepose/output/lcm_gnss_subscriber.hpp"
 #include "sitepose/output/lcm_publisher.hpp"
-#include "sitepose/testing/files.hpp"
+#include "sitepose/testing/network_namespace.hpp"
 
 namespace sitepose::output {
 namespace {
@@ -40,46 +34,9 @@ namespace {
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 constexpr int kPoses = 50;
 
-int shell(const std::string& command, std::string* output = nullptr) {
-  const sitepose::testing::TempDir dir("lcm-udpm-cmd");
-  const std::string log = dir / "cmd.log";
-  const int rc = std::system((command + " >" + log + " 2>&1").c_str());
-  if (output) *output = sitepose::testing::read_text(log);
-  return rc;
-}
+using sitepose::testing::NetworkNamespace;
 
-// Creates the namespace; deletes it when the test ends.
-class NetworkNamespace {
- public:
-  explicit NetworkNamespace(std::string name) : name_(std::move(name)) {}
-  ~NetworkNamespace() {
-    if (created_) shell("ip netns del " + name_);
-  }
-  // "" on success, else why not.
-  std::string create(bool multicast_route) {
-    std::string out;
-    if (shell("ip netns add " + name_, &out) != 0) return "ip netns add failed: " + out;
-    created_ = true;
-    if (shell("ip -n " + name_ + " link set lo up", &out) != 0) return "link set lo up: " + out;
-    if (multicast_route && shell("ip -n " + name_ + " route add 224.0.0.0/4 dev lo", &out) != 0) {
-      return "route add 224.0.0.0/4: " + out;
-    }
-    return "";
-  }
-  const std::string& name() const { return name_; }
-
- private:
-  std::string name_;
-  bool created_ = false;
-};
-
-bool enter_namespace(const std::string& name) {
-  const int fd = open(("/var/run/netns/" + name).c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return false;
-  const bool ok = setns(fd, CLONE_NEWNET) == 0;
-  close(fd);
-  return ok;
-}
+bool enter_namespace(const std::string& name) { return sitepose::testing::enter_network_namespace(name); }
 
 struct PoseSeqs {
   std::vector<std::int64_t> seqs;
@@ -100,8 +57,7 @@ int subscriber_main(const std::string& ns, int ready_fd, int result_fd) {
   (*lcm)->handleTimeout(10);
   if (write(ready_fd, "R", 1) != 1) return 13;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (static_cast<int>(received.seqs.size()) < kPoses &&
-         std::chrono::steady_clock::now() < deadline) {
+  while (static_cast<int>(received.seqs.size()) < kPoses && std::chrono::steady_clock::now() < deadline) {
     (*lcm)->handleTimeout(100);
   }
   const auto bytes = static_cast<ssize_t>(received.seqs.size() * sizeof(std::int64_t));
@@ -191,8 +147,7 @@ TEST(LcmUdpm, WithoutMulticastRouteOpenFailsWithAReason) {
     // LCM 1.3 tests the route when it opens udpm: refused, with a reason.
     auto lcm = open_lcm(kUrl);
     if (lcm) _exit(31);
-    _exit(lcm.error().code == ErrorCode::kIoError &&
-                  lcm.error().message.find(kUrl) != std::string::npos
+    _exit(lcm.error().code == ErrorCode::kIoError && lcm.error().message.find(kUrl) != std::string::npos
               ? 0
               : 32);
   }
@@ -221,8 +176,7 @@ TEST(LcmUdpm, SendFailuresWhenTheRouteGoesAreCountedAndRetried) {
     pose.seq = 1;
     const Status failed = p.publish_pose(pose, nullptr);
     const LcmPublisherStats s = p.stats();
-    if (failed || s.send_failures != 3 || s.retries != 2 || s.messages_failed != 1 ||
-        !p.has_pending_pose()) {
+    if (failed || s.send_failures != 3 || s.retries != 2 || s.messages_failed != 1 || !p.has_pending_pose()) {
       _exit(45);
     }
     if (std::system("ip route add 224.0.0.0/4 dev lo") != 0) _exit(46);

@@ -50,6 +50,7 @@ TEST(Config, DocumentedFileAgreesWithTheTable) {
 TEST(Config, ReadsEverySectionFromText) {
   const auto config = load_config_from_string(
       "camera:\n"
+      "  channel_order: rgb\n"
       "  stereo: {fx: 710, fy: 705, cx: 470.5, cy: 260, baseline_m: 0.9, width: 960, "
       "height: 540}\n"
       "orb: {n_features: 2000, scale_factor: 1.25, n_levels: 6, ini_fast_threshold: 18, "
@@ -74,6 +75,7 @@ TEST(Config, ReadsEverySectionFromText) {
   ASSERT_TRUE(config->camera.stereo.has_value());
   EXPECT_DOUBLE_EQ(config->camera.stereo->cx, 470.5);
   EXPECT_DOUBLE_EQ(config->camera.stereo->baseline_m, 0.9);
+  EXPECT_EQ(config->camera.channel_order, ChannelOrder::kRgb);
   EXPECT_EQ(config->orb.n_features, 2000);
   EXPECT_EQ(config->orb.grid_cell_px, 30);
   EXPECT_DOUBLE_EQ(config->stereo.max_disparity_px, 200.0);
@@ -104,6 +106,7 @@ TEST(Config, ToYamlRoundTripsDefaultsAndChangedValues) {
 
   SiteposeConfig changed;
   changed.camera.stereo = StereoCamera{712.123456789, 711.5, 479.25, 269.75, 0.987654321, 960, 540};
+  changed.camera.channel_order = ChannelOrder::kRgb;
   changed.orb.scale_factor = 1.0 + 1.0 / 3.0;  // needs all 17 digits to round-trip
   changed.tracking.chi2_mono = 0.1 + 0.2;
   changed.mapping.enabled = false;
@@ -119,8 +122,9 @@ TEST(Config, ToYamlRoundTripsDefaultsAndChangedValues) {
 
 TEST(Config, UnknownKeyIsNamedWithSuggestion) {
   const std::string message = load_error("dynamic:\n  modee: full\n");
-  EXPECT_TRUE(contains(message, "t.yaml:2: dynamic.modee: unknown key (expected one of: mode, "
-                                "tau_mar, classifier"))
+  EXPECT_TRUE(contains(message,
+                       "t.yaml:2: dynamic.modee: unknown key (expected one of: mode, "
+                       "tau_mar, classifier"))
       << message;
   EXPECT_TRUE(contains(message, "did you mean mode?")) << message;
 }
@@ -139,16 +143,13 @@ TEST(Config, WrongTypeIsNamed) {
 TEST(Config, OutOfRangeIsNamed) {
   EXPECT_EQ(load_error("tracking:\n  min_inliers_ok: -3\n"),
             "t.yaml:2: tracking.min_inliers_ok = -3: must be >= 10");
-  EXPECT_EQ(load_error("dynamic: {tau_mar: 1.5}\n"),
-            "t.yaml:1: dynamic.tau_mar = 1.5: must be in [0, 1]");
-  EXPECT_EQ(load_error("orb: {scale_factor: 1.0}\n"),
-            "t.yaml:1: orb.scale_factor = 1.0: must be > 1");
+  EXPECT_EQ(load_error("dynamic: {tau_mar: 1.5}\n"), "t.yaml:1: dynamic.tau_mar = 1.5: must be in [0, 1]");
+  EXPECT_EQ(load_error("orb: {scale_factor: 1.0}\n"), "t.yaml:1: orb.scale_factor = 1.0: must be > 1");
 }
 
 TEST(Config, BadEnumNamesTheChoices) {
   const std::string message = load_error("dynamic:\n  mode: fulll\n  classifier: best\n");
-  EXPECT_TRUE(contains(message, "t.yaml:2: dynamic.mode = \"fulll\": unknown masking mode"))
-      << message;
+  EXPECT_TRUE(contains(message, "t.yaml:2: dynamic.mode = \"fulll\": unknown masking mode")) << message;
   EXPECT_TRUE(contains(message, "none, bbox, pixel, hierarchical, full")) << message;
   EXPECT_TRUE(contains(message, "t.yaml:3: dynamic.classifier = \"best\"")) << message;
   EXPECT_TRUE(contains(message, "paper, sitepose")) << message;
@@ -206,8 +207,9 @@ TEST(Config, OrbSlam2FileGivenAsConfigIsNamed) {
   const auto config = load_config(kSourceDir + "/config/orbslam2/sitepose_default_stereo.yaml");
   ASSERT_FALSE(config.has_value());
   EXPECT_EQ(config.error().code, ErrorCode::kInvalidArgument);
-  EXPECT_TRUE(contains(config.error().message, "sitepose_default_stereo.yaml:1: this is an OpenCV "
-                                               "FileStorage file"))
+  EXPECT_TRUE(contains(config.error().message,
+                       "sitepose_default_stereo.yaml:1: this is an OpenCV "
+                       "FileStorage file"))
       << config.error().message;
 }
 

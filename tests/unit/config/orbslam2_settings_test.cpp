@@ -63,7 +63,7 @@ TEST(OrbSlam2Settings, ShippedExampleMatchesTheDefaultCamera) {
   EXPECT_EQ(settings->camera.height, 540);
   EXPECT_DOUBLE_EQ(settings->fps_hz, 6.0);
   EXPECT_DOUBLE_EQ(settings->close_depth_baselines, 40.0);
-  EXPECT_TRUE(settings->rgb);
+  EXPECT_FALSE(settings->rgb);  // sitepose's default camera.channel_order, bgr
   // Its ORB block is sitepose's default ORB block.
   EXPECT_TRUE(settings->orb == OrbConfig{});
   EXPECT_EQ(settings->ignored_keys.size(), 10u);
@@ -88,6 +88,35 @@ TEST(OrbSlam2Settings, ApplyOverridesOnlyWhatTheFileDefines) {
   EXPECT_TRUE(config == expected);
 }
 
+// Camera.RGB becomes camera.channel_order (io::open_sequence makes colour
+// images gray in that order: io_unit_test ...ChannelOrder...); absent is 0,
+// BGR, as ORB-SLAM2 reads a missing key.
+TEST(OrbSlam2Settings, CameraRgbSetsTheChannelOrder) {
+  for (const auto& [line, order] :
+       {std::pair{"Camera.RGB: 1", ChannelOrder::kRgb}, std::pair{"Camera.RGB: 0", ChannelOrder::kBgr},
+        std::pair{"", ChannelOrder::kBgr}}) {
+    const auto settings =
+        load_orbslam2_settings_from_string(replace_line(kGood, "Camera.RGB", line), "kitti.yaml");
+    ASSERT_TRUE(settings.has_value()) << settings.error().message;
+    SiteposeConfig config;
+    config.camera.channel_order = order == ChannelOrder::kRgb ? ChannelOrder::kBgr : ChannelOrder::kRgb;
+    apply_orbslam2_settings(*settings, config);
+    EXPECT_EQ(config.camera.channel_order, order) << line;
+  }
+}
+
+// siteposed's source.orbslam2_settings may name anything: a folder or an
+// endless device is refused, not read forever.
+TEST(OrbSlam2Settings, AFolderOrAnEndlessFileIsRefused) {
+  const auto folder = load_orbslam2_settings(SITEPOSE_SOURCE_DIR);
+  ASSERT_FALSE(folder.has_value());
+  EXPECT_TRUE(contains(folder.error().message, "is a directory")) << folder.error().message;
+  const auto endless = load_orbslam2_settings("/dev/zero");
+  ASSERT_FALSE(endless.has_value());
+  EXPECT_TRUE(contains(endless.error().message, "/dev/zero: larger than 1048576 bytes"))
+      << endless.error().message;
+}
+
 TEST(OrbSlam2Settings, KittiLikeTextLoads) {
   const auto settings = load_orbslam2_settings_from_string(kGood, "kitti.yaml");
   ASSERT_TRUE(settings.has_value()) << settings.error().message;
@@ -103,8 +132,7 @@ TEST(OrbSlam2Settings, MissingKeysAreNamed) {
   text = replace_line(text, "ORBextractor.nLevels", "");
   const std::string message = load_error(text);
   EXPECT_TRUE(contains(message, "orb.yaml: Camera.bf: missing (required key)")) << message;
-  EXPECT_TRUE(contains(message, "orb.yaml: ORBextractor.nLevels: missing (required key)"))
-      << message;
+  EXPECT_TRUE(contains(message, "orb.yaml: ORBextractor.nLevels: missing (required key)")) << message;
 }
 
 TEST(OrbSlam2Settings, BadValuesAreNamed) {
@@ -112,24 +140,23 @@ TEST(OrbSlam2Settings, BadValuesAreNamed) {
                        "Camera.fx = \"wide\": expected a number"));
   EXPECT_TRUE(contains(load_error(replace_line(kGood, "Camera.fx", "Camera.fx: -5.0")),
                        "Camera.fx = -5: must be > 0"));
-  EXPECT_TRUE(contains(
-      load_error(replace_line(kGood, "ORBextractor.nFeatures", "ORBextractor.nFeatures: 1000.5")),
-      "ORBextractor.nFeatures = 1000.5: expected an integer"));
+  EXPECT_TRUE(
+      contains(load_error(replace_line(kGood, "ORBextractor.nFeatures", "ORBextractor.nFeatures: 1000.5")),
+               "ORBextractor.nFeatures = 1000.5: expected an integer"));
   EXPECT_TRUE(contains(load_error(replace_line(kGood, "Camera.k1", "Camera.k1: -0.17")),
                        "Camera.k1 = -0.17: must be 0"));
   EXPECT_TRUE(contains(load_error(replace_line(kGood, "Camera.cx", "Camera.cx: 1300.0")),
                        "Camera.cx = 1300: must be inside the image"));
-  EXPECT_TRUE(contains(
-      load_error(replace_line(kGood, "ORBextractor.minThFAST", "ORBextractor.minThFAST: 30")),
-      "ORBextractor.minThFAST = 30: must be <= ORBextractor.iniThFAST (20)"));
+  EXPECT_TRUE(
+      contains(load_error(replace_line(kGood, "ORBextractor.minThFAST", "ORBextractor.minThFAST: 30")),
+               "ORBextractor.minThFAST = 30: must be <= ORBextractor.iniThFAST (20)"));
   EXPECT_TRUE(contains(load_error(replace_line(kGood, "Camera.RGB", "Camera.RGB: 2")),
                        "Camera.RGB = 2: must be 0 (BGR) or 1 (RGB)"));
 }
 
 TEST(OrbSlam2Settings, RectificationMapsAreUnsupported) {
   const auto settings = load_orbslam2_settings_from_string(
-      kGood + "LEFT.K: !!opencv-matrix\n  rows: 1\n  cols: 1\n  dt: d\n  data: [1.0]\n",
-      "euroc.yaml");
+      kGood + "LEFT.K: !!opencv-matrix\n  rows: 1\n  cols: 1\n  dt: d\n  data: [1.0]\n", "euroc.yaml");
   ASSERT_FALSE(settings.has_value());
   EXPECT_EQ(settings.error().code, ErrorCode::kUnsupported);
   EXPECT_TRUE(contains(settings.error().message, "euroc.yaml: LEFT.K"));
@@ -147,8 +174,8 @@ TEST(OrbSlam2Settings, MalformedFileIsAParseErrorNamingFileAndLine) {
   EXPECT_TRUE(message.size() > 7 && std::isdigit(static_cast<unsigned char>(message[7]))) << message;
   EXPECT_TRUE(contains(message, ": malformed ORB-SLAM2 settings file")) << message;
 
-  const auto indent = load_orbslam2_settings_from_string(
-      "%YAML:1.0\nCamera.fx: 1\n  Camera.fy: 2\n", "i.yaml");
+  const auto indent =
+      load_orbslam2_settings_from_string("%YAML:1.0\nCamera.fx: 1\n  Camera.fy: 2\n", "i.yaml");
   ASSERT_FALSE(indent.has_value());
   EXPECT_TRUE(contains(indent.error().message, "i.yaml:3: malformed")) << indent.error().message;
 }

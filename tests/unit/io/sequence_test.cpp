@@ -34,8 +34,8 @@ cv::Mat frame_image(int i, bool right, bool bgr, int width = kWidth, int height 
   gray.at<std::uint8_t>(0, 0) = static_cast<std::uint8_t>(10 * i + (right ? 1 : 0));
   if (!bgr) return gray;
   cv::Mat color(height, width, CV_8UC3, cv::Scalar(100, 100, 100));
-  color.at<cv::Vec3b>(0, 0) = cv::Vec3b(gray.at<std::uint8_t>(0, 0), gray.at<std::uint8_t>(0, 0),
-                                        gray.at<std::uint8_t>(0, 0));
+  color.at<cv::Vec3b>(0, 0) =
+      cv::Vec3b(gray.at<std::uint8_t>(0, 0), gray.at<std::uint8_t>(0, 0), gray.at<std::uint8_t>(0, 0));
   return color;
 }
 
@@ -89,25 +89,31 @@ TEST(KittiCalib, ParsesAndIgnoresOtherKeys) {
 
 TEST(KittiCalib, MalformedLinesNamed) {
   TempDir dir;
-  auto short_p1 = read_kitti_calib(dir.write("a.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\nP1: 50 0 32 -25 0 50 24 0 0 0 1\n"));
+  auto short_p1 = read_kitti_calib(
+      dir.write("a.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\nP1: 50 0 32 -25 0 50 24 0 0 0 1\n"));
   ASSERT_FALSE(short_p1);
   EXPECT_NE(short_p1.error().message.find("a.txt:2: expected 12 numbers, got 11"), std::string::npos)
       << short_p1.error().message;
   auto missing = read_kitti_calib(dir.write("b.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\n"));
   ASSERT_FALSE(missing);
-  EXPECT_NE(missing.error().message.find("b.txt: expected lines 'P0: 12 numbers' and 'P1: 12 numbers', missing P1"),
-            std::string::npos)
+  EXPECT_NE(
+      missing.error().message.find("b.txt: expected lines 'P0: 12 numbers' and 'P1: 12 numbers', missing P1"),
+      std::string::npos)
       << missing.error().message;
   auto no_colon = read_kitti_calib(dir.write("c.txt", std::string(kCalib) + "garbage line\n"));
   ASSERT_FALSE(no_colon);
   EXPECT_NE(no_colon.error().message.find("c.txt:3: expected 'KEY: numbers'"), std::string::npos);
-  auto repeated = read_kitti_calib(dir.write("d.txt", std::string(kCalib) + "P1: 50 0 32 -25 0 50 24 0 0 0 1 0\n"));
+  auto repeated =
+      read_kitti_calib(dir.write("d.txt", std::string(kCalib) + "P1: 50 0 32 -25 0 50 24 0 0 0 1 0\n"));
   ASSERT_FALSE(repeated);
   EXPECT_NE(repeated.error().message.find("d.txt:3: key 'P1' repeated (first on line 2)"), std::string::npos);
-  auto swapped = read_kitti_calib(dir.write("e.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\nP1: 50 0 32 25 0 50 24 0 0 0 1 0\n"));
+  auto swapped = read_kitti_calib(
+      dir.write("e.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\nP1: 50 0 32 25 0 50 24 0 0 0 1 0\n"));
   ASSERT_FALSE(swapped);
-  EXPECT_NE(swapped.error().message.find("e.txt:2: expected P1[0][3] = -fx * baseline < 0"), std::string::npos);
-  auto unrectified = read_kitti_calib(dir.write("f.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\nP1: 51 0 32 -25 0 50 24 0 0 0 1 0\n"));
+  EXPECT_NE(swapped.error().message.find("e.txt:2: expected P1[0][3] = -fx * baseline < 0"),
+            std::string::npos);
+  auto unrectified = read_kitti_calib(
+      dir.write("f.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\nP1: 51 0 32 -25 0 50 24 0 0 0 1 0\n"));
   ASSERT_FALSE(unrectified);
   EXPECT_NE(unrectified.error().message.find("f.txt:2: expected P1 with the same fx"), std::string::npos);
 }
@@ -167,6 +173,33 @@ TEST(SiteposeSequence, BgrImagesConvertedToGray) {
   EXPECT_EQ(frame->right.at<std::uint8_t>(0, 0), 11);
 }
 
+// camera.channel_order / ORB-SLAM2's Camera.RGB: a pure blue pixel as
+// cv::imread decodes it (B, G, R) = (200, 0, 0) is gray 0.114 * 200 = 23 read
+// as BGR, and 0.299 * 200 = 60 read as RGB (the first channel taken as red);
+// gray images are not touched by either order.
+TEST(SiteposeSequence, ChannelOrderDecidesHowColourBecomesGray) {
+  TempDir dir;
+  const std::string root = write_sequence(dir, 2, /*bgr=*/true);
+  cv::Mat blue(kHeight, kWidth, CV_8UC3, cv::Scalar(200, 0, 0));
+  for (const char* side : {"image_0", "image_1"}) {
+    ASSERT_TRUE(cv::imwrite((fs::path(root) / side / frame_name(1)).string(), blue));
+  }
+  for (const auto& [order, expected] :
+       {std::pair{ChannelOrder::kBgr, 23}, std::pair{ChannelOrder::kRgb, 60}}) {
+    SequenceOptions options;
+    options.channel_order = order;
+    auto seq = open_sequence(root, options);
+    ASSERT_TRUE(seq) << seq.error().message;
+    auto frame = (*seq)->read_frame(1);
+    ASSERT_TRUE(frame) << frame.error().message;
+    EXPECT_EQ(frame->left.at<std::uint8_t>(5, 5), expected);
+    EXPECT_EQ(frame->right.at<std::uint8_t>(5, 5), expected);
+    auto first = (*seq)->read_frame(0);  // (100, 100, 100): the same either way
+    ASSERT_TRUE(first) << first.error().message;
+    EXPECT_EQ(first->left.at<std::uint8_t>(5, 5), 100);
+  }
+}
+
 TEST(SiteposeSequence, KittiLayoutWithExplicitGtPath) {
   TempDir dir;
   const std::string root = write_sequence(dir, 3, false, /*poses=*/false);
@@ -188,7 +221,8 @@ TEST(SiteposeSequence, KittiLayoutWithExplicitGtPath) {
   ASSERT_TRUE(write_kitti_poses(gt_path, {gt_pose(0), gt_pose(5)}));
   auto short_gt = open_sequence(root, options);
   ASSERT_FALSE(short_gt);
-  EXPECT_NE(short_gt.error().message.find("00.txt has 2 poses"), std::string::npos) << short_gt.error().message;
+  EXPECT_NE(short_gt.error().message.find("00.txt has 2 poses"), std::string::npos)
+      << short_gt.error().message;
 }
 
 TEST(SiteposeSequence, CountMismatchRejected) {
@@ -224,8 +258,8 @@ TEST(SiteposeSequence, SymlinkLoopInImageFolderIsNoCrash) {
   TempDir dir;
   const std::string root = write_sequence(dir);
   const fs::path folder = fs::path(root) / "image_0";
-  fs::create_symlink("loop", folder / "loop");            // not a frame name: ignored
-  fs::create_symlink("b.png", folder / "a.png");           // a 2-link cycle
+  fs::create_symlink("loop", folder / "loop");    // not a frame name: ignored
+  fs::create_symlink("b.png", folder / "a.png");  // a 2-link cycle
   fs::create_symlink("a.png", folder / "b.png");
   auto seq = open_sequence(root);
   ASSERT_TRUE(seq) << seq.error().message;
@@ -286,11 +320,13 @@ TEST(SiteposeSequence, CalibOutsideImageRejected) {
 TEST(SiteposeSequence, ImplausibleCalibRejectedNamingTheValue) {
   TempDir dir;
   const std::string root = write_sequence(dir);
-  dir.write("seq/calib.txt", "P0: 1e300 0 32 0 0 1e300 24 0 0 0 1 0\nP1: 1e300 0 32 -5e299 0 1e300 24 0 0 0 1 0\n");
+  dir.write("seq/calib.txt",
+            "P0: 1e300 0 32 0 0 1e300 24 0 0 0 1 0\nP1: 1e300 0 32 -5e299 0 1e300 24 0 0 0 1 0\n");
   auto focal = open_sequence(root);
   ASSERT_FALSE(focal);
   EXPECT_EQ(focal.error().code, ErrorCode::kInvalidArgument);
-  EXPECT_NE(focal.error().message.find("calib.txt with images of 64x48"), std::string::npos) << focal.error().message;
+  EXPECT_NE(focal.error().message.find("calib.txt with images of 64x48"), std::string::npos)
+      << focal.error().message;
   EXPECT_NE(focal.error().message.find("fx=1e+300"), std::string::npos) << focal.error().message;
   dir.write("seq/calib.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\nP1: 50 0 32 -5e11 0 50 24 0 0 0 1 0\n");
   auto baseline = open_sequence(root);
@@ -305,7 +341,8 @@ TEST(SiteposeSequence, BadCalibLineNamed) {
   dir.write("seq/calib.txt", "P0: 50 0 32 0 0 50 24 0 0 0 1 0\nP1: 50 0 32 -25 0 fifty 24 0 0 0 1 0\n");
   auto seq = open_sequence(root);
   ASSERT_FALSE(seq);
-  EXPECT_NE(seq.error().message.find("calib.txt:2: field 6 'fifty' is not a finite number"), std::string::npos)
+  EXPECT_NE(seq.error().message.find("calib.txt:2: field 6 'fifty' is not a finite number"),
+            std::string::npos)
       << seq.error().message;
 }
 
@@ -367,7 +404,8 @@ TEST(SiteposeSequence, BadMasksFailOpenNamingFrameAndFile) {
     auto seq = open_sequence(root);
     return seq ? std::string() : seq.error().message;
   };
-  EXPECT_NE(open_error().find("frame 1: " + (masks / "000001.png").string() + ": mask file does not exist (labels/boxes.csv has boxes for it)"),
+  EXPECT_NE(open_error().find("frame 1: " + (masks / "000001.png").string() +
+                              ": mask file does not exist (labels/boxes.csv has boxes for it)"),
             std::string::npos)
       << open_error();
   cv::imwrite((masks / "000001.png").string(), cv::Mat(kHeight, kWidth, CV_16UC1, cv::Scalar(4)));
@@ -395,7 +433,8 @@ TEST(SiteposeSequence, BadBoxesLineFailsOpen) {
             "frame,instance,class,x,y,w,h,moving\n0,4,truck,1,2,10,10,1\n1,4,truck,1,2,10\n");
   auto seq = open_sequence(root);
   ASSERT_FALSE(seq);
-  EXPECT_NE(seq.error().message.find("boxes.csv:3: expected 8 fields"), std::string::npos) << seq.error().message;
+  EXPECT_NE(seq.error().message.find("boxes.csv:3: expected 8 fields"), std::string::npos)
+      << seq.error().message;
   dir.write("seq/labels/boxes.csv", "frame,instance,class,x,y,w,h,moving\n3,4,truck,1,2,10,10,1\n");
   auto range = open_sequence(root);
   ASSERT_FALSE(range);
