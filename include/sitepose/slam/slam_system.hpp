@@ -28,6 +28,7 @@
 // reproducible (tests, regression thresholds, ablations).
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
@@ -38,6 +39,7 @@
 #include "sitepose/dynamic/motion_classifier.hpp"
 #include "sitepose/map/shared_map.hpp"
 #include "sitepose/mapping/local_mapper.hpp"
+#include "sitepose/placerec/keyframe_database.hpp"
 #include "sitepose/slam/frame_report.hpp"
 #include "sitepose/slam/two_pass_tracker.hpp"
 #include "sitepose/tracking/tracker.hpp"
@@ -51,13 +53,19 @@ struct SlamOptions {
   double fps = 6.0;
   // Fill FrameReport::trace (keypoints, boxes, map size) for the views.
   bool trace = false;
+  // Place recognition for relocalisation: with a vocabulary, a keyframe
+  // database (placerec) that the local mapper keeps, queried by bag of
+  // words; without one (the default), the exact nearest-point vote over
+  // the whole map (tracking/place_recognition.hpp). Needs mapping.enabled:
+  // keyframes enter the database when the mapper has processed them.
+  std::shared_ptr<const placerec::Vocabulary> vocabulary;
 };
 
 class SlamSystem {
  public:
   static Expected<std::unique_ptr<SlamSystem>> create(const StereoCamera& camera,
-                                                     const config::SiteposeConfig& config,
-                                                     const SlamOptions& options = {});
+                                                      const config::SiteposeConfig& config,
+                                                      const SlamOptions& options = {});
   ~SlamSystem();
   SlamSystem(const SlamSystem&) = delete;
   SlamSystem& operator=(const SlamSystem&) = delete;
@@ -80,7 +88,9 @@ class SlamSystem {
   void finish();
 
   // Starts from a saved map (map files) instead of an empty one: the first
-  // frames relocalise in it and tracking continues in its frame. Only
+  // frames relocalise in it and tracking continues in its frame. The
+  // keyframe database (if any) is rebuilt from its keyframes' descriptors,
+  // so a map saved with another vocabulary, or none, works the same. Only
   // before the first frame; kInvalidArgument when the map was built with
   // another scale pyramid (its points' scale ranges would not fit).
   Status load_map(map::MapData map);
@@ -88,14 +98,18 @@ class SlamSystem {
   // holds the tracker and the mapper back): what a save writes.
   map::MapData copy_map() const;
 
+  // The vocabulary's id (map files), or "" without one.
+  std::string vocabulary_id() const;
+  // The keyframe database, or nullptr without a vocabulary.
+  const placerec::KeyFrameDatabase* keyframe_database() const { return database_.get(); }
+
   const tracking::TrackerCounters& tracker_counters() const { return tracker_->counters(); }
   mapping::MappingStats mapping_stats() const { return mapper_->stats(); }
   std::size_t keyframe_count() const;
   std::size_t point_count() const;
 
  private:
-  SlamSystem(const StereoCamera& camera, const config::SiteposeConfig& config,
-             const SlamOptions& options);
+  SlamSystem(const StereoCamera& camera, const config::SiteposeConfig& config, const SlamOptions& options);
 
   Status run_inline_mapping(FrameReport& report);
   void fill_map_trace(FrameReport& report) const;
@@ -103,6 +117,7 @@ class SlamSystem {
   config::SiteposeConfig config_;
   SlamOptions options_;
   map::SharedMap map_;
+  std::unique_ptr<placerec::KeyFrameDatabase> database_;  // before the mapper, which feeds it
   std::unique_ptr<mapping::LocalMapper> mapper_;
   std::unique_ptr<tracking::Tracker> tracker_;
   std::unique_ptr<TwoPassTracker> two_pass_;  // the masking modes
