@@ -50,8 +50,11 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
   if (database_) {
     tracker_->set_place_source([this](const map::SharedMap& map, const cv::Mat& descriptors,
                                       const std::vector<std::uint8_t>& usable) {
-      return placerec::relocalisation_candidates(*database_, map, descriptors, usable,
-                                                 kMaxRelocalisationCandidates);
+      std::vector<map::KeyFrameId> candidates = placerec::relocalisation_candidates(
+          *database_, map, descriptors, usable, kMaxRelocalisationCandidates);
+      ++place_queries_.queries;
+      place_queries_.candidates += static_cast<long>(candidates.size());
+      return candidates;
     });
   }
   two_pass_ = std::make_unique<TwoPassTracker>(*tracker_, camera, config, options.fps, options.trace);

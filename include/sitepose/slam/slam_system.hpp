@@ -102,6 +102,14 @@ class SlamSystem {
   std::string vocabulary_id() const;
   // The keyframe database, or nullptr without a vocabulary.
   const placerec::KeyFrameDatabase* keyframe_database() const { return database_.get(); }
+  // Relocalisation queries answered by the keyframe database, and the
+  // candidates they named (0 without a vocabulary). Read on the thread
+  // that calls process().
+  struct PlaceQueries {
+    long queries = 0;
+    long candidates = 0;
+  };
+  PlaceQueries place_queries() const { return place_queries_; }
 
   const tracking::TrackerCounters& tracker_counters() const { return tracker_->counters(); }
   mapping::MappingStats mapping_stats() const { return mapper_->stats(); }
@@ -118,6 +126,7 @@ class SlamSystem {
   SlamOptions options_;
   map::SharedMap map_;
   std::unique_ptr<placerec::KeyFrameDatabase> database_;  // before the mapper, which feeds it
+  PlaceQueries place_queries_;                            // the tracker's thread
   std::unique_ptr<mapping::LocalMapper> mapper_;
   std::unique_ptr<tracking::Tracker> tracker_;
   std::unique_ptr<TwoPassTracker> two_pass_;  // the masking modes
