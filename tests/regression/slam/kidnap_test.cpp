@@ -123,11 +123,12 @@ void run_kidnap(const std::shared_ptr<const placerec::Vocabulary>& vocabulary, K
   out.database_queries = (*system)->place_queries().queries;
   std::printf(
       "kidnap (%s): drove %d frames, jumped %.1f m back to frame %d; nearest local-set keyframe %.1f m "
-      "from there; database %zu keyframes, %ld queries; relocalised after %d frames, OK on %d of %d frames after; "
+      "from there; database %zu keyframes, %ld queries; relocalised after %d frames, OK on %d of %d frames "
+      "after; "
       "largest OK error %.4f m (before the kidnap %.4f m), OK poses > 0.05 m off after it: %d\n",
       vocabulary ? vocabulary->id().c_str() : "exact vote", out.drive_frames, out.jump_m, out.first_kidnapped,
-      out.local_set_gap_m, out.database_keyframes, out.database_queries, out.frames_to_relocalise, out.ok_after,
-      out.kidnapped_frames, out.max_ok_error_m, out.max_ok_error_drive_m, out.ok_frames_off);
+      out.local_set_gap_m, out.database_keyframes, out.database_queries, out.frames_to_relocalise,
+      out.ok_after, out.kidnapped_frames, out.max_ok_error_m, out.max_ok_error_drive_m, out.ok_frames_off);
 }
 
 void expect_relocalised_right(const KidnapRun& run) {
