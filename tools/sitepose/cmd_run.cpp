@@ -67,10 +67,12 @@ Status load_map_in(const std::string& path, slam::SlamSystem& system, bool quiet
   // Bags of words are not stored: the database is rebuilt from the
   // keyframes' descriptors with this run's vocabulary, whatever the map's.
   if (!quiet && loaded->meta.vocabulary_id != system.vocabulary_id()) {
-    std::fprintf(stderr, "sitepose run: map %s was saved with vocabulary %s; bags of words rebuilt with %s\n",
-                 path.c_str(),
-                 loaded->meta.vocabulary_id.empty() ? "none" : loaded->meta.vocabulary_id.c_str(),
-                 system.vocabulary_id().empty() ? "none (exact vote)" : system.vocabulary_id().c_str());
+    const std::string saved = loaded->meta.vocabulary_id.empty() ? "none" : loaded->meta.vocabulary_id;
+    const std::string now = system.vocabulary_id().empty()
+                                ? "this run has none: relocalisation uses the exact vote"
+                                : "bags of words rebuilt with " + system.vocabulary_id();
+    std::fprintf(stderr, "sitepose run: map %s was saved with vocabulary %s; %s\n", path.c_str(), saved.c_str(),
+                 now.c_str());
   }
   if (auto st = system.load_map(std::move(loaded->map)); !st) {
     return make_error(ErrorCode::kInvalidArgument, "--map-in " + path + ": " + st.error().message);
