@@ -71,8 +71,8 @@ Status load_map_in(const std::string& path, slam::SlamSystem& system, bool quiet
     const std::string now = system.vocabulary_id().empty()
                                 ? "this run has none: relocalisation uses the exact vote"
                                 : "bags of words rebuilt with " + system.vocabulary_id();
-    std::fprintf(stderr, "sitepose run: map %s was saved with vocabulary %s; %s\n", path.c_str(), saved.c_str(),
-                 now.c_str());
+    std::fprintf(stderr, "sitepose run: map %s was saved with vocabulary %s; %s\n", path.c_str(),
+                 saved.c_str(), now.c_str());
   }
   if (auto st = system.load_map(std::move(loaded->map)); !st) {
     return make_error(ErrorCode::kInvalidArgument, "--map-in " + path + ": " + st.error().message);
