@@ -25,6 +25,12 @@ Expected<std::unique_ptr<SlamSystem>> SlamSystem::create(const StereoCamera& cam
     return make_error(ErrorCode::kInvalidArgument,
                       "slam options: fps = " + std::to_string(options.fps) + ": must be > 0");
   }
+  if (options.vocabulary && !config.mapping.enabled) {
+    // Keyframes enter the database when the mapper has processed them:
+    // without it relocalisation would never find a candidate.
+    return make_error(ErrorCode::kInvalidArgument,
+                      "slam options: a place-recognition vocabulary needs mapping.enabled: true");
+  }
   return std::unique_ptr<SlamSystem>(new SlamSystem(camera, config, options));
 }
 

@@ -56,8 +56,9 @@ struct SlamOptions {
   // Place recognition for relocalisation: with a vocabulary, a keyframe
   // database (placerec) that the local mapper keeps, queried by bag of
   // words; without one (the default), the exact nearest-point vote over
-  // the whole map (tracking/place_recognition.hpp). Needs mapping.enabled:
-  // keyframes enter the database when the mapper has processed them.
+  // the whole map (tracking/place_recognition.hpp). Needs mapping.enabled
+  // (create() refuses it otherwise): keyframes enter the database when the
+  // mapper has processed them.
   std::shared_ptr<const placerec::Vocabulary> vocabulary;
 };
 
