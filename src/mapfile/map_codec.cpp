@@ -1,8 +1,8 @@
 #include <algorithm>
 #include <string>
 
-#include "byte_io.hpp"
-#include "sitepose/mapfile/crc32.hpp"
+#include "sitepose/mapfile/byte_io.hpp"
+#include "sitepose/mapfile/framed_file.hpp"
 #include "sitepose/mapfile/map_file.hpp"
 
 namespace sitepose::mapfile {
@@ -105,18 +105,6 @@ void write_covisibility(ByteWriter& out, const std::vector<const map::KeyFrame*>
   end_section(out, at);
 }
 
-void write_header(std::vector<std::uint8_t>& bytes) {
-  const std::span<const std::uint8_t> payload(bytes.data() + kHeaderBytes, bytes.size() - kHeaderBytes);
-  ByteWriter header;
-  header.raw(kMagic);
-  header.u32(kFormatVersion);
-  header.u32(0);
-  header.u64(payload.size());
-  header.u32(crc32(payload));
-  header.u32(crc32(header.bytes()));
-  std::copy(header.bytes().begin(), header.bytes().end(), bytes.begin());
-}
-
 }  // namespace
 
 std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta& meta) {
@@ -129,7 +117,7 @@ std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta&
   write_keyframes(out, keyframes);
   write_points(out, points);
   write_covisibility(out, keyframes);
-  write_header(out.bytes());
+  write_frame_header(map_file_kind(), out.bytes());
   return std::move(out.bytes());
 }
 

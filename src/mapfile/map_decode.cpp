@@ -1,23 +1,14 @@
-#include <cstdio>
 #include <map>
 #include <string>
 
-#include "byte_io.hpp"
-#include "sitepose/mapfile/crc32.hpp"
+#include "sitepose/mapfile/byte_io.hpp"
+#include "sitepose/mapfile/framed_file.hpp"
 #include "sitepose/mapfile/map_file.hpp"
 
 namespace sitepose::mapfile {
 namespace {
 
-Unexpected refuse(const std::string& why) {
-  return make_error(ErrorCode::kParseError, "map file refused: " + why);
-}
-
-std::string hex(std::uint32_t v) {
-  char text[16];
-  std::snprintf(text, sizeof(text), "%08x", v);
-  return text;
-}
+Unexpected refuse(const std::string& why) { return refuse_file(map_file_kind(), why); }
 
 std::string tag_name(std::uint32_t tag) {
   std::string name;
@@ -26,43 +17,6 @@ std::string tag_name(std::uint32_t tag) {
     name += (c >= 0x20 && c < 0x7f) ? c : '?';
   }
   return name;
-}
-
-// Header checks; returns the payload.
-Expected<std::span<const std::uint8_t>> check_header(std::span<const std::uint8_t> bytes,
-                                                     std::uint32_t& version) {
-  if (bytes.size() < kHeaderBytes) {
-    return refuse("truncated: " + std::to_string(bytes.size()) + " bytes, the header alone is " +
-                  std::to_string(kHeaderBytes));
-  }
-  if (!std::equal(kMagic.begin(), kMagic.end(), bytes.begin()))
-    return refuse("not a sitepose map file (bad magic)");
-  ByteReader header(bytes.subspan(kMagic.size(), kHeaderBytes - kMagic.size()));
-  version = header.u32();
-  header.u32();  // flags
-  const std::uint64_t payload_bytes = header.u64();
-  const std::uint32_t payload_crc = header.u32();
-  const std::uint32_t header_crc = header.u32();
-  if (crc32(bytes.first(kHeaderBytes - 4)) != header_crc)
-    return refuse("header checksum mismatch (corrupted header)");
-  if (version != kFormatVersion) {
-    return refuse("format version " + std::to_string(version) + ", this build reads version " +
-                  std::to_string(kFormatVersion));
-  }
-  const std::uint64_t have = bytes.size() - kHeaderBytes;
-  if (have < payload_bytes) {
-    return refuse("truncated: the header announces " + std::to_string(payload_bytes) +
-                  " payload bytes, the file has " + std::to_string(have));
-  }
-  if (have > payload_bytes) {
-    return refuse(std::to_string(have - payload_bytes) + " bytes after the announced end of the payload");
-  }
-  const auto payload = bytes.subspan(kHeaderBytes);
-  if (const std::uint32_t crc = crc32(payload); crc != payload_crc) {
-    return refuse("payload checksum mismatch (stored " + hex(payload_crc) + ", computed " + hex(crc) +
-                  "): the file is corrupted");
-  }
-  return payload;
 }
 
 Expected<std::map<std::uint32_t, std::span<const std::uint8_t>>> split_sections(
@@ -192,7 +146,7 @@ Status read_covisibility(std::span<const std::uint8_t> body, std::vector<map::Ke
 
 Expected<LoadedMap> decode_map(std::span<const std::uint8_t> bytes) {
   std::uint32_t version = 0;
-  SITEPOSE_TRY(const auto payload, check_header(bytes, version));
+  SITEPOSE_TRY(const auto payload, check_frame(map_file_kind(), bytes, version));
   SITEPOSE_TRY(const auto sections, split_sections(payload));
   SITEPOSE_TRY(Meta meta, read_meta(sections.at(kMetaTag)));
   SITEPOSE_TRY(std::vector<map::KeyFrame> keyframes, read_keyframes(sections.at(kKeyFramesTag)));

@@ -1,12 +1,17 @@
 #include "sitepose/mapfile/map_file.hpp"
 
-#include <fstream>
-#include <iterator>
 #include <map>
 
 #include "sitepose/mapfile/atomic_file.hpp"
+#include "sitepose/mapfile/byte_io.hpp"
+#include "sitepose/mapfile/framed_file.hpp"
 
 namespace sitepose::mapfile {
+
+const FileKind& map_file_kind() {
+  static const FileKind kind{kMagic, kFormatVersion, "map file"};
+  return kind;
+}
 
 Status save_map(const std::filesystem::path& path, const map::MapData& map, const MapFileMeta& meta) {
   const std::vector<std::uint8_t> bytes = encode_map(map, meta);
@@ -14,13 +19,7 @@ Status save_map(const std::filesystem::path& path, const map::MapData& map, cons
 }
 
 Expected<LoadedMap> load_map(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return make_error(ErrorCode::kNotFound, "map file " + path.string() + ": no such file");
-  }
-  std::ifstream in(path, std::ios::binary);
-  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) return make_error(ErrorCode::kIoError, "map file " + path.string() + ": cannot read");
+  SITEPOSE_TRY(const std::vector<std::uint8_t> bytes, read_file_bytes(map_file_kind(), path));
   auto loaded = decode_map(bytes);
   if (!loaded) return make_error(loaded.error().code, path.string() + ": " + loaded.error().message);
   return loaded;

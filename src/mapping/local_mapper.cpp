@@ -189,6 +189,17 @@ Status LocalMapper::process_keyframe(map::KeyFrameId keyframe) {
     ++stats_.keyframes_missing;
     return ok_status();
   }
+  if (listener_.added) {
+    const std::vector<map::Descriptor> descriptors = map_.read([&](const map::MapData& m) {
+      std::vector<map::Descriptor> out;
+      if (const map::KeyFrame* kf = m.keyframe(keyframe); kf != nullptr) {
+        out.reserve(kf->keypoints.size());
+        for (const map::KeyPointData& k : kf->keypoints) out.push_back(k.descriptor);
+      }
+      return out;
+    });
+    listener_.added(keyframe, descriptors);
+  }
   cull_recent_points(keyframe);
   create_new_points(keyframe);
   fuse_neighbours(keyframe);
@@ -239,7 +250,8 @@ void LocalMapper::cull_recent_points(map::KeyFrameId keyframe) {
       if (p == nullptr) return true;
       const map::KeyFrameId age = keyframe - p->first_keyframe;
       if (p->found_ratio() < kMinFoundRatio ||
-          (age >= kRecentCullAfterKeyframes && m.observation_weight(pid) <= mapping_.min_point_observations)) {
+          (age >= kRecentCullAfterKeyframes &&
+           m.observation_weight(pid) <= mapping_.min_point_observations)) {
         m.set_point_bad(pid);
         ++n;
         return true;
@@ -280,10 +292,10 @@ void LocalMapper::create_new_points(map::KeyFrameId keyframe) {
     const KeyFrameSnapshot& other = copy.neighbours[n];
     // ORB-SLAM2 stereo rule: below one stereo baseline the pair adds nothing.
     if ((other.camera_center() - copy.current.camera_center()).norm() < camera_.baseline_m) continue;
-    const std::vector<KeypointMatch> matches = search_for_triangulation(
-        camera_, copy.pyramid, copy.current, other, new_point_params_, used_current);
-    for (const NewPoint& p : triangulate_matches(camera_, copy.pyramid, copy.current, other, matches,
-                                                 new_point_params_)) {
+    const std::vector<KeypointMatch> matches =
+        search_for_triangulation(camera_, copy.pyramid, copy.current, other, new_point_params_, used_current);
+    for (const NewPoint& p :
+         triangulate_matches(camera_, copy.pyramid, copy.current, other, matches, new_point_params_)) {
       used_current[p.index1] = true;
       created.push_back({other.id, p});
     }
@@ -358,7 +370,8 @@ void LocalMapper::fuse_neighbours(map::KeyFrameId keyframe) {
   std::vector<FuseProposal> proposals;
   for (const KeyFrameSnapshot& target : copy.targets) {
     const map::KeypointGrid grid = make_keypoint_grid(camera_, target);
-    const auto found = fuse_into_keyframe(camera_, copy.pyramid, target, grid, copy.current_points, fuse_params_);
+    const auto found =
+        fuse_into_keyframe(camera_, copy.pyramid, target, grid, copy.current_points, fuse_params_);
     proposals.insert(proposals.end(), found.begin(), found.end());
   }
   {
@@ -432,17 +445,20 @@ void LocalMapper::cull_keyframes(map::KeyFrameId keyframe) {
   if (candidates.empty()) return;
   // Removing one keyframe lowers the redundancy of the others: test again
   // on the live map, one at a time.
-  const int culled = map_.write([&](map::MapData& m) {
-    int n = 0;
+  const std::vector<map::KeyFrameId> culled = map_.write([&](map::MapData& m) {
+    std::vector<map::KeyFrameId> removed;
     for (map::KeyFrameId id : candidates) {
       if (!is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_)) continue;
       m.set_keyframe_bad(id);
-      ++n;
+      removed.push_back(id);
     }
-    return n;
+    return removed;
   });
+  if (listener_.removed) {
+    for (map::KeyFrameId id : culled) listener_.removed(id);
+  }
   std::lock_guard lock(mutex_);
-  stats_.keyframes_culled += culled;
+  stats_.keyframes_culled += static_cast<std::int64_t>(culled.size());
 }
 
 }  // namespace sitepose::mapping

@@ -7,6 +7,13 @@
 #include "sitepose/features/stereo_matcher.hpp"
 
 namespace sitepose::slam {
+namespace {
+
+// Candidate places tried per relocalisation (as many as the exact vote's
+// default, tracking::PlaceQuery::max_candidates).
+constexpr int kMaxRelocalisationCandidates = 5;
+
+}  // namespace
 
 Expected<std::unique_ptr<SlamSystem>> SlamSystem::create(const StereoCamera& camera,
                                                          const config::SiteposeConfig& config,
@@ -18,6 +25,12 @@ Expected<std::unique_ptr<SlamSystem>> SlamSystem::create(const StereoCamera& cam
     return make_error(ErrorCode::kInvalidArgument,
                       "slam options: fps = " + std::to_string(options.fps) + ": must be > 0");
   }
+  if (options.vocabulary && !config.mapping.enabled) {
+    // Keyframes enter the database when the mapper has processed them:
+    // without it relocalisation would never find a candidate.
+    return make_error(ErrorCode::kInvalidArgument,
+                      "slam options: a place-recognition vocabulary needs mapping.enabled: true");
+  }
   return std::unique_ptr<SlamSystem>(new SlamSystem(camera, config, options));
 }
 
@@ -27,6 +40,12 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
       options_(options),
       map_(map::ScalePyramid{config.orb.scale_factor, config.orb.n_levels}) {
   mapper_ = std::make_unique<mapping::LocalMapper>(camera, config.mapping, config.tracking, map_);
+  if (options.vocabulary) {
+    database_ = std::make_unique<placerec::KeyFrameDatabase>(options.vocabulary);
+    mapper_->set_keyframe_listener(
+        {[this](map::KeyFrameId id, const std::vector<map::Descriptor>& d) { database_->add(id, d); },
+         [this](map::KeyFrameId id) { database_->erase(id); }});
+  }
   tracking::MapperLink link;
   if (config.mapping.enabled) {
     link.enqueue = [this](map::KeyFrameId id) { mapper_->enqueue(id); };
@@ -39,6 +58,16 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
     pool = own_pool_.get();
   }
   tracker_ = std::make_unique<tracking::Tracker>(camera, config, map_, std::move(link), pool);
+  if (database_) {
+    tracker_->set_place_source([this](const map::SharedMap& map, const cv::Mat& descriptors,
+                                      const std::vector<std::uint8_t>& usable) {
+      std::vector<map::KeyFrameId> candidates = placerec::relocalisation_candidates(
+          *database_, map, descriptors, usable, kMaxRelocalisationCandidates);
+      ++place_queries_.queries;
+      place_queries_.candidates += static_cast<long>(candidates.size());
+      return candidates;
+    });
+  }
   two_pass_ = std::make_unique<TwoPassTracker>(*tracker_, camera, config, options.fps, options.trace);
   if (options_.mapper_thread && config.mapping.enabled) mapper_->start();
 }
@@ -120,9 +149,12 @@ Status SlamSystem::load_map(map::MapData loaded) {
                           "; this configuration has " + std::to_string(expected.n_levels) +
                           " levels, factor " + std::to_string(expected.scale_factor));
   }
+  if (database_) database_->rebuild(loaded);  // not under the map lock (a leaf lock)
   map_.write([&](map::MapData& map) { map = std::move(loaded); });
   return ok_status();
 }
+
+std::string SlamSystem::vocabulary_id() const { return database_ ? database_->vocabulary().id() : ""; }
 
 map::MapData SlamSystem::copy_map() const {
   return map_.read([](const map::MapData& map) { return map; });

@@ -189,17 +189,16 @@ bool Relocaliser::relocalise(const map::SharedMap& shared_map, const PreparedFra
   // then a projection search over its neighbourhood and BA again. The
   // caller tracks the local map next, and commit() keeps the state
   // RECOVERING until the pose has held for a few frames.
-  const PlaceIndex index = shared_map.read([](const map::MapData& map) { return make_place_index(map); });
-  const std::vector<PlaceCandidate> places = rank_places(index, frame.features.descriptors, usable);
+  const std::vector<map::KeyFrameId> places = candidate_places(shared_map, frame, usable);
   // Every candidate is tried: where the scene repeats (fence, containers,
   // site offices), two places can both give a precise pose, and then
   // neither is trusted; the next frame tries again.
   const PassResult initial = result;
   std::optional<PassResult> accepted;
-  for (const PlaceCandidate& place : places) {
+  for (const map::KeyFrameId place : places) {
     const std::optional<RelocalisationCandidate> c =
         shared_map.read([&](const map::MapData& map) -> std::optional<RelocalisationCandidate> {
-          const map::KeyFrame* kf = map.keyframe(place.keyframe);
+          const map::KeyFrame* kf = map.keyframe(place);
           if (kf == nullptr || kf->bad) return std::nullopt;
           return relocalisation_candidate(map, *kf);
         });
@@ -218,6 +217,17 @@ bool Relocaliser::relocalise(const map::SharedMap& shared_map, const PreparedFra
   result = std::move(*accepted);
   result.relocalised = true;
   return true;
+}
+
+std::vector<map::KeyFrameId> Relocaliser::candidate_places(const map::SharedMap& shared_map,
+                                                           const PreparedFrame& frame,
+                                                           const std::vector<std::uint8_t>& usable) const {
+  if (place_source_) return place_source_(shared_map, frame.features.descriptors, usable);
+  const PlaceIndex index = shared_map.read([](const map::MapData& map) { return make_place_index(map); });
+  std::vector<map::KeyFrameId> places;
+  for (const PlaceCandidate& c : rank_places(index, frame.features.descriptors, usable))
+    places.push_back(c.keyframe);
+  return places;
 }
 
 bool Relocaliser::relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,

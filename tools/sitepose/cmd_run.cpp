@@ -20,6 +20,7 @@
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/io/trajectory.hpp"
 #include "sitepose/mapfile/map_file.hpp"
+#include "sitepose/placerec/vocabulary.hpp"
 #include "sitepose/slam/detector_objects.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/slam/slam_system.hpp"
@@ -42,6 +43,7 @@ struct RunArgs {
   std::string gt;
   std::string map_in;
   std::string map_out;
+  std::string vocabulary;
   std::string debug_out;
   int max_frames = 0;
   int first_frame = 0;
@@ -62,6 +64,16 @@ Status load_map_in(const std::string& path, slam::SlamSystem& system, bool quiet
   if (!loaded) return Unexpected{loaded.error()};
   const std::size_t keyframes = loaded->map.keyframe_count();
   const std::size_t points = loaded->map.point_count();
+  // Bags of words are not stored: the database is rebuilt from the
+  // keyframes' descriptors with this run's vocabulary, whatever the map's.
+  if (!quiet && loaded->meta.vocabulary_id != system.vocabulary_id()) {
+    const std::string saved = loaded->meta.vocabulary_id.empty() ? "none" : loaded->meta.vocabulary_id;
+    const std::string now = system.vocabulary_id().empty()
+                                ? "this run has none: relocalisation uses the exact vote"
+                                : "bags of words rebuilt with " + system.vocabulary_id();
+    std::fprintf(stderr, "sitepose run: map %s was saved with vocabulary %s; %s\n", path.c_str(),
+                 saved.c_str(), now.c_str());
+  }
   if (auto st = system.load_map(std::move(loaded->map)); !st) {
     return make_error(ErrorCode::kInvalidArgument, "--map-in " + path + ": " + st.error().message);
   }
@@ -76,7 +88,9 @@ Status save_map_out(const std::string& path, const slam::SlamSystem& system, boo
   const auto start = std::chrono::steady_clock::now();
   const map::MapData map = system.copy_map();
   const auto copied = std::chrono::steady_clock::now();
-  if (auto st = mapfile::save_map(path, map, {}); !st) return st;
+  mapfile::MapFileMeta meta;
+  meta.vocabulary_id = system.vocabulary_id();
+  if (auto st = mapfile::save_map(path, map, meta); !st) return st;
   if (!quiet) {
     std::error_code ec;
     std::fprintf(
@@ -349,6 +363,11 @@ int run(const RunArgs& args) {
   slam_options.mapper_thread = args.mapper_thread;
   slam_options.trace = !args.debug_out.empty();
   if (const double hz = io::mean_frame_rate_hz(**sequence); hz > 0.0) slam_options.fps = hz;
+  if (!args.vocabulary.empty()) {
+    auto vocabulary = placerec::Vocabulary::load(args.vocabulary);
+    if (!vocabulary) return fail(kCommand, "--vocabulary: " + vocabulary.error().message, 2);
+    slam_options.vocabulary = std::make_shared<const placerec::Vocabulary>(std::move(*vocabulary));
+  }
   auto system = slam::SlamSystem::create(camera, config, slam_options);
   if (!system) return fail(kCommand, system.error().message, 2);
   if (!args.map_in.empty()) {
@@ -446,6 +465,11 @@ const CommandRegistrar kRun{
        sub.add_option(
            "--map-out", args->map_out,
            "Save the map here at the end (atomically: a failed save leaves an existing file as it was)");
+       sub.add_option("--vocabulary", args->vocabulary,
+                      "Place-recognition vocabulary (sitepose vocab train): relocalisation candidates from "
+                      "a keyframe database queried by bag of words instead of the exact vote over all map "
+                      "points; its id goes into --map-out")
+           ->check(CLI::ExistingFile);
        sub.add_flag("--mapper-thread", args->mapper_thread,
                     "Run local mapping on its own thread (as the daemon does); default runs it "
                     "inline after each keyframe so results are reproducible");

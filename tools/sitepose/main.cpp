@@ -22,11 +22,10 @@ int main(int argc, char** argv) {
   // Options the subcommands do not know (--log-level) go to this app, so
   // they may come after the subcommand too; subcommands inherit the setting.
   app.fallthrough();
-  app.set_version_flag("--version", std::string("sitepose ") + version_string() + " (" +
-                                        git_revision() + ", " + build_type() + ")");
+  app.set_version_flag("--version", std::string("sitepose ") + version_string() + " (" + git_revision() +
+                                        ", " + build_type() + ")");
   std::string log_level = "info";
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error or off")
-      ->capture_default_str();
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error or off")->capture_default_str();
 
   std::vector<cli::CommandSpec> commands = cli::registered_commands();
   std::sort(commands.begin(), commands.end(), [](const auto& a, const auto& b) {
@@ -35,7 +34,8 @@ int main(int argc, char** argv) {
   const std::map<std::string, std::string> group_descriptions{
       {"bench", "Timings and ratios measured in one run (never pass/fail)"},
       {"ablate", "Ablation studies of the paper, each writing CSV + PNG"},
-      {"map", "Saved site maps (sitepose run --map-out)"}};
+      {"map", "Saved site maps (sitepose run --map-out)"},
+      {"vocab", "Place-recognition vocabularies (sitepose run --vocabulary)"}};
   std::map<std::string, CLI::App*> groups;
   std::map<CLI::App*, cli::CommandAction> actions;
   for (const auto& spec : commands) {
@@ -44,8 +44,8 @@ int main(int argc, char** argv) {
       auto [it, inserted] = groups.try_emplace(spec.group, nullptr);
       if (inserted) {
         const auto desc = group_descriptions.find(spec.group);
-        it->second = app.add_subcommand(
-            spec.group, desc != group_descriptions.end() ? desc->second : spec.group);
+        it->second =
+            app.add_subcommand(spec.group, desc != group_descriptions.end() ? desc->second : spec.group);
         it->second->require_subcommand(1);
       }
       parent = it->second;

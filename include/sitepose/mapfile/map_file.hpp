@@ -37,7 +37,7 @@
 namespace sitepose::mapfile {
 
 inline constexpr std::uint32_t kFormatVersion = 1;
-inline constexpr std::size_t kHeaderBytes = 32;
+inline constexpr std::size_t kHeaderBytes = 32;  // framed_file.hpp kFrameHeaderBytes
 
 // Where the SLAM world frame sits on the site: the geodetic origin of the
 // site ENU frame and T_site_slam (geo::SiteFrame's inputs, as plain values

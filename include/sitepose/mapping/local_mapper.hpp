@@ -47,6 +47,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <stop_token>
 #include <thread>
@@ -64,25 +65,34 @@ namespace sitepose::mapping {
 
 struct MappingStats {
   std::int64_t keyframes_processed = 0;
-  std::int64_t keyframes_missing = 0;   // enqueued but gone from the map when their turn came
-  std::int64_t points_triangulated = 0;  // step 3
-  std::int64_t points_culled = 0;        // step 2
+  std::int64_t keyframes_missing = 0;        // enqueued but gone from the map when their turn came
+  std::int64_t points_triangulated = 0;      // step 3
+  std::int64_t points_culled = 0;            // step 2
   std::int64_t fuse_observations_added = 0;  // step 4
   std::int64_t fuse_points_merged = 0;       // step 4
   std::int64_t ba_runs = 0;
-  std::int64_t ba_aborted = 0;      // stopped early by an enqueue or stop()
-  std::int64_t ba_failures = 0;     // optim::LocalBa returned an error (logged)
+  std::int64_t ba_aborted = 0;   // stopped early by an enqueue or stop()
+  std::int64_t ba_failures = 0;  // optim::LocalBa returned an error (logged)
   std::int64_t ba_outliers_erased = 0;
   std::int64_t keyframes_culled = 0;  // step 6
   std::int64_t points_purged = 0;     // bad points reclaimed
-  int last_ba_keyframes = 0;     // size of the last solved window: free + fixed keyframes,
-  int last_ba_points = 0;        // points
-  int last_ba_observations = 0;  // and observations
-  double last_ba_ms = 0.0;      // wall time of the last solve (unlocked part)
-  double last_ba_cpu_ms = 0.0;  // CPU time of the mapping thread in that solve
+  int last_ba_keyframes = 0;          // size of the last solved window: free + fixed keyframes,
+  int last_ba_points = 0;             // points
+  int last_ba_observations = 0;       // and observations
+  double last_ba_ms = 0.0;            // wall time of the last solve (unlocked part)
+  double last_ba_cpu_ms = 0.0;        // CPU time of the mapping thread in that solve
   double total_ba_ms = 0.0;
   double last_keyframe_ms = 0.0;  // wall time of all steps for the last keyframe
   double total_keyframe_ms = 0.0;
+};
+
+// Who else keeps a per-keyframe index (the place-recognition database):
+// told after a keyframe is processed (step 1, with its descriptors) and
+// after it is culled (step 6), outside the map lock. Called on the thread
+// processing keyframes.
+struct KeyFrameListener {
+  std::function<void(map::KeyFrameId, const std::vector<map::Descriptor>&)> added;
+  std::function<void(map::KeyFrameId)> removed;
 };
 
 class LocalMapper {
@@ -104,6 +114,9 @@ class LocalMapper {
   // the thread is running, or with the first error of a step (the rest of
   // the queue is still processed).
   Status process_pending();
+
+  // Only before start() (or between stop() and start()).
+  void set_keyframe_listener(KeyFrameListener listener) { listener_ = std::move(listener); }
 
   void start();
   void stop();
@@ -141,6 +154,7 @@ class LocalMapper {
   FuseParams fuse_params_;
   double close_depth_m_;
 
+  KeyFrameListener listener_;
   // Touched only by the thread processing keyframes (worker or the caller of
   // process_pending, never both).
   std::vector<map::PointId> recent_points_;
@@ -153,7 +167,7 @@ class LocalMapper {
   MappingStats stats_;                    // guarded by mutex_
   std::atomic<bool> abort_ba_{false};     // read by the Ceres callback
   std::atomic<bool> running_{false};
-  std::jthread thread_;                   // owner's thread only
+  std::jthread thread_;  // owner's thread only
 };
 
 }  // namespace sitepose::mapping

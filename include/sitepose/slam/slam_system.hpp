@@ -31,6 +31,7 @@
 // reproducible (tests, regression thresholds, ablations).
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
@@ -42,6 +43,7 @@
 #include "sitepose/features/task_pool.hpp"
 #include "sitepose/map/shared_map.hpp"
 #include "sitepose/mapping/local_mapper.hpp"
+#include "sitepose/placerec/keyframe_database.hpp"
 #include "sitepose/slam/frame_report.hpp"
 #include "sitepose/slam/two_pass_tracker.hpp"
 #include "sitepose/tracking/tracker.hpp"
@@ -59,6 +61,13 @@ struct SlamOptions {
   // outlive the system). nullptr: the system owns a pool of one worker, so
   // the two images of a pair are extracted concurrently.
   features::TaskPool* extraction_pool = nullptr;
+  // Place recognition for relocalisation: with a vocabulary, a keyframe
+  // database (placerec) that the local mapper keeps, queried by bag of
+  // words; without one (the default), the exact nearest-point vote over
+  // the whole map (tracking/place_recognition.hpp). Needs mapping.enabled
+  // (create() refuses it otherwise): keyframes enter the database when the
+  // mapper has processed them.
+  std::shared_ptr<const placerec::Vocabulary> vocabulary;
 };
 
 class SlamSystem {
@@ -88,13 +97,28 @@ class SlamSystem {
   void finish();
 
   // Starts from a saved map (map files) instead of an empty one: the first
-  // frames relocalise in it and tracking continues in its frame. Only
+  // frames relocalise in it and tracking continues in its frame. The
+  // keyframe database (if any) is rebuilt from its keyframes' descriptors,
+  // so a map saved with another vocabulary, or none, works the same. Only
   // before the first frame; kInvalidArgument when the map was built with
   // another scale pyramid (its points' scale ranges would not fit).
   Status load_map(map::MapData map);
   // A copy of the map, taken under its read lock (no more than the copy
   // holds the tracker and the mapper back): what a save writes.
   map::MapData copy_map() const;
+
+  // The vocabulary's id (map files), or "" without one.
+  std::string vocabulary_id() const;
+  // The keyframe database, or nullptr without a vocabulary.
+  const placerec::KeyFrameDatabase* keyframe_database() const { return database_.get(); }
+  // Relocalisation queries answered by the keyframe database, and the
+  // candidates they named (0 without a vocabulary). Read on the thread
+  // that calls process().
+  struct PlaceQueries {
+    long queries = 0;
+    long candidates = 0;
+  };
+  PlaceQueries place_queries() const { return place_queries_; }
 
   const tracking::TrackerCounters& tracker_counters() const { return tracker_->counters(); }
   mapping::MappingStats mapping_stats() const { return mapper_->stats(); }
@@ -110,6 +134,8 @@ class SlamSystem {
   config::SiteposeConfig config_;
   SlamOptions options_;
   map::SharedMap map_;
+  std::unique_ptr<placerec::KeyFrameDatabase> database_;  // before the mapper, which feeds it
+  PlaceQueries place_queries_;                            // the tracker's thread
   std::unique_ptr<mapping::LocalMapper> mapper_;
   std::unique_ptr<features::TaskPool> own_pool_;  // when options.extraction_pool is nullptr
   std::unique_ptr<tracking::Tracker> tracker_;

@@ -2,8 +2,9 @@
 // Place recognition for relocalisation: which keyframes of the whole map
 // look like the current frame.
 //
-// Choice: no vocabulary (DBoW2 is not available and a trained tree would be
-// one more artefact to version). Each query descriptor votes for every
+// The default when no vocabulary is given (placerec's keyframe database
+// replaces it with one: SlamOptions::vocabulary, `run --vocabulary`;
+// docs/placerec/README.md compares the two). Each query descriptor votes for every
 // keyframe that observes its nearest good map point, when that point is
 // within kDescriptorDistanceLow bits and clearly nearer than the second
 // nearest: an exact nearest-neighbour vote over all map points, with no
@@ -12,7 +13,7 @@
 // per good point (a 20 000-point map: ~0.8 MB, copied under the read lock).
 // Query cost: max_query_descriptors x points Hamming distances (300 x
 // 20 000 = 6 M, ~30 ms on one core), paid only while tracking is LOST; it
-// grows with the map, so a vocabulary tree is the step when site maps reach
+// grows with the map, so the vocabulary is the step when site maps reach
 // ~10^5 points. Pure functions; the caller takes the map lock.
 
 #include <vector>

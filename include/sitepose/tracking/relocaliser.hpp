@@ -74,6 +74,15 @@ class Relocaliser {
   Relocaliser(const StereoCamera& camera, const config::TrackingConfig& tracking,
               const map::ScalePyramid& pyramid);
 
+  // Where candidate keyframes come from: the usable rows of the frame's
+  // descriptors -> keyframe ids, best first (the place-recognition
+  // database, placerec/keyframe_database.hpp). Without one, every query
+  // descriptor votes for the keyframes of its nearest map point
+  // (place_recognition.hpp): exact, but its cost grows with the map.
+  using PlaceSource = std::function<std::vector<map::KeyFrameId>(
+      const map::SharedMap& map, const cv::Mat& descriptors, const std::vector<std::uint8_t>& usable)>;
+  void set_place_source(PlaceSource source) { place_source_ = std::move(source); }
+
   // The caller's last word on a candidate's pose (e.g. track the local map
   // from it and require a precise pose); may refine result.
   using Verify = std::function<bool(PassResult& result)>;
@@ -92,7 +101,12 @@ class Relocaliser {
                           const RelocalisationCandidate& candidate, PassResult& result) const;
 
  private:
+  // Candidate keyframes for `frame`, best first (see PlaceSource).
+  std::vector<map::KeyFrameId> candidate_places(const map::SharedMap& map, const PreparedFrame& frame,
+                                                const std::vector<std::uint8_t>& usable) const;
+
   StereoCamera camera_;
+  PlaceSource place_source_;
   int min_inliers_ok_;
   optim::MotionOnlyBa motion_ba_;
   map::ScalePyramid pyramid_;

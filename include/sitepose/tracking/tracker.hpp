@@ -111,6 +111,10 @@ class Tracker {
   // prepare + estimate(all keypoints) + commit: plain stereo SLAM (mode none).
   Expected<PoseEstimate> track(const StereoFrame& frame);
 
+  // Relocalisation's candidate keyframes (Relocaliser::PlaceSource); call
+  // before the first frame.
+  void set_place_source(Relocaliser::PlaceSource source) { relocaliser_.set_place_source(std::move(source)); }
+
   const StereoCamera& camera() const { return camera_; }
   const TrackerCounters& counters() const { return counters_; }
   TrackingState state() const { return state_; }

@@ -175,7 +175,8 @@ TEST(LocalMapper, FusesDuplicatePoints) {
       for (const auto& [pid, p] : m.points()) {
         if (!p.bad) ++count[tracker.world_of_point(p)];
       }
-      return static_cast<int>(std::count_if(count.begin(), count.end(), [](auto& c) { return c.second > 1; }));
+      return static_cast<int>(
+          std::count_if(count.begin(), count.end(), [](auto& c) { return c.second > 1; }));
     });
   };
   mapper.enqueue(tracker.insert_keyframe(pose_at_x(0.0), pose_at_x(0.0)));
@@ -251,9 +252,10 @@ TEST(LocalMapper, LocalBaReducesPoseAndPointErrorAndKeepsTheFirstKeyframe) {
   std::printf("local BA: %d keyframes, %d points, %d observations in %.1f ms (%.1f ms CPU; aborted %lld)\n",
               stats.last_ba_keyframes, stats.last_ba_points, stats.last_ba_observations, stats.last_ba_ms,
               stats.last_ba_cpu_ms, static_cast<long long>(stats.ba_aborted));
-  std::printf("mean keyframe centre error %.4f m -> %.4f m (%d -> %d keyframes); "
-              "median point error %.4f -> %.4f m (%zu points)\n",
-              pose_before, pose_after, n_before, n_after, median_before, median_after, after_common.size());
+  std::printf(
+      "mean keyframe centre error %.4f m -> %.4f m (%d -> %d keyframes); "
+      "median point error %.4f -> %.4f m (%zu points)\n",
+      pose_before, pose_after, n_before, n_after, median_before, median_after, after_common.size());
   EXPECT_EQ(stats.ba_runs, 1);
   EXPECT_GE(stats.last_ba_keyframes, kKeyframes - 1);  // culling happens after BA
   EXPECT_GT(stats.last_ba_points, 1000);
@@ -303,7 +305,8 @@ TEST(LocalMapper, LocalBaRemovesWrongAssociations) {
               static_cast<long long>(mapper.stats().ba_outliers_erased));
   EXPECT_GT(tracker.wrong_associations_made(), 100u);
   EXPECT_GT(injected_present, 100);
-  EXPECT_GE(mapper.stats().ba_outliers_erased, static_cast<long long>(tracker.wrong_associations_made() * 8 / 10));
+  EXPECT_GE(mapper.stats().ba_outliers_erased,
+            static_cast<long long>(tracker.wrong_associations_made() * 8 / 10));
   map.read([](const map::MapData& m) { EXPECT_EQ(check_consistency(m), ""); });
 }
 
@@ -326,10 +329,11 @@ TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
     });
   }
   const MappingStats stats = mapper.stats();
-  std::printf("200 keyframes: at most %zu keyframes and %zu points kept (world %zu points); "
-              "%lld keyframes culled; %.1f ms per keyframe, of which BA %.1f ms\n",
-              max_keyframes, max_points, world.points.size(), static_cast<long long>(stats.keyframes_culled),
-              stats.total_keyframe_ms / 200.0, stats.total_ba_ms / 200.0);
+  std::printf(
+      "200 keyframes: at most %zu keyframes and %zu points kept (world %zu points); "
+      "%lld keyframes culled; %.1f ms per keyframe, of which BA %.1f ms\n",
+      max_keyframes, max_points, world.points.size(), static_cast<long long>(stats.keyframes_culled),
+      stats.total_keyframe_ms / 200.0, stats.total_ba_ms / 200.0);
   EXPECT_LT(max_keyframes, 40u);
   // Points stay bounded by the world (duplicates fused, weak ones culled).
   EXPECT_LT(max_points, world.points.size() * 12 / 10);
@@ -352,6 +356,44 @@ TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
     for (const auto& [pid, p] : m.points()) EXPECT_FALSE(p.bad);
     EXPECT_NE(m.keyframe(m.first_keyframe()), nullptr);
     EXPECT_EQ(check_consistency(m), "");
+  });
+}
+
+// The place-recognition database follows the mapper through its listener:
+// every processed keyframe is added once, every culled one removed, so what
+// the listener holds is the map's good keyframes.
+TEST(LocalMapper, TellsItsListenerOfEveryKeyframeAddedAndCulled) {
+  const StereoCamera camera = test_camera();
+  const testing::World world = make_world(200, 7);
+  map::SharedMap map;
+  SimTracker tracker(world, camera, map, SimTrackerOptions{});
+  LocalMapper mapper(camera, config::MappingConfig{}, config::TrackingConfig{}, map);
+  std::set<map::KeyFrameId> held;
+  int added = 0;
+  int removed = 0;
+  mapper.set_keyframe_listener({[&](map::KeyFrameId id, const std::vector<map::Descriptor>& descriptors) {
+                                  EXPECT_TRUE(held.insert(id).second) << "keyframe " << id << " added twice";
+                                  EXPECT_FALSE(descriptors.empty());
+                                  ++added;
+                                },
+                                [&](map::KeyFrameId id) {
+                                  EXPECT_EQ(held.erase(id), 1U) << "keyframe " << id << " removed unknown";
+                                  ++removed;
+                                }});
+  for (int k = 0; k < 60; ++k) {
+    const SE3 T = pose_at_x(back_and_forth_x(k, 10.0, 0.5));
+    mapper.enqueue(tracker.insert_keyframe(T, T, 0.85));
+    ASSERT_TRUE(mapper.process_pending().has_value());
+  }
+  EXPECT_EQ(added, 60);
+  EXPECT_EQ(removed, mapper.stats().keyframes_culled);
+  EXPECT_GT(removed, 20);
+  map.read([&](const map::MapData& m) {
+    std::set<map::KeyFrameId> good;
+    for (const auto& [id, kf] : m.keyframes()) {
+      if (!kf.bad) good.insert(id);
+    }
+    EXPECT_EQ(held, good);
   });
 }
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "sitepose/core/se3.hpp"
+#include "sitepose/mapfile/framed_file.hpp"
 
 namespace sitepose::mapfile {
 
@@ -25,6 +26,8 @@ constexpr std::uint32_t section_tag(const char (&name)[5]) {
          static_cast<std::uint32_t>(static_cast<std::uint8_t>(name[2])) << 16 |
          static_cast<std::uint32_t>(static_cast<std::uint8_t>(name[3])) << 24;
 }
+// The map file's frame (framed_file.hpp): kMagic, map_file.hpp's kFormatVersion.
+const FileKind& map_file_kind();
 inline constexpr std::uint32_t kMetaTag = section_tag("META");
 inline constexpr std::uint32_t kKeyFramesTag = section_tag("KFRM");
 inline constexpr std::uint32_t kPointsTag = section_tag("PNTS");
