@@ -69,6 +69,30 @@ StereoCamera nominal_camera() {
   return camera;
 }
 
+// dynamic.detector_isolation. A hung host is killed once a call has taken
+// as long again as its deadline (and at least 100 ms more): the detect
+// stage abandoned the call at the deadline, and the restarted host is
+// ready for the frames after.
+detect::IsolationOptions isolation_options(const DaemonConfig& config, double deadline_ms,
+                                           std::shared_ptr<detect::HostCounters> counters) {
+  detect::IsolationOptions o;
+  o.in_child_process = config.detect_deadline.detector_isolation == DetectorIsolation::kProcess;
+  o.call_timeout = std::chrono::milliseconds(std::llround(deadline_ms + std::max(deadline_ms, 100.0)));
+  o.counters = std::move(counters);
+  return o;
+}
+
+// dynamic.detector_deadline_ms, or its default: one frame period of a live
+// source. A replay at rate max is lossless and has no period to keep up
+// with: a generous bound keeps its results independent of this machine's
+// load while a hang still ends.
+constexpr double kLosslessDeadlineMs = 5000.0;
+double detector_deadline_ms(const DaemonConfig& config, const pipeline::FrameSource& source) {
+  if (config.detect_deadline.detector_deadline_ms > 0.0) return config.detect_deadline.detector_deadline_ms;
+  const double fps = source.frame_rate_hz() > 0.0 ? source.frame_rate_hz() : 30.0;
+  return source.live() ? 1000.0 / fps : kLosslessDeadlineMs;
+}
+
 // `camera`: the replay sequence's (none for a camera source).
 Status check_detector(const DaemonConfig& config, std::optional<StereoCamera> camera) {
   if (config.sitepose.dynamic.mode == config::MaskingMode::kNone) return ok_status();
@@ -76,7 +100,13 @@ Status check_detector(const DaemonConfig& config, std::optional<StereoCamera> ca
   context.camera = config.sitepose.camera.stereo ? config.sitepose.camera.stereo : camera;
   if (!context.camera) context.camera = nominal_camera();
   if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
-  auto hook = pipeline::make_detect_hook(config.sitepose, context);
+  // Loaded as a start loads it: a plugin .so in its host, so that a plugin
+  // that crashes at load fails the check instead of ending it.
+  const double deadline_ms = config.detect_deadline.detector_deadline_ms > 0.0
+                                 ? config.detect_deadline.detector_deadline_ms
+                                 : kLosslessDeadlineMs;
+  auto hook =
+      pipeline::make_detect_hook(config.sitepose, context, isolation_options(config, deadline_ms, {}));
   if (!hook) return make_error(ErrorCode::kInvalidArgument, "detector: " + hook.error().message);
   return ok_status();
 }
@@ -93,17 +123,6 @@ std::unique_ptr<MapStore> open_map_store(const DaemonConfig& config, pipeline::S
     store->disable("not saving over the refused map file " + config.map.map_file);
   }
   return store;
-}
-
-// dynamic.detector_deadline_ms, or its default: one frame period of a live
-// source. A replay at rate max is lossless and has no period to keep up
-// with: a generous bound keeps its results independent of this machine's
-// load while a hang still ends.
-double detector_deadline_ms(const DaemonConfig& config, const pipeline::FrameSource& source) {
-  constexpr double kLosslessDeadlineMs = 5000.0;
-  if (config.detect_deadline.detector_deadline_ms > 0.0) return config.detect_deadline.detector_deadline_ms;
-  const double fps = source.frame_rate_hz() > 0.0 ? source.frame_rate_hz() : 30.0;
-  return source.live() ? 1000.0 / fps : kLosslessDeadlineMs;
 }
 
 Status check_output(bool enabled, const std::string& key, const std::string& path) {
@@ -161,10 +180,12 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
   detect::DetectorContext context;
   if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
   context.camera = camera;
-  SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config.sitepose, context));
+  const double deadline_ms = detector_deadline_ms(config, *source);
+  SITEPOSE_TRY(auto detect_hook,
+               pipeline::make_detect_hook(config.sitepose, context,
+                                          isolation_options(config, deadline_ms, d->detector_host_)));
   std::string deadline_text;
   if (config.sitepose.dynamic.mode != config::MaskingMode::kNone) {
-    const double deadline_ms = detector_deadline_ms(config, *source);
     auto bounded = std::make_unique<pipeline::DeadlineDetect>(
         std::move(detect_hook), std::chrono::nanoseconds(std::llround(deadline_ms * 1e6)));
     d->deadline_detect_ = bounded.get();
@@ -256,9 +277,10 @@ void Daemon::log_health(const pipeline::PipelineHealth& h) const {
         deadline_detect_ != nullptr ? deadline_detect_->counters() : pipeline::DetectDeadlineCounters{};
     fallbacks = fmt::format(
         " dynamic[detect_errors={} reused_boxes={} unmasked={} box_for_pixel_mask={} detect_timeouts={} "
-        "detect_skipped={} detect_late={}]",
+        "detect_skipped={} detect_late={} detector_crashes={} detector_hangs={} detector_restarts={}]",
         h.detect_errors, f.reused_detections, f.tracked_unmasked, f.box_mask_for_pixel_mask, d.timeouts,
-        d.skipped_busy, d.late_returns);
+        d.skipped_busy, d.late_returns, detector_host_->crashes.load(), detector_host_->hangs.load(),
+        detector_host_->restarts.load());
   }
   std::string can_bus;
   if (socketcan_ != nullptr) {
