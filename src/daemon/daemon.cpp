@@ -164,6 +164,30 @@ Status check_startable(const DaemonConfig& config) {
   return ok_status();
 }
 
+// The detect stage's hook: the detector (a plugin .so in its host unless
+// dynamic.detector_isolation is in-process) behind its deadline.
+Expected<std::unique_ptr<pipeline::DetectHook>> Daemon::open_detect_stage(const pipeline::FrameSource& source,
+                                                                          const StereoCamera& camera) {
+  detect::DetectorContext context;
+  if (config_.source_type == "replay") context.sequence_dir = config_.replay.sequence_dir;
+  context.camera = camera;
+  const double deadline_ms = detector_deadline_ms(config_, source);
+  SITEPOSE_TRY(auto detect_hook,
+               pipeline::make_detect_hook(config_.sitepose, context,
+                                          isolation_options(config_, deadline_ms, detector_host_)));
+  std::string deadline_text;
+  if (config_.sitepose.dynamic.mode != config::MaskingMode::kNone) {
+    auto bounded = std::make_unique<pipeline::DeadlineDetect>(
+        std::move(detect_hook), std::chrono::nanoseconds(std::llround(deadline_ms * 1e6)));
+    deadline_detect_ = bounded.get();
+    detect_hook = std::move(bounded);
+    deadline_text = fmt::format(", deadline {:.1f} ms", deadline_ms);
+  }
+  spdlog::info("detect stage: {}, dynamic.mode {}{}", detect_hook->name(),
+               config::to_string(config_.sitepose.dynamic.mode), deadline_text);
+  return detect_hook;
+}
+
 Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
                                                  std::unique_ptr<pipeline::FrameSource> source) {
   std::unique_ptr<Daemon> d(new Daemon(config));
@@ -177,24 +201,7 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
                pipeline::SlamPoseTracker::create(camera, config.sitepose, source->frame_rate_hz()));
   d->tracker_ = tracker.get();
   if (!config.map.map_file.empty()) d->map_store_ = open_map_store(config, *tracker);
-  detect::DetectorContext context;
-  if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
-  context.camera = camera;
-  const double deadline_ms = detector_deadline_ms(config, *source);
-  SITEPOSE_TRY(auto detect_hook,
-               pipeline::make_detect_hook(config.sitepose, context,
-                                          isolation_options(config, deadline_ms, d->detector_host_)));
-  std::string deadline_text;
-  if (config.sitepose.dynamic.mode != config::MaskingMode::kNone) {
-    auto bounded = std::make_unique<pipeline::DeadlineDetect>(
-        std::move(detect_hook), std::chrono::nanoseconds(std::llround(deadline_ms * 1e6)));
-    d->deadline_detect_ = bounded.get();
-    detect_hook = std::move(bounded);
-    deadline_text = fmt::format(", deadline {:.1f} ms", deadline_ms);
-  }
-  spdlog::info("detect stage: {}, dynamic.mode {}{}", detect_hook->name(),
-               config::to_string(config.sitepose.dynamic.mode), deadline_text);
-
+  SITEPOSE_TRY(auto detect_hook, d->open_detect_stage(*source, camera));
   SITEPOSE_TRY(d->anchoring_, Anchoring::create(config.geo, publish_options(config)));
   if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kNmeaFile) {
     SITEPOSE_TRY(geo::NmeaReadResult fixes, geo::read_nmea_file(config.geo.nmea_file, {}));

@@ -41,7 +41,9 @@ std::string error_text(const std::array<char, kErrLen>& err) {
   return {err.begin(), std::find(err.begin(), err.end(), '\0')};
 }
 
-std::string or_no_message(std::string text) { return text.empty() ? std::string("(no message)") : text; }
+std::string or_no_message(const std::string& text) {
+  return text.empty() ? std::string("(no message)") : text;
+}
 
 // An image the ABI can carry: 8-bit single channel, non-empty, contiguous rows.
 Status check_frame(const StereoFrame& frame, const std::string& name) {

@@ -7,9 +7,9 @@
 // Init -> Ready once, then Detect -> Detections and Segment -> Segmented
 // until the socket closes (then the plugin is destroyed and it exits 0).
 // Exit status: 0 after EOF, 2 bad usage, 3 the plugin did not load
-// (reported in Ready first), 4 a protocol error. It dies with its parent
-// (PR_SET_PDEATHSIG): a plugin stuck in a call does not outlive siteposed.
-// It writes no core file (RLIMIT_CORE 0).
+// (reported in Ready first), 4 a protocol error or an exception. It dies
+// with its parent (PR_SET_PDEATHSIG): a plugin stuck in a call does not
+// outlive siteposed. It writes no core file (RLIMIT_CORE 0).
 
 #include <sys/mman.h>
 #include <sys/prctl.h>
@@ -21,6 +21,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <string>
 #include <vector>
 
@@ -146,9 +147,7 @@ int parse_fd(const char* text) {
   return (end != text && *end == '\0' && v >= 0 && v < 1024) ? static_cast<int>(v) : -1;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   int socket = -1;
   int shm = -1;
   long parent = -1;
@@ -189,4 +188,15 @@ int main(int argc, char** argv) {
     return plugin ? 0 : 3;
   SharedFrames frames(shm);
   return serve(socket, frames, **plugin);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {  // out of memory, mostly: siteposed sees the exit status
+    say(std::string("stopped: ") + e.what());
+    return 4;
+  }
 }

@@ -71,6 +71,8 @@ class Daemon {
 
  private:
   explicit Daemon(const DaemonConfig& config) : config_(config) {}
+  Expected<std::unique_ptr<pipeline::DetectHook>> open_detect_stage(const pipeline::FrameSource& source,
+                                                                    const StereoCamera& camera);
   void log_health(const pipeline::PipelineHealth& health) const;
   void save_map_at_stop();
 
