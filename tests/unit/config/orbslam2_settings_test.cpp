@@ -103,8 +103,7 @@ TEST(OrbSlam2Settings, MissingKeysAreNamed) {
   text = replace_line(text, "ORBextractor.nLevels", "");
   const std::string message = load_error(text);
   EXPECT_TRUE(contains(message, "orb.yaml: Camera.bf: missing (required key)")) << message;
-  EXPECT_TRUE(contains(message, "orb.yaml: ORBextractor.nLevels: missing (required key)"))
-      << message;
+  EXPECT_TRUE(contains(message, "orb.yaml: ORBextractor.nLevels: missing (required key)")) << message;
 }
 
 TEST(OrbSlam2Settings, BadValuesAreNamed) {
@@ -112,24 +111,23 @@ TEST(OrbSlam2Settings, BadValuesAreNamed) {
                        "Camera.fx = \"wide\": expected a number"));
   EXPECT_TRUE(contains(load_error(replace_line(kGood, "Camera.fx", "Camera.fx: -5.0")),
                        "Camera.fx = -5: must be > 0"));
-  EXPECT_TRUE(contains(
-      load_error(replace_line(kGood, "ORBextractor.nFeatures", "ORBextractor.nFeatures: 1000.5")),
-      "ORBextractor.nFeatures = 1000.5: expected an integer"));
+  EXPECT_TRUE(
+      contains(load_error(replace_line(kGood, "ORBextractor.nFeatures", "ORBextractor.nFeatures: 1000.5")),
+               "ORBextractor.nFeatures = 1000.5: expected an integer"));
   EXPECT_TRUE(contains(load_error(replace_line(kGood, "Camera.k1", "Camera.k1: -0.17")),
                        "Camera.k1 = -0.17: must be 0"));
   EXPECT_TRUE(contains(load_error(replace_line(kGood, "Camera.cx", "Camera.cx: 1300.0")),
                        "Camera.cx = 1300: must be inside the image"));
-  EXPECT_TRUE(contains(
-      load_error(replace_line(kGood, "ORBextractor.minThFAST", "ORBextractor.minThFAST: 30")),
-      "ORBextractor.minThFAST = 30: must be <= ORBextractor.iniThFAST (20)"));
+  EXPECT_TRUE(
+      contains(load_error(replace_line(kGood, "ORBextractor.minThFAST", "ORBextractor.minThFAST: 30")),
+               "ORBextractor.minThFAST = 30: must be <= ORBextractor.iniThFAST (20)"));
   EXPECT_TRUE(contains(load_error(replace_line(kGood, "Camera.RGB", "Camera.RGB: 2")),
                        "Camera.RGB = 2: must be 0 (BGR) or 1 (RGB)"));
 }
 
 TEST(OrbSlam2Settings, RectificationMapsAreUnsupported) {
   const auto settings = load_orbslam2_settings_from_string(
-      kGood + "LEFT.K: !!opencv-matrix\n  rows: 1\n  cols: 1\n  dt: d\n  data: [1.0]\n",
-      "euroc.yaml");
+      kGood + "LEFT.K: !!opencv-matrix\n  rows: 1\n  cols: 1\n  dt: d\n  data: [1.0]\n", "euroc.yaml");
   ASSERT_FALSE(settings.has_value());
   EXPECT_EQ(settings.error().code, ErrorCode::kUnsupported);
   EXPECT_TRUE(contains(settings.error().message, "euroc.yaml: LEFT.K"));
@@ -147,10 +145,27 @@ TEST(OrbSlam2Settings, MalformedFileIsAParseErrorNamingFileAndLine) {
   EXPECT_TRUE(message.size() > 7 && std::isdigit(static_cast<unsigned char>(message[7]))) << message;
   EXPECT_TRUE(contains(message, ": malformed ORB-SLAM2 settings file")) << message;
 
-  const auto indent = load_orbslam2_settings_from_string(
-      "%YAML:1.0\nCamera.fx: 1\n  Camera.fy: 2\n", "i.yaml");
+  const auto indent =
+      load_orbslam2_settings_from_string("%YAML:1.0\nCamera.fx: 1\n  Camera.fy: 2\n", "i.yaml");
   ASSERT_FALSE(indent.has_value());
   EXPECT_TRUE(contains(indent.error().message, "i.yaml:3: malformed")) << indent.error().message;
+}
+
+// fuzz_orbslam2_settings: OpenCV's reader spun for good on this text (corpus
+// orbslam2_settings/two_documents_hang); more than one document marker, or
+// a marker line with more on it, is refused before OpenCV sees it.
+TEST(OrbSlam2Settings, SecondDocumentMarkerIsRefusedNotAHang) {
+  const auto hang = load_orbslam2_settings_from_string("%YAML:1.0\n----d\n----\ns: 1\n", "d.yaml");
+  ASSERT_FALSE(hang.has_value());
+  EXPECT_EQ(hang.error().code, ErrorCode::kParseError);
+  EXPECT_TRUE(contains(hang.error().message, "d.yaml:2: malformed")) << hang.error().message;
+  const auto two =
+      load_orbslam2_settings_from_string("%YAML:1.0\n---\n" + kGood.substr(10) + "---\n", "t.yaml");
+  ASSERT_FALSE(two.has_value());
+  EXPECT_TRUE(contains(two.error().message, "document start")) << two.error().message;
+  // One plain marker, as OpenCV writes files, still loads.
+  const auto one = load_orbslam2_settings_from_string("%YAML:1.0\n---\n" + kGood.substr(10), "o.yaml");
+  EXPECT_TRUE(one.has_value()) << one.error().message;
 }
 
 TEST(OrbSlam2Settings, MissingHeaderAndEmptyFileAreExplained) {
