@@ -259,11 +259,33 @@ std::string describe_cv_error(const cv::Exception& e, const std::string& source)
   return text;
 }
 
+// OpenCV's YAML reader never returns on some texts with more than one
+// document marker ("%YAML:1.0\n----d\n----\ns" spins in
+// cv::FileStorage, found by fuzz_orbslam2_settings). A settings file is one
+// mapping: at most one line starting with "---", and that line is "---".
+Status check_document_markers(const std::string& text, const std::string& source) {
+  std::istringstream lines(text);
+  std::string line;
+  int markers = 0;
+  for (int number = 1; std::getline(lines, line); ++number) {
+    if (line.rfind("---", 0) != 0) continue;
+    const bool plain = line.find_first_not_of(" \t\r", 3) == std::string::npos;
+    if (!plain || ++markers > 1) {
+      return make_error(ErrorCode::kParseError,
+                        source + ":" + std::to_string(number) +
+                            ": malformed ORB-SLAM2 settings file: one mapping expected, with at most one "
+                            "document start line \"---\"");
+    }
+  }
+  return ok_status();
+}
+
 Expected<OrbSlam2Settings> read_text(const std::string& text, const std::string& source) {
   if (text.find_first_not_of(" \t\r\n") == std::string::npos) {
     return make_error(ErrorCode::kParseError,
                       source + ": empty file (expected ORB-SLAM2 settings starting with %YAML:1.0)");
   }
+  SITEPOSE_TRY_STATUS(check_document_markers(text, source));
   try {
     cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
     if (!fs.isOpened()) {

@@ -69,6 +69,30 @@ StereoCamera nominal_camera() {
   return camera;
 }
 
+// dynamic.detector_isolation. A hung host is killed once a call has taken
+// as long again as its deadline (and at least 100 ms more): the detect
+// stage abandoned the call at the deadline, and the restarted host is
+// ready for the frames after.
+detect::IsolationOptions isolation_options(const DaemonConfig& config, double deadline_ms,
+                                           std::shared_ptr<detect::HostCounters> counters) {
+  detect::IsolationOptions o;
+  o.in_child_process = config.detect_deadline.detector_isolation == DetectorIsolation::kProcess;
+  o.call_timeout = std::chrono::milliseconds(std::llround(deadline_ms + std::max(deadline_ms, 100.0)));
+  o.counters = std::move(counters);
+  return o;
+}
+
+// dynamic.detector_deadline_ms, or its default: one frame period of a live
+// source. A replay at rate max is lossless and has no period to keep up
+// with: a generous bound keeps its results independent of this machine's
+// load while a hang still ends.
+constexpr double kLosslessDeadlineMs = 5000.0;
+double detector_deadline_ms(const DaemonConfig& config, const pipeline::FrameSource& source) {
+  if (config.detect_deadline.detector_deadline_ms > 0.0) return config.detect_deadline.detector_deadline_ms;
+  const double fps = source.frame_rate_hz() > 0.0 ? source.frame_rate_hz() : 30.0;
+  return source.live() ? 1000.0 / fps : kLosslessDeadlineMs;
+}
+
 // `camera`: the replay sequence's (none for a camera source).
 Status check_detector(const DaemonConfig& config, std::optional<StereoCamera> camera) {
   if (config.sitepose.dynamic.mode == config::MaskingMode::kNone) return ok_status();
@@ -76,7 +100,13 @@ Status check_detector(const DaemonConfig& config, std::optional<StereoCamera> ca
   context.camera = config.sitepose.camera.stereo ? config.sitepose.camera.stereo : camera;
   if (!context.camera) context.camera = nominal_camera();
   if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
-  auto hook = pipeline::make_detect_hook(config.sitepose, context);
+  // Loaded as a start loads it: a plugin .so in its host, so that a plugin
+  // that crashes at load fails the check instead of ending it.
+  const double deadline_ms = config.detect_deadline.detector_deadline_ms > 0.0
+                                 ? config.detect_deadline.detector_deadline_ms
+                                 : kLosslessDeadlineMs;
+  auto hook =
+      pipeline::make_detect_hook(config.sitepose, context, isolation_options(config, deadline_ms, {}));
   if (!hook) return make_error(ErrorCode::kInvalidArgument, "detector: " + hook.error().message);
   return ok_status();
 }
@@ -93,17 +123,6 @@ std::unique_ptr<MapStore> open_map_store(const DaemonConfig& config, pipeline::S
     store->disable("not saving over the refused map file " + config.map.map_file);
   }
   return store;
-}
-
-// dynamic.detector_deadline_ms, or its default: one frame period of a live
-// source. A replay at rate max is lossless and has no period to keep up
-// with: a generous bound keeps its results independent of this machine's
-// load while a hang still ends.
-double detector_deadline_ms(const DaemonConfig& config, const pipeline::FrameSource& source) {
-  constexpr double kLosslessDeadlineMs = 5000.0;
-  if (config.detect_deadline.detector_deadline_ms > 0.0) return config.detect_deadline.detector_deadline_ms;
-  const double fps = source.frame_rate_hz() > 0.0 ? source.frame_rate_hz() : 30.0;
-  return source.live() ? 1000.0 / fps : kLosslessDeadlineMs;
 }
 
 // camera.stereo (or what source.orbslam2_settings put there) must have the
@@ -161,6 +180,30 @@ Status check_startable(const DaemonConfig& config) {
   return ok_status();
 }
 
+// The detect stage's hook: the detector (a plugin .so in its host unless
+// dynamic.detector_isolation is in-process) behind its deadline.
+Expected<std::unique_ptr<pipeline::DetectHook>> Daemon::open_detect_stage(const pipeline::FrameSource& source,
+                                                                          const StereoCamera& camera) {
+  detect::DetectorContext context;
+  if (config_.source_type == "replay") context.sequence_dir = config_.replay.sequence_dir;
+  context.camera = camera;
+  const double deadline_ms = detector_deadline_ms(config_, source);
+  SITEPOSE_TRY(auto detect_hook,
+               pipeline::make_detect_hook(config_.sitepose, context,
+                                          isolation_options(config_, deadline_ms, detector_host_)));
+  std::string deadline_text;
+  if (config_.sitepose.dynamic.mode != config::MaskingMode::kNone) {
+    auto bounded = std::make_unique<pipeline::DeadlineDetect>(
+        std::move(detect_hook), std::chrono::nanoseconds(std::llround(deadline_ms * 1e6)));
+    deadline_detect_ = bounded.get();
+    detect_hook = std::move(bounded);
+    deadline_text = fmt::format(", deadline {:.1f} ms", deadline_ms);
+  }
+  spdlog::info("detect stage: {}, dynamic.mode {}{}", detect_hook->name(),
+               config::to_string(config_.sitepose.dynamic.mode), deadline_text);
+  return detect_hook;
+}
+
 Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
                                                  std::unique_ptr<pipeline::FrameSource> source) {
   std::unique_ptr<Daemon> d(new Daemon(config));
@@ -173,22 +216,7 @@ Expected<std::unique_ptr<Daemon>> Daemon::create(const DaemonConfig& config,
                pipeline::SlamPoseTracker::create(camera, config.sitepose, source->frame_rate_hz()));
   d->tracker_ = tracker.get();
   if (!config.map.map_file.empty()) d->map_store_ = open_map_store(config, *tracker);
-  detect::DetectorContext context;
-  if (config.source_type == "replay") context.sequence_dir = config.replay.sequence_dir;
-  context.camera = camera;
-  SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config.sitepose, context));
-  std::string deadline_text;
-  if (config.sitepose.dynamic.mode != config::MaskingMode::kNone) {
-    const double deadline_ms = detector_deadline_ms(config, *source);
-    auto bounded = std::make_unique<pipeline::DeadlineDetect>(
-        std::move(detect_hook), std::chrono::nanoseconds(std::llround(deadline_ms * 1e6)));
-    d->deadline_detect_ = bounded.get();
-    detect_hook = std::move(bounded);
-    deadline_text = fmt::format(", deadline {:.1f} ms", deadline_ms);
-  }
-  spdlog::info("detect stage: {}, dynamic.mode {}{}", detect_hook->name(),
-               config::to_string(config.sitepose.dynamic.mode), deadline_text);
-
+  SITEPOSE_TRY(auto detect_hook, d->open_detect_stage(*source, camera));
   SITEPOSE_TRY(d->anchoring_, Anchoring::create(config.geo, publish_options(config)));
   if (config.geo.mode == GeoMode::kOnline && config.geo.gnss_input == GnssInput::kNmeaFile) {
     SITEPOSE_TRY(geo::NmeaReadResult fixes, geo::read_nmea_file(config.geo.nmea_file, {}));
@@ -271,9 +299,10 @@ void Daemon::log_health(const pipeline::PipelineHealth& h) const {
         deadline_detect_ != nullptr ? deadline_detect_->counters() : pipeline::DetectDeadlineCounters{};
     fallbacks = fmt::format(
         " dynamic[detect_errors={} reused_boxes={} unmasked={} box_for_pixel_mask={} detect_timeouts={} "
-        "detect_skipped={} detect_late={}]",
+        "detect_skipped={} detect_late={} detector_crashes={} detector_hangs={} detector_restarts={}]",
         h.detect_errors, f.reused_detections, f.tracked_unmasked, f.box_mask_for_pixel_mask, d.timeouts,
-        d.skipped_busy, d.late_returns);
+        d.skipped_busy, d.late_returns, detector_host_->crashes.load(), detector_host_->hangs.load(),
+        detector_host_->restarts.load());
   }
   std::string can_bus;
   if (socketcan_ != nullptr) {

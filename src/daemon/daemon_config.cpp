@@ -466,7 +466,10 @@ Section<MapPersistenceConfig> map_persistence_section() {
 
 Section<DetectDeadlineConfig> detect_deadline_section() {
   Section<DetectDeadlineConfig> s;
-  s.key("detector_deadline_ms", &DetectDeadlineConfig::detector_deadline_ms, in_range(0.0, 60000.0));
+  s.key("detector_deadline_ms", &DetectDeadlineConfig::detector_deadline_ms, in_range(0.0, 60000.0))
+      .choice("detector_isolation", &DetectDeadlineConfig::detector_isolation,
+              {Choice<DetectorIsolation>{DetectorIsolation::kProcess, "process"},
+               Choice<DetectorIsolation>{DetectorIsolation::kInProcess, "in-process"}});
   return s;
 }
 

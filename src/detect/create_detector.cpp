@@ -63,9 +63,8 @@ Expected<std::string> builtin_plugin_path(const std::string& name) {
     if (fs::is_regular_file(candidate, ec)) return fs::weakly_canonical(candidate, ec).string();
     searched += (searched.empty() ? "" : ", ") + dir.string();
   }
-  return make_error(ErrorCode::kNotFound, "detector " + name + ": " + file_name(name) +
-                                              " not found in: " + searched +
-                                              " (set SITEPOSE_DETECTOR_PLUGIN_DIR)");
+  return make_error(ErrorCode::kNotFound, "detector " + name + ": " + file_name(name) + " not found in: " +
+                                              searched + " (set SITEPOSE_DETECTOR_PLUGIN_DIR)");
 }
 
 Expected<std::string> plugin_config_yaml(const config::DetectorConfig& config,
@@ -115,15 +114,15 @@ Expected<std::string> plugin_config_yaml(const config::DetectorConfig& config,
   }
   out << YAML::EndMap;
   if (!out.good()) {
-    return make_error(ErrorCode::kRuntime, "detector " + config.name +
-                                               ": cannot write the plugin config: " +
-                                               out.GetLastError());
+    return make_error(ErrorCode::kRuntime,
+                      "detector " + config.name + ": cannot write the plugin config: " + out.GetLastError());
   }
   return std::string(out.c_str());
 }
 
 Expected<std::unique_ptr<Detector>> create_detector(const config::DetectorConfig& config,
-                                                    const DetectorContext& context) {
+                                                    const DetectorContext& context,
+                                                    const IsolationOptions& isolation) {
   std::string path = config.name;
   if (is_builtin(config.name)) {
     SITEPOSE_TRY(path, builtin_plugin_path(config.name));
@@ -132,6 +131,9 @@ Expected<std::unique_ptr<Detector>> create_detector(const config::DetectorConfig
   PluginLoadOptions options;
   options.min_score = config.score_threshold;
   options.name = config.name;
+  if (isolation.in_child_process && !is_builtin(config.name)) {
+    return load_isolated_plugin(path, yaml, options, isolation);
+  }
   return load_detector_plugin(path, yaml, options);
 }
 

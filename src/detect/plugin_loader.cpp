@@ -13,20 +13,12 @@
 #include <vector>
 
 #include "sitepose/detect/plugin_abi.h"
+#include "sitepose/detect/plugin_calls.hpp"
 
 namespace sitepose::detect {
 namespace {
 
 constexpr std::size_t kErrLen = 512;
-
-struct PluginApi {
-  sp_abi_version_fn abi_version = nullptr;
-  sp_create_fn create = nullptr;
-  sp_capabilities_fn capabilities = nullptr;
-  sp_detect_fn detect = nullptr;
-  sp_segment_fn segment = nullptr;
-  sp_destroy_fn destroy = nullptr;
-};
 
 // Closes the library when the last owner goes (after the handle is destroyed).
 struct LibraryCloser {
@@ -46,8 +38,10 @@ sp_image to_sp_image(const cv::Mat& image) {
 }
 
 std::string error_text(const std::array<char, kErrLen>& err) {
-  const auto end = std::find(err.begin(), err.end(), '\0');
-  std::string text(err.begin(), end);
+  return {err.begin(), std::find(err.begin(), err.end(), '\0')};
+}
+
+std::string or_no_message(const std::string& text) {
   return text.empty() ? std::string("(no message)") : text;
 }
 
@@ -67,23 +61,15 @@ Status check_frame(const StereoFrame& frame, const std::string& name) {
 
 class PluginDetector final : public Detector {
  public:
-  PluginDetector(LibraryPtr library, PluginApi api, sp_detector* handle, std::string name,
-                 PluginLoadOptions options)
-      : library_(std::move(library)),
-        api_(api),
-        handle_(handle),
-        name_(std::move(name)),
+  PluginDetector(std::unique_ptr<PluginCalls> calls, PluginLoadOptions options)
+      : calls_(std::move(calls)),
+        name_(options.name),
         options_(std::move(options)),
         buffer_(static_cast<std::size_t>(std::max(1, options_.capacity))) {
-    const std::uint32_t caps = api_.capabilities(handle_);
+    const std::uint32_t caps = calls_->capabilities();
     capabilities_.has_segmentation = (caps & SP_DETECTOR_CAP_SEGMENTATION) != 0;
     capabilities_.tracks_ids = (caps & SP_DETECTOR_CAP_TRACKS_IDS) != 0;
   }
-  ~PluginDetector() override {
-    if (handle_ != nullptr) api_.destroy(handle_);
-  }
-  PluginDetector(const PluginDetector&) = delete;
-  PluginDetector& operator=(const PluginDetector&) = delete;
 
   const std::string& name() const override { return name_; }
   DetectorCapabilities capabilities() const override { return capabilities_; }
@@ -94,18 +80,17 @@ class PluginDetector final : public Detector {
     ++health_.frames;
     const sp_image left = to_sp_image(frame.left);
     const sp_image right = to_sp_image(frame.right);
-    std::array<char, kErrLen> err{};
+    std::string err;
     std::int32_t count = 0;
     std::fill(buffer_.begin(), buffer_.end(), sp_detection{});
-    const int rc = api_.detect(handle_, &left, &right, frame.t_ns(), frame.seq, buffer_.data(),
-                               static_cast<std::int32_t>(buffer_.size()), &count, err.data(),
-                               err.size());
+    const int rc = calls_->detect(left, right, frame.t_ns(), frame.seq, buffer_.data(),
+                                  static_cast<std::int32_t>(buffer_.size()), &count, err);
     if (rc != 0 || count < 0) {
       ++health_.failed_calls;
-      const std::string why = rc != 0 ? error_text(err)
-                                      : "returned a negative count " + std::to_string(count);
-      return make_error(ErrorCode::kRuntime, "detector " + name_ + ": frame " +
-                                                 std::to_string(frame.seq) + ": " + why);
+      const std::string why =
+          rc != 0 ? or_no_message(err) : "returned a negative count " + std::to_string(count);
+      return make_error(ErrorCode::kRuntime,
+                        "detector " + name_ + ": frame " + std::to_string(frame.seq) + ": " + why);
     }
     const auto capacity = static_cast<std::int32_t>(buffer_.size());
     if (count > capacity) health_.dropped_detections += count - capacity;
@@ -125,11 +110,9 @@ class PluginDetector final : public Detector {
     return out;
   }
 
-  Expected<cv::Mat> segment(const StereoFrame& frame,
-                            const std::vector<Detection>& detections) override {
+  Expected<cv::Mat> segment(const StereoFrame& frame, const std::vector<Detection>& detections) override {
     if (!capabilities_.has_segmentation) {
-      return make_error(ErrorCode::kUnsupported,
-                        "detector " + name_ + " has no pixel segmentation");
+      return make_error(ErrorCode::kUnsupported, "detector " + name_ + " has no pixel segmentation");
     }
     SITEPOSE_TRY_STATUS(check_frame(frame, name_));
     ++health_.segment_calls;
@@ -150,17 +133,14 @@ class PluginDetector final : public Detector {
     cv::Mat mask(frame.left.size(), CV_16UC1, cv::Scalar(0));
     const sp_image left = to_sp_image(frame.left);
     const sp_image right = to_sp_image(frame.right);
-    std::array<char, kErrLen> err{};
-    const int rc = api_.segment(handle_, &left, &right, frame.t_ns(), frame.seq, input.data(),
-                                static_cast<std::int32_t>(input.size()),
-                                mask.ptr<std::uint16_t>(),
-                                static_cast<std::int32_t>(mask.step[0] / sizeof(std::uint16_t)),
-                                err.data(), err.size());
+    std::string err;
+    const int rc = calls_->segment(left, right, frame.t_ns(), frame.seq, input.data(),
+                                   static_cast<std::int32_t>(input.size()), mask.ptr<std::uint16_t>(),
+                                   static_cast<std::int32_t>(mask.step[0] / sizeof(std::uint16_t)), err);
     if (rc != 0) {
       ++health_.failed_calls;
       return make_error(ErrorCode::kRuntime, "detector " + name_ + ": segment frame " +
-                                                 std::to_string(frame.seq) + ": " +
-                                                 error_text(err));
+                                                 std::to_string(frame.seq) + ": " + or_no_message(err));
     }
     health_.cleared_mask_pixels += clear_outside_boxes(mask, detections);
     return mask;
@@ -209,9 +189,7 @@ class PluginDetector final : public Detector {
     return cleared;
   }
 
-  LibraryPtr library_;  // declared first: closed last
-  PluginApi api_;
-  sp_detector* handle_ = nullptr;
+  std::unique_ptr<PluginCalls> calls_;
   std::string name_;
   PluginLoadOptions options_;
   DetectorCapabilities capabilities_;
@@ -231,17 +209,53 @@ bool resolve(void* lib, const char* symbol, Fn& out, std::vector<std::string>& m
   return true;
 }
 
+class LoadedPlugin final : public CreatedPlugin {
+ public:
+  LoadedPlugin(LibraryPtr library, PluginApi api, sp_detector* handle)
+      : library_(std::move(library)), api_(api), handle_(handle) {}
+  ~LoadedPlugin() override { api_.destroy(handle_); }
+  LoadedPlugin(const LoadedPlugin&) = delete;
+  LoadedPlugin& operator=(const LoadedPlugin&) = delete;
+  const PluginApi& api() const override { return api_; }
+  sp_detector* handle() const override { return handle_; }
+
+ private:
+  LibraryPtr library_;  // declared first: closed last
+  PluginApi api_;
+  sp_detector* handle_;
+};
+
+class InProcessCalls final : public PluginCalls {
+ public:
+  explicit InProcessCalls(std::unique_ptr<CreatedPlugin> plugin) : plugin_(std::move(plugin)) {}
+  std::uint32_t capabilities() const override { return plugin_->api().capabilities(plugin_->handle()); }
+  int detect(const sp_image& left, const sp_image& right, std::int64_t t_ns, std::int64_t seq,
+             sp_detection* out, std::int32_t capacity, std::int32_t* count, std::string& error) override {
+    std::array<char, kErrLen> err{};
+    const int rc = plugin_->api().detect(plugin_->handle(), &left, &right, t_ns, seq, out, capacity, count,
+                                         err.data(), err.size());
+    error = error_text(err);
+    return rc;
+  }
+  int segment(const sp_image& left, const sp_image& right, std::int64_t t_ns, std::int64_t seq,
+              const sp_detection* detections, std::int32_t n_detections, std::uint16_t* mask,
+              std::int32_t mask_stride_px, std::string& error) override {
+    std::array<char, kErrLen> err{};
+    const int rc = plugin_->api().segment(plugin_->handle(), &left, &right, t_ns, seq, detections,
+                                          n_detections, mask, mask_stride_px, err.data(), err.size());
+    error = error_text(err);
+    return rc;
+  }
+
+ private:
+  std::unique_ptr<CreatedPlugin> plugin_;
+};
+
 }  // namespace
 
-Expected<std::unique_ptr<Detector>> load_detector_plugin(const std::string& path,
-                                                         const std::string& config_yaml,
-                                                         const PluginLoadOptions& options) {
+Expected<std::unique_ptr<CreatedPlugin>> create_plugin(const std::string& path,
+                                                       const std::string& config_yaml) {
   const std::string where = "detector plugin " + path;
-  if (options.capacity < 1) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      where + ": capacity = " + std::to_string(options.capacity) +
-                          ": must be >= 1");
-  }
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
     return make_error(ErrorCode::kNotFound, where + ": no such file");
@@ -250,9 +264,8 @@ Expected<std::unique_ptr<Detector>> load_detector_plugin(const std::string& path
   LibraryPtr lib(dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL));
   if (!lib) {
     const char* why = dlerror();
-    return make_error(ErrorCode::kUnsupported,
-                      where + ": cannot be loaded as a shared library: " +
-                          (why != nullptr ? why : "unknown dlopen error"));
+    return make_error(ErrorCode::kUnsupported, where + ": cannot be loaded as a shared library: " +
+                                                   (why != nullptr ? why : "unknown dlopen error"));
   }
   PluginApi api;
   std::vector<std::string> missing;
@@ -271,19 +284,38 @@ Expected<std::unique_ptr<Detector>> load_detector_plugin(const std::string& path
   const std::uint32_t version = api.abi_version();
   if (version != SITEPOSE_DETECTOR_ABI_VERSION) {
     return make_error(ErrorCode::kUnsupported,
-                      where + ": ABI version " + std::to_string(version) +
-                          ", this sitepose expects " +
+                      where + ": ABI version " + std::to_string(version) + ", this sitepose expects " +
                           std::to_string(SITEPOSE_DETECTOR_ABI_VERSION) + " (rebuild the plugin)");
   }
   std::array<char, kErrLen> err{};
   sp_detector* handle = api.create(config_yaml.c_str(), err.data(), err.size());
   if (handle == nullptr) {
     return make_error(ErrorCode::kInvalidArgument,
-                      where + ": create failed: " + error_text(err));
+                      where + ": create failed: " + or_no_message(error_text(err)));
   }
-  std::string name = options.name.empty() ? path : options.name;
-  return std::unique_ptr<Detector>(
-      new PluginDetector(std::move(lib), api, handle, std::move(name), options));
+  return std::unique_ptr<CreatedPlugin>(std::make_unique<LoadedPlugin>(std::move(lib), api, handle));
+}
+
+std::unique_ptr<PluginCalls> in_process_calls(std::unique_ptr<CreatedPlugin> plugin) {
+  return std::make_unique<InProcessCalls>(std::move(plugin));
+}
+
+std::unique_ptr<Detector> make_plugin_detector(std::unique_ptr<PluginCalls> calls,
+                                               PluginLoadOptions options) {
+  return std::make_unique<PluginDetector>(std::move(calls), std::move(options));
+}
+
+Expected<std::unique_ptr<Detector>> load_detector_plugin(const std::string& path,
+                                                         const std::string& config_yaml,
+                                                         const PluginLoadOptions& options) {
+  if (options.capacity < 1) {
+    return make_error(ErrorCode::kInvalidArgument, "detector plugin " + path + ": capacity = " +
+                                                       std::to_string(options.capacity) + ": must be >= 1");
+  }
+  SITEPOSE_TRY(auto plugin, create_plugin(path, config_yaml));
+  PluginLoadOptions named = options;
+  if (named.name.empty()) named.name = path;
+  return make_plugin_detector(in_process_calls(std::move(plugin)), std::move(named));
 }
 
 }  // namespace sitepose::detect

@@ -132,6 +132,14 @@ Expected<geo::GnssFix> from_lcm_gnss_fix(const sitepose::gnss_fix_t& message) {
                       fmt::format("gnss_fix_t utime {}: num_satellites = {}: expected >= 0", message.utime,
                                   message.num_satellites));
   }
+  // Microseconds to nanoseconds must not overflow (fuzz_gnss_fix found it:
+  // UB, and a wrapped time that pairs the fix with the wrong pose).
+  constexpr std::int64_t kMaxUtime = std::numeric_limits<std::int64_t>::max() / 1000;
+  if (message.utime > kMaxUtime || message.utime < -kMaxUtime) {
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        fmt::format("gnss_fix_t utime {}: out of range (|utime| <= {} us)", message.utime, kMaxUtime));
+  }
   geo::GnssFix fix;
   fix.t_ns = message.utime * 1000;
   fix.position = {message.latitude_deg, message.longitude_deg, message.height_m};

@@ -34,11 +34,12 @@ Status DetectorStage::annotate(FramePacket& packet) {
 }
 
 Expected<std::unique_ptr<DetectHook>> make_detect_hook(const config::SiteposeConfig& config,
-                                                       const detect::DetectorContext& context) {
+                                                       const detect::DetectorContext& context,
+                                                       const detect::IsolationOptions& isolation) {
   if (config.dynamic.mode == config::MaskingMode::kNone) {
     return std::unique_ptr<DetectHook>(std::make_unique<PassThroughDetect>());
   }
-  SITEPOSE_TRY(auto detector, detect::create_detector(config.detector, context));
+  SITEPOSE_TRY(auto detector, detect::create_detector(config.detector, context, isolation));
   if (config.dynamic.mode == config::MaskingMode::kPixel && !detector->capabilities().has_segmentation) {
     return make_error(ErrorCode::kInvalidArgument,
                       "dynamic.mode pixel: detector \"" + config.detector.name +

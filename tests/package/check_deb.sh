@@ -2,7 +2,8 @@
 # Installs the built sitepose .deb into a scratch root (dpkg-deb -x) and
 # checks it as a fresh machine would see it:
 #   1. the control data: Depends from dpkg-shlibdeps, the conffile, scripts;
-#   2. every file the installed unit names exists in the package;
+#   2. every file the installed unit names exists in the package, and the
+#      detector host siteposed starts;
 #   3. `systemd-analyze verify` on the installed unit prints nothing;
 #   4. the unit's own ExecStartPre (`siteposed --check-config` on the
 #      installed default config) exits 0 with the installed binaries, given
@@ -58,6 +59,12 @@ for path in $named; do
   [[ -e $root$path ]] || fail "the unit names $path, which the package does not install"
   echo "unit names $path: present"
 done
+
+# siteposed runs detector plugins in this child (dynamic.detector_isolation),
+# found relative to /usr/bin/siteposed.
+host=$root/usr/lib/sitepose/sitepose-detector-host
+[[ -x $host ]] || fail "no executable /usr/lib/sitepose/sitepose-detector-host"
+echo "detector host /usr/lib/sitepose/sitepose-detector-host: present"
 
 # The unit with its paths moved into the scratch root.
 mapped=$(mktemp -d /tmp/sitepose-unit.XXXXXX)

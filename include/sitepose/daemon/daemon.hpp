@@ -19,6 +19,7 @@
 #include "sitepose/daemon/daemon_config.hpp"
 #include "sitepose/daemon/map_store.hpp"
 #include "sitepose/daemon/outputs.hpp"
+#include "sitepose/detect/isolated_detector.hpp"
 #include "sitepose/drivers/socketcan/socketcan_sink.hpp"
 #include "sitepose/output/lcm_gnss_subscriber.hpp"
 #include "sitepose/pipeline/detect_deadline.hpp"
@@ -70,6 +71,8 @@ class Daemon {
 
  private:
   explicit Daemon(const DaemonConfig& config) : config_(config) {}
+  Expected<std::unique_ptr<pipeline::DetectHook>> open_detect_stage(const pipeline::FrameSource& source,
+                                                                    const StereoCamera& camera);
   void log_health(const pipeline::PipelineHealth& health) const;
   void save_map_at_stop();
 
@@ -82,8 +85,10 @@ class Daemon {
   const pipeline::SlamPoseTracker* tracker_ = nullptr;            // owned by pipeline_ (counters only)
   const drivers::socketcan::SocketCanSink* socketcan_ = nullptr;  // owned by pipeline_ (stats only)
   const pipeline::DeadlineDetect* deadline_detect_ = nullptr;     // owned by pipeline_ (counters only)
-  std::unique_ptr<MapStore> map_store_;                           // copies from tracker_: stopped first
-  std::jthread gnss_thread_;                                      // joined first (declared last)
+  // dynamic.detector_isolation: process (counted by the plugin's host, read by log_health)
+  std::shared_ptr<detect::HostCounters> detector_host_ = std::make_shared<detect::HostCounters>();
+  std::unique_ptr<MapStore> map_store_;  // copies from tracker_: stopped first
+  std::jthread gnss_thread_;             // joined first (declared last)
 };
 
 }  // namespace sitepose::daemon

@@ -120,10 +120,18 @@ struct MapPersistenceConfig {
   double checkpoint_interval_s = 300.0;  // periodic save while running; 0 = only at stop
 };
 
-// dynamic.detector_deadline_ms: siteposed's own key in the sitepose
-// `dynamic` section (pipeline::DeadlineDetect).
+// Where a detector plugin .so runs (detect::IsolationOptions): in a child
+// process, sitepose-detector-host (its crash or hang is counted and it is
+// restarted), or in siteposed itself (a crash ends the daemon).
+enum class DetectorIsolation { kProcess, kInProcess };
+
+// dynamic.detector_deadline_ms, dynamic.detector_isolation: siteposed's own
+// keys in the sitepose `dynamic` section (pipeline::DeadlineDetect,
+// detect::load_isolated_plugin). The built-in detectors run in-process
+// whatever detector_isolation says.
 struct DetectDeadlineConfig {
   double detector_deadline_ms = 0.0;  // 0: one frame period of a live source, 5 s for a lossless replay
+  DetectorIsolation detector_isolation = DetectorIsolation::kProcess;
 };
 
 struct DaemonConfig {

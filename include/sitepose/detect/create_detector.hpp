@@ -34,6 +34,7 @@
 #include "sitepose/core/expected.hpp"
 #include "sitepose/core/stereo_camera.hpp"
 #include "sitepose/detect/detector.hpp"
+#include "sitepose/detect/isolated_detector.hpp"
 
 namespace sitepose::detect {
 
@@ -50,8 +51,12 @@ Expected<std::string> builtin_plugin_path(const std::string& name);
 Expected<std::string> plugin_config_yaml(const config::DetectorConfig& config,
                                          const DetectorContext& context);
 
+// `isolation`: a plugin .so path is run in sitepose-detector-host when
+// isolation.in_child_process (isolated_detector.hpp); the built-ins always
+// run in this process (they are part of sitepose, and tested with it).
 Expected<std::unique_ptr<Detector>> create_detector(const config::DetectorConfig& config,
-                                                    const DetectorContext& context);
+                                                    const DetectorContext& context,
+                                                    const IsolationOptions& isolation = {});
 
 // Adds to dynamic.dynamic_classes the classes the configured detector
 // reports that are dynamic by construction: stereo-geometric's only class,

@@ -17,7 +17,9 @@
 //     `grace` for it, then leaves it (detached, the wrapped hook with it) so
 //     that the daemon can still stop; the process ends with it.
 // A crash inside the detector (SIGSEGV, abort) cannot be survived in-process;
-// isolating the detector in a child process is not done.
+// siteposed runs a plugin .so in a child process for that
+// (detect/isolated_detector.hpp), whose failed calls reach this hook as
+// errors like any other.
 // Threads: annotate() on the detect thread only; counters() from any thread.
 
 #include <chrono>

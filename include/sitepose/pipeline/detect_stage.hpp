@@ -41,7 +41,9 @@ class DetectorStage final : public DetectHook {
 // detect::create_detector(config.detector, context). Errors: the
 // detector's; kInvalidArgument for mode pixel with a detector that cannot
 // segment (the other modes fall back to box masks).
+// `isolation` as create_detector() takes it.
 Expected<std::unique_ptr<DetectHook>> make_detect_hook(const config::SiteposeConfig& config,
-                                                       const detect::DetectorContext& context);
+                                                       const detect::DetectorContext& context,
+                                                       const detect::IsolationOptions& isolation = {});
 
 }  // namespace sitepose::pipeline

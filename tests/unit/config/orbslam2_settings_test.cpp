@@ -180,6 +180,23 @@ TEST(OrbSlam2Settings, MalformedFileIsAParseErrorNamingFileAndLine) {
   EXPECT_TRUE(contains(indent.error().message, "i.yaml:3: malformed")) << indent.error().message;
 }
 
+// fuzz_orbslam2_settings: OpenCV's reader spun for good on this text (corpus
+// orbslam2_settings/two_documents_hang); more than one document marker, or
+// a marker line with more on it, is refused before OpenCV sees it.
+TEST(OrbSlam2Settings, SecondDocumentMarkerIsRefusedNotAHang) {
+  const auto hang = load_orbslam2_settings_from_string("%YAML:1.0\n----d\n----\ns: 1\n", "d.yaml");
+  ASSERT_FALSE(hang.has_value());
+  EXPECT_EQ(hang.error().code, ErrorCode::kParseError);
+  EXPECT_TRUE(contains(hang.error().message, "d.yaml:2: malformed")) << hang.error().message;
+  const auto two =
+      load_orbslam2_settings_from_string("%YAML:1.0\n---\n" + kGood.substr(10) + "---\n", "t.yaml");
+  ASSERT_FALSE(two.has_value());
+  EXPECT_TRUE(contains(two.error().message, "document start")) << two.error().message;
+  // One plain marker, as OpenCV writes files, still loads.
+  const auto one = load_orbslam2_settings_from_string("%YAML:1.0\n---\n" + kGood.substr(10), "o.yaml");
+  EXPECT_TRUE(one.has_value()) << one.error().message;
+}
+
 TEST(OrbSlam2Settings, MissingHeaderAndEmptyFileAreExplained) {
   const auto no_header = load_orbslam2_settings_from_string("Camera.fx: 1\n", "h.yaml");
   ASSERT_FALSE(no_header.has_value());

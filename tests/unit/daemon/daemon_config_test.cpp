@@ -84,7 +84,8 @@ TEST(DaemonConfig, DocumentedFileAgreesWithTheTable) {
           << entry.path << " = " << d.value << " (default " << entry.value << ")";
     }
   }
-  EXPECT_EQ(own, 3);  // mapping.map_file, mapping.checkpoint_interval_s, dynamic.detector_deadline_ms
+  // mapping.map_file, mapping.checkpoint_interval_s, dynamic.detector_deadline_ms, dynamic.detector_isolation
+  EXPECT_EQ(own, 4);
 }
 
 TEST(DaemonConfig, ShippedFileLoadsAndWritesWhatReadsBackTheSame) {

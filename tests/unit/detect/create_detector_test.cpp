@@ -92,5 +92,31 @@ TEST(CreateDetector, APathLoadsAThirdPartyPlugin) {
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
 }
 
+// Isolation applies to a plugin .so only: with a host that cannot start,
+// a built-in still loads (in this process) and a .so path fails naming it.
+TEST(CreateDetector, IsolationRunsPluginPathsInTheHostAndBuiltinsHere) {
+  IsolationOptions isolation;
+  isolation.in_child_process = true;
+  isolation.host_path = "/nonexistent/sitepose-detector-host";
+  config::DetectorConfig geometric;
+  geometric.name = "stereo-geometric";
+  DetectorContext context;
+  context.camera = testing::centred_camera(480, 270, 350.0, 1.0);
+  auto builtin = create_detector(geometric, context, isolation);
+  EXPECT_TRUE(builtin) << builtin.error().message;
+  config::DetectorConfig plugin;
+  plugin.name = DETECT_TEST_GARBAGE_PLUGIN;
+  auto isolated = create_detector(plugin, {}, isolation);
+  ASSERT_FALSE(isolated);
+  EXPECT_TRUE(contains(isolated.error().message, "/nonexistent/sitepose-detector-host"))
+      << isolated.error().message;
+  isolation.host_path.clear();
+  auto in_host = create_detector(plugin, {}, isolation);
+  ASSERT_TRUE(in_host) << in_host.error().message;
+  auto dets = (*in_host)->detect(test::gray_frame(64, 48));
+  ASSERT_TRUE(dets) << dets.error().message;
+  EXPECT_EQ(dets->size(), 2u);
+}
+
 }  // namespace
 }  // namespace sitepose::detect

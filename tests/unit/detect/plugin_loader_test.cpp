@@ -1,5 +1,7 @@
 #include "sitepose/detect/plugin_loader.hpp"
 
+#include "sitepose/detect/isolated_detector.hpp"
+
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -13,26 +15,44 @@ bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
 }
 
-TEST(PluginLoader, MissingFileIsNotFoundNamingThePath) {
-  auto d = load_detector_plugin("/nonexistent/libnothing.so", "");
+// Every loader guarantee holds for a plugin in this process and for one in
+// sitepose-detector-host (the same validation, the loader's own messages).
+class PluginLoader : public ::testing::TestWithParam<bool> {
+ protected:
+  static Expected<std::unique_ptr<Detector>> load(const std::string& path, const std::string& yaml,
+                                                  const PluginLoadOptions& options = {}) {
+    if (!GetParam()) return load_detector_plugin(path, yaml, options);
+    IsolationOptions isolation;
+    isolation.in_child_process = true;
+    return load_isolated_plugin(path, yaml, options, isolation);
+  }
+};
+
+INSTANTIATE_TEST_SUITE_P(Detector, PluginLoader, ::testing::Bool(),
+                         [](const ::testing::TestParamInfo<bool>& info) {
+                           return info.param ? "InHostProcess" : "InProcess";
+                         });
+
+TEST_P(PluginLoader, MissingFileIsNotFoundNamingThePath) {
+  auto d = load("/nonexistent/libnothing.so", "");
   ASSERT_FALSE(d);
   EXPECT_EQ(d.error().code, ErrorCode::kNotFound);
   EXPECT_TRUE(contains(d.error().message, "/nonexistent/libnothing.so")) << d.error().message;
 }
 
-TEST(PluginLoader, FileThatIsNotALibraryIsRefused) {
+TEST_P(PluginLoader, FileThatIsNotALibraryIsRefused) {
   const testing::TempDir dir;
   const std::string path = dir / "fake.so";
   std::ofstream(path) << "this is not an ELF file\n";
-  auto d = load_detector_plugin(path, "");
+  auto d = load(path, "");
   ASSERT_FALSE(d);
   EXPECT_EQ(d.error().code, ErrorCode::kUnsupported);
   EXPECT_TRUE(contains(d.error().message, path)) << d.error().message;
   EXPECT_TRUE(contains(d.error().message, "cannot be loaded")) << d.error().message;
 }
 
-TEST(PluginLoader, LibraryWithoutTheAbiNamesTheMissingSymbols) {
-  auto d = load_detector_plugin(DETECT_TEST_MISSING_SYMBOL_PLUGIN, "");
+TEST_P(PluginLoader, LibraryWithoutTheAbiNamesTheMissingSymbols) {
+  auto d = load(DETECT_TEST_MISSING_SYMBOL_PLUGIN, "");
   ASSERT_FALSE(d);
   EXPECT_EQ(d.error().code, ErrorCode::kUnsupported);
   const std::string& m = d.error().message;
@@ -43,8 +63,8 @@ TEST(PluginLoader, LibraryWithoutTheAbiNamesTheMissingSymbols) {
   EXPECT_FALSE(contains(m, "sitepose_detector_create")) << m;
 }
 
-TEST(PluginLoader, WrongAbiVersionIsRefusedNamingBothVersions) {
-  auto d = load_detector_plugin(DETECT_TEST_WRONG_ABI_PLUGIN, "");
+TEST_P(PluginLoader, WrongAbiVersionIsRefusedNamingBothVersions) {
+  auto d = load(DETECT_TEST_WRONG_ABI_PLUGIN, "");
   ASSERT_FALSE(d);
   EXPECT_EQ(d.error().code, ErrorCode::kUnsupported);
   EXPECT_TRUE(contains(d.error().message, "ABI version 99")) << d.error().message;
@@ -52,24 +72,24 @@ TEST(PluginLoader, WrongAbiVersionIsRefusedNamingBothVersions) {
   EXPECT_TRUE(contains(d.error().message, DETECT_TEST_WRONG_ABI_PLUGIN)) << d.error().message;
 }
 
-TEST(PluginLoader, CreateFailureQuotesThePlugin) {
-  auto d = load_detector_plugin(DETECT_TEST_GARBAGE_PLUGIN, "mode: create_fail");
+TEST_P(PluginLoader, CreateFailureQuotesThePlugin) {
+  auto d = load(DETECT_TEST_GARBAGE_PLUGIN, "mode: create_fail");
   ASSERT_FALSE(d);
   EXPECT_TRUE(contains(d.error().message, "garbage plugin refuses to start")) << d.error().message;
 }
 
-TEST(PluginLoader, CapacityBelowOneIsRefused) {
+TEST_P(PluginLoader, CapacityBelowOneIsRefused) {
   PluginLoadOptions options;
   options.capacity = 0;
-  auto d = load_detector_plugin(DETECT_TEST_GARBAGE_PLUGIN, "mode: garbage", options);
+  auto d = load(DETECT_TEST_GARBAGE_PLUGIN, "mode: garbage", options);
   ASSERT_FALSE(d);
   EXPECT_EQ(d.error().code, ErrorCode::kInvalidArgument);
 }
 
-TEST(PluginLoader, GarbageDetectionsAreDroppedAndCounted) {
+TEST_P(PluginLoader, GarbageDetectionsAreDroppedAndCounted) {
   PluginLoadOptions options;
   options.name = "garbage";
-  auto d = load_detector_plugin(DETECT_TEST_GARBAGE_PLUGIN, "mode: garbage", options);
+  auto d = load(DETECT_TEST_GARBAGE_PLUGIN, "mode: garbage", options);
   ASSERT_TRUE(d) << d.error().message;
   Detector& detector = **d;
   EXPECT_EQ(detector.name(), "garbage");
@@ -101,10 +121,10 @@ TEST(PluginLoader, GarbageDetectionsAreDroppedAndCounted) {
   EXPECT_EQ(detector.health().frames, 2);
 }
 
-TEST(PluginLoader, ScoreThresholdFiltersWithoutCountingAsGarbage) {
+TEST_P(PluginLoader, ScoreThresholdFiltersWithoutCountingAsGarbage) {
   PluginLoadOptions options;
   options.min_score = 0.8;
-  auto d = load_detector_plugin(DETECT_TEST_GARBAGE_PLUGIN, "mode: garbage", options);
+  auto d = load(DETECT_TEST_GARBAGE_PLUGIN, "mode: garbage", options);
   ASSERT_TRUE(d) << d.error().message;
   auto dets = (*d)->detect(test::gray_frame(64, 48));
   ASSERT_TRUE(dets);
@@ -112,10 +132,10 @@ TEST(PluginLoader, ScoreThresholdFiltersWithoutCountingAsGarbage) {
   EXPECT_EQ((*d)->health().dropped_detections, 10);
 }
 
-TEST(PluginLoader, CountBeyondCapacityIsDroppedAndCounted) {
+TEST_P(PluginLoader, CountBeyondCapacityIsDroppedAndCounted) {
   PluginLoadOptions options;
   options.capacity = 4;
-  auto d = load_detector_plugin(DETECT_TEST_GARBAGE_PLUGIN, "mode: overflow", options);
+  auto d = load(DETECT_TEST_GARBAGE_PLUGIN, "mode: overflow", options);
   ASSERT_TRUE(d) << d.error().message;
   auto dets = (*d)->detect(test::gray_frame(64, 48));
   ASSERT_TRUE(dets) << dets.error().message;
@@ -123,8 +143,8 @@ TEST(PluginLoader, CountBeyondCapacityIsDroppedAndCounted) {
   EXPECT_EQ((*d)->health().dropped_detections, 3 + 7);
 }
 
-TEST(PluginLoader, FailedCallsReturnErrorsAndCount) {
-  auto d = load_detector_plugin(DETECT_TEST_GARBAGE_PLUGIN, "mode: fail");
+TEST_P(PluginLoader, FailedCallsReturnErrorsAndCount) {
+  auto d = load(DETECT_TEST_GARBAGE_PLUGIN, "mode: fail");
   ASSERT_TRUE(d) << d.error().message;
   const StereoFrame frame = test::gray_frame(64, 48, 17);
   auto dets = (*d)->detect(frame);
@@ -138,8 +158,8 @@ TEST(PluginLoader, FailedCallsReturnErrorsAndCount) {
   EXPECT_EQ((*d)->health().failed_calls, 2);
 }
 
-TEST(PluginLoader, NegativeCountIsAFailedCall) {
-  auto d = load_detector_plugin(DETECT_TEST_GARBAGE_PLUGIN, "mode: negative_count");
+TEST_P(PluginLoader, NegativeCountIsAFailedCall) {
+  auto d = load(DETECT_TEST_GARBAGE_PLUGIN, "mode: negative_count");
   ASSERT_TRUE(d) << d.error().message;
   auto dets = (*d)->detect(test::gray_frame(64, 48));
   ASSERT_FALSE(dets);
@@ -147,8 +167,8 @@ TEST(PluginLoader, NegativeCountIsAFailedCall) {
   EXPECT_EQ((*d)->health().failed_calls, 1);
 }
 
-TEST(PluginLoader, MaskPixelsOutsideTheirBoxAreCleared) {
-  auto d = load_detector_plugin(DETECT_TEST_GARBAGE_PLUGIN, "mode: garbage");
+TEST_P(PluginLoader, MaskPixelsOutsideTheirBoxAreCleared) {
+  auto d = load(DETECT_TEST_GARBAGE_PLUGIN, "mode: garbage");
   ASSERT_TRUE(d) << d.error().message;
   const StereoFrame frame = test::gray_frame(64, 48);
   auto dets = (*d)->detect(frame);
@@ -165,8 +185,8 @@ TEST(PluginLoader, MaskPixelsOutsideTheirBoxAreCleared) {
   EXPECT_EQ((*d)->health().segment_calls, 1);
 }
 
-TEST(PluginLoader, FramesTheAbiCannotCarryAreRejected) {
-  auto d = load_detector_plugin(DETECT_TEST_GARBAGE_PLUGIN, "mode: garbage");
+TEST_P(PluginLoader, FramesTheAbiCannotCarryAreRejected) {
+  auto d = load(DETECT_TEST_GARBAGE_PLUGIN, "mode: garbage");
   ASSERT_TRUE(d) << d.error().message;
   StereoFrame color = test::gray_frame(64, 48);
   color.left = cv::Mat(48, 64, CV_8UC3, cv::Scalar::all(0));

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstring>
 
+#include <limits>
+
 #include <gtest/gtest.h>
 
 namespace sitepose::output {
@@ -36,10 +38,10 @@ M round_trip(const M& in) {
 
 TEST(LcmMessages, PoseInSiteFrameRoundTrips) {
   const PoseEstimate pose = sample_pose();
-  auto frame = geo::SiteFrame::create({35.68, 139.76, 40.0},
-                                      SE3(Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ())),
-                                          Eigen::Vector3d(10, 20, 1)),
-                                      geo::ForwardAxis::kMinusX);
+  auto frame = geo::SiteFrame::create(
+      {35.68, 139.76, 40.0},
+      SE3(Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ())), Eigen::Vector3d(10, 20, 1)),
+      geo::ForwardAxis::kMinusX);
   ASSERT_TRUE(frame.has_value());
   auto site = frame->to_site(pose);
   ASSERT_TRUE(site.has_value());
@@ -99,7 +101,9 @@ TEST(LcmMessages, HealthRoundTripsWithVariableArrays) {
   h.frames_captured = 1000;
   h.frames_tracked = 990;
   h.stalls = 1;
-  h.stages = {{"capture", 0, 1, 2.5, 4.0}, {"detect", 3, 0, 0.1, 0.2}, {"track", 7, 2, 25.0, 48.0},
+  h.stages = {{"capture", 0, 1, 2.5, 4.0},
+              {"detect", 3, 0, 0.1, 0.2},
+              {"track", 7, 2, 25.0, 48.0},
               {"publish", 0, 0, 0.3, 1.0}};
   h.outputs = {{"lcm", 2, 0}, {"can", 5, 1}};
   const sitepose::health_t m = round_trip(to_lcm_health(h));
@@ -154,6 +158,19 @@ TEST(LcmMessages, GnssFixRoundTripsAndIsValidated) {
   auto none = from_lcm_gnss_fix(bad);
   ASSERT_TRUE(none.has_value());
   EXPECT_FALSE(none->has_position());
+  // A time whose nanoseconds do not fit 64 bits (fuzz_gnss_fix: signed
+  // overflow, corpus gnss_fix/utime_overflow) is refused, the limit kept.
+  bad = m;
+  bad.utime = std::numeric_limits<std::int64_t>::max() / 1000 + 1;
+  auto overflow = from_lcm_gnss_fix(bad);
+  ASSERT_FALSE(overflow.has_value());
+  EXPECT_NE(overflow.error().message.find("out of range"), std::string::npos) << overflow.error().message;
+  bad.utime = -bad.utime;
+  EXPECT_FALSE(from_lcm_gnss_fix(bad).has_value());
+  bad.utime = std::numeric_limits<std::int64_t>::max() / 1000;
+  auto largest = from_lcm_gnss_fix(bad);
+  ASSERT_TRUE(largest.has_value());
+  EXPECT_EQ(largest->t_ns, bad.utime * 1000);
 }
 
 TEST(LcmMessages, DecodeRejectsWrongTypeAndTruncation) {
