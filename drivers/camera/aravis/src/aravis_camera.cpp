@@ -64,6 +64,11 @@ class AravisCamera final : public CameraDevice {
   Expected<Poll> poll(std::chrono::microseconds timeout) override;
   Status trigger() override;
   std::uint64_t failed_buffers() const override { return failed_; }
+  std::uint64_t underruns() const override {
+    guint64 n = 0;
+    arv_stream_get_statistics(stream_, nullptr, nullptr, &n);
+    return n;
+  }
 
  private:
   static void on_control_lost(ArvDevice* /*device*/, gpointer self) {
