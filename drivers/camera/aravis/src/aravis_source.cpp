@@ -143,8 +143,8 @@ void AravisSource::lose(Camera& camera, const std::string& why) {
   spdlog::warn("aravis: {} camera {} lost ({}); reconnecting with back-off from {:.2f} s",
                side_name(camera.side), camera.id, why, options_.reconnect_min_s);
   camera.failed_before += camera.device->failed_buffers();
-  camera.underruns_before += camera.device->underruns();
-  camera.underruns_warned = 0;
+  camera.underruns_before += camera.device->underruns() - camera.underruns_base;
+  camera.underruns_base = camera.underruns_seen = 0;
   camera.device.reset();
   camera.clock.reset();
   camera.backoff_s = options_.reconnect_min_s;
@@ -198,12 +198,12 @@ Status AravisSource::poll_camera(Camera& camera, std::chrono::microseconds timeo
 // say why, once per new loss, with the key that sizes the pool.
 void AravisSource::warn_of_underruns(Camera& camera) {
   const std::uint64_t n = camera.device->underruns();
-  if (n <= camera.underruns_warned) return;
+  if (n <= camera.underruns_seen) return;
   spdlog::warn(
       "aravis: {} camera {}: {} frame(s) lost, no free stream buffer (source.aravis.buffer_count = {}): the "
       "capture thread fell behind",
-      side_name(camera.side), camera.id, n - camera.underruns_warned, options_.camera.buffer_count);
-  camera.underruns_warned = n;
+      side_name(camera.side), camera.id, n - camera.underruns_seen, options_.camera.buffer_count);
+  camera.underruns_seen = n;
 }
 
 void AravisSource::trigger_if_due(Clock::time_point now) {
@@ -246,7 +246,12 @@ Expected<SourceEvent> AravisSource::next(std::stop_token stop, pipeline::SteadyT
     // Silence before the first call (the daemon still starting) is not a
     // lost camera, and the first software trigger is due now.
     started_ = true;
-    for (Camera& c : cameras_) c.last_frame = Clock::now();
+    for (Camera& c : cameras_) {
+      c.last_frame = Clock::now();
+      // The cameras stream from open(); a pool that ran dry before the first
+      // call (the daemon still loading its detector) lost nothing of the run.
+      if (c.device) c.underruns_base = c.underruns_seen = c.device->underruns();
+    }
     next_trigger_ = Clock::now();
   }
   for (;;) {
@@ -280,7 +285,7 @@ AravisSourceStats AravisSource::stats() const {
   s.pairing = pairer_.counts();
   for (const Camera& c : cameras_) {
     s.failed_buffers += c.failed_before + (c.device ? c.device->failed_buffers() : 0);
-    s.underruns += c.underruns_before + (c.device ? c.device->underruns() : 0);
+    s.underruns += c.underruns_before + (c.underruns_seen - c.underruns_base);
   }
   s.disconnects = disconnects_;
   s.reconnects = reconnects_;

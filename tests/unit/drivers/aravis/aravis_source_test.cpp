@@ -205,7 +205,7 @@ TEST(AravisSource, UnpluggedCameraStallsThenReconnectsWithBackoff) {
   EXPECT_EQ(source.stats().reconnects, 1u);
 }
 
-TEST(AravisSource, FramesLostToAnEmptyBufferPoolAreCountedAcrossAReconnect) {
+TEST(AravisSource, FramesLostToAnEmptyBufferPoolWhileCapturingAreCountedAcrossAReconnect) {
   TempDir dir;
   Rig rig;
   AravisSourceOptions o = options(dir);
@@ -213,10 +213,15 @@ TEST(AravisSource, FramesLostToAnEmptyBufferPoolAreCountedAcrossAReconnect) {
   auto opened = AravisSource::open(o, opener(rig));
   ASSERT_TRUE(opened) << opened.error().message;
   AravisSource& source = **opened;
-  rig.cameras["L"].underruns = 2;
+  rig.cameras["R"].underruns = 5;  // before capture began: the daemon still starting
   rig.feed_pair(1000, 1);
   auto first = next_within(source, 500ms);
   ASSERT_TRUE(first && first->kind == SourceEventKind::kFrame);
+  EXPECT_EQ(source.stats().underruns, 0u);
+  rig.cameras["L"].underruns = 2;
+  rig.feed_pair(1050, 3);
+  auto second = next_within(source, 500ms);
+  ASSERT_TRUE(second && second->kind == SourceEventKind::kFrame);
   EXPECT_EQ(source.stats().underruns, 2u);
 
   rig.cameras["L"].unplugged = true;

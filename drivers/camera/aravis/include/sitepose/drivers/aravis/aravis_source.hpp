@@ -58,7 +58,8 @@ Status check_aravis_source_options(const AravisSourceOptions& options);
 struct AravisSourceStats {
   PairerCounts pairing;
   std::uint64_t failed_buffers = 0;  // both cameras, all connections
-  std::uint64_t underruns = 0;       // frames lost for want of a free stream buffer, both cameras
+  std::uint64_t underruns = 0;       // frames lost for want of a free stream buffer, both cameras,
+                                     // as of each camera's last frame (not after capture stopped)
   std::uint64_t disconnects = 0;
   std::uint64_t reconnects = 0;
   std::int64_t clock_offset_left_ns = 0;  // host - camera (clock_mapper.hpp)
@@ -96,7 +97,8 @@ class AravisSource final : public pipeline::FrameSource {
     double backoff_s = 0.0;
     std::uint64_t failed_before = 0;     // failed buffers of earlier connections
     std::uint64_t underruns_before = 0;  // underruns of earlier connections
-    std::uint64_t underruns_warned = 0;  // of this connection, the count last logged
+    std::uint64_t underruns_base = 0;    // of this connection, before capture began (not losses)
+    std::uint64_t underruns_seen = 0;    // of this connection, at its last frame (logged)
   };
 
   AravisSource(const AravisSourceOptions& options, CameraOpener opener, calib::StereoRectifier rectifier,
