@@ -93,7 +93,8 @@ bool FakeStereoFeed::playing_at(std::int64_t t_ns) const {
 
 bool FakeStereoFeed::shows(int side, std::int64_t camera_t_ns, const cv::Mat& image) const {
   const cv::Mat& want = image_of_period(sides_[side], period_of(camera_t_ns));
-  return image.size() == want.size() && image.type() == want.type() && cv::norm(image, want, cv::NORM_INF) == 0.0;
+  return image.size() == want.size() && image.type() == want.type() &&
+         cv::norm(image, want, cv::NORM_INF) == 0.0;
 }
 
 int FakeStereoFeed::slot_of(int side, const cv::Mat& image) const {

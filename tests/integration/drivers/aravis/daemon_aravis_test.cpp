@@ -7,9 +7,9 @@
 #include <signal.h>
 #include <lcm/lcm-cpp.hpp>
 
+#include <cstdlib>
 #include <map>
 #include <set>
-#include <cstdlib>
 #include <thread>
 
 #include "fake_stereo_feed.hpp"
@@ -123,8 +123,8 @@ class TestCamera final : public CameraDevice {
 
 // `checks.unplugged` applies to the right camera only.
 CameraOpener test_opener(CameraOpener inner, TestCamera::Checks checks) {
-  return [inner = std::move(inner), checks](const std::string& id,
-                                            const CameraSettings& s) -> Expected<std::unique_ptr<CameraDevice>> {
+  return [inner = std::move(inner), checks](
+             const std::string& id, const CameraSettings& s) -> Expected<std::unique_ptr<CameraDevice>> {
     const int side = id == "Fake_R" ? 1 : 0;
     if (side == 1 && checks.unplugged && checks.unplugged->load())
       return make_error(ErrorCode::kNotFound, "camera Fake_R: not found");
@@ -225,8 +225,8 @@ TEST(AravisDaemon, FullModeOnTwoFakeCamerasTracksTheParallelScenario) {
         testing::wait_for(last_image_tracked, 60s, 100ms);
       });
   // Every frame the cameras made is paired, with its own instant's partner.
-  EXPECT_EQ(feed.missed(0) + feed.missed(1), 0)
-      << "a fake camera's thread slept through a whole frame period: the harness, not the source, lost a frame";
+  EXPECT_EQ(feed.missed(0) + feed.missed(1), 0) << "a fake camera's thread slept through a whole frame "
+                                                   "period: the harness, not the source, lost a frame";
   EXPECT_GE(stats.pairing.pairs, static_cast<std::uint64_t>(kFrames));
   EXPECT_EQ(stats.pairing.unpaired_left, 0u);
   EXPECT_EQ(stats.pairing.unpaired_right, 0u);
@@ -260,8 +260,9 @@ TEST(AravisDaemon, FullModeOnTwoFakeCamerasTracksTheParallelScenario) {
       static_cast<unsigned long long>(stats.pairing.unpaired_left),
       static_cast<unsigned long long>(stats.pairing.unpaired_right),
       static_cast<unsigned long long>(stats.pairing.skipped_at_start),
-      static_cast<unsigned long long>(stats.underruns), feed.missed(0) + feed.missed(1), wrong_pictures.load(),
-      static_cast<double>(feed.max_fill_delay_ns(0)) * 1e-6, static_cast<double>(feed.max_fill_delay_ns(1)) * 1e-6);
+      static_cast<unsigned long long>(stats.underruns), feed.missed(0) + feed.missed(1),
+      wrong_pictures.load(), static_cast<double>(feed.max_fill_delay_ns(0)) * 1e-6,
+      static_cast<double>(feed.max_fill_delay_ns(1)) * 1e-6);
   EXPECT_EQ(static_cast<int>(est.size()), kFrames);
   EXPECT_LE(result->ate_m.rmse, 0.02);
 }
