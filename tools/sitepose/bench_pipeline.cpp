@@ -271,13 +271,14 @@ int run_bench_pipeline(const BenchPipelineArgs& a) {
     const auto& pairing = cams->aravis.pairing;
     std::printf(
         "  from the camera time stamp: p50 %.1f ms p99 %.1f ms max %.1f ms; pairs %llu, unpaired %llu, "
-        "skipped at start %llu, failed buffers %llu\n",
+        "skipped at start %llu, failed buffers %llu, underruns %llu\n",
         from_camera.p50_ms, from_camera.p99_ms, from_camera.max_ms,
         static_cast<unsigned long long>(pairing.pairs),
         static_cast<unsigned long long>(pairing.unpaired_left) +
             static_cast<unsigned long long>(pairing.unpaired_right),
         static_cast<unsigned long long>(pairing.skipped_at_start),
-        static_cast<unsigned long long>(cams->aravis.failed_buffers));
+        static_cast<unsigned long long>(cams->aravis.failed_buffers),
+        static_cast<unsigned long long>(cams->aravis.underruns));
   }
   std::printf("goal: >= 30 frames/s with p99 <= 60 ms: %s\n",
               fps >= 30.0 && lat.p99_ms <= 60.0 ? "met" : "not met on this machine");

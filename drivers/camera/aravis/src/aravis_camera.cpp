@@ -28,20 +28,13 @@ std::int64_t realtime_now_ns() {
 
 std::optional<PixelFormat> from_arv_format(ArvPixelFormat format) {
   switch (format) {
-    case ARV_PIXEL_FORMAT_MONO_8:
-      return PixelFormat::kMono8;
-    case ARV_PIXEL_FORMAT_MONO_16:
-      return PixelFormat::kMono16;
-    case ARV_PIXEL_FORMAT_BAYER_RG_8:
-      return PixelFormat::kBayerRG8;
-    case ARV_PIXEL_FORMAT_BAYER_GR_8:
-      return PixelFormat::kBayerGR8;
-    case ARV_PIXEL_FORMAT_BAYER_GB_8:
-      return PixelFormat::kBayerGB8;
-    case ARV_PIXEL_FORMAT_BAYER_BG_8:
-      return PixelFormat::kBayerBG8;
-    default:
-      return std::nullopt;
+    case ARV_PIXEL_FORMAT_MONO_8: return PixelFormat::kMono8;
+    case ARV_PIXEL_FORMAT_MONO_16: return PixelFormat::kMono16;
+    case ARV_PIXEL_FORMAT_BAYER_RG_8: return PixelFormat::kBayerRG8;
+    case ARV_PIXEL_FORMAT_BAYER_GR_8: return PixelFormat::kBayerGR8;
+    case ARV_PIXEL_FORMAT_BAYER_GB_8: return PixelFormat::kBayerGB8;
+    case ARV_PIXEL_FORMAT_BAYER_BG_8: return PixelFormat::kBayerBG8;
+    default: return std::nullopt;
   }
 }
 
@@ -64,6 +57,11 @@ class AravisCamera final : public CameraDevice {
   Expected<Poll> poll(std::chrono::microseconds timeout) override;
   Status trigger() override;
   std::uint64_t failed_buffers() const override { return failed_; }
+  std::uint64_t underruns() const override {
+    guint64 n = 0;
+    arv_stream_get_statistics(stream_, nullptr, nullptr, &n);
+    return n;
+  }
 
  private:
   static void on_control_lost(ArvDevice* /*device*/, gpointer self) {

@@ -19,6 +19,10 @@ using Clock = std::chrono::steady_clock;
 
 using camera::side_name;
 
+// Short polls, alternating between the cameras, keep a frame's wait for its
+// partner and the answer to a stop request within milliseconds.
+constexpr std::chrono::microseconds kPoll{1000};
+
 Clock::duration seconds(double s) {
   return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
 }
@@ -139,6 +143,8 @@ void AravisSource::lose(Camera& camera, const std::string& why) {
   spdlog::warn("aravis: {} camera {} lost ({}); reconnecting with back-off from {:.2f} s",
                side_name(camera.side), camera.id, why, options_.reconnect_min_s);
   camera.failed_before += camera.device->failed_buffers();
+  camera.underruns_before += camera.device->underruns() - camera.underruns_base;
+  camera.underruns_base = camera.underruns_seen = 0;
   camera.device.reset();
   camera.clock.reset();
   camera.backoff_s = options_.reconnect_min_s;
@@ -181,10 +187,23 @@ Status AravisSource::poll_camera(Camera& camera, std::chrono::microseconds timeo
     camera.last_frame = now;
     const std::int64_t pair_t_ns = options_.pair_clock == PairClock::kCamera ? f.camera_t_ns : f.host_t_ns;
     pairer_.push(camera.side, pair_t_ns, std::move(f));
+    warn_of_underruns(camera);
   } else if (expecting_frames() && now - camera.last_frame > seconds(options_.lost_timeout_s)) {
     lose(camera, "no frame for " + std::to_string(options_.lost_timeout_s) + " s");
   }
   return ok_status();
+}
+
+// A frame lost to an empty pool leaves its partner unpaired (or both lost):
+// say why, once per new loss, with the key that sizes the pool.
+void AravisSource::warn_of_underruns(Camera& camera) {
+  const std::uint64_t n = camera.device->underruns();
+  if (n <= camera.underruns_seen) return;
+  spdlog::warn(
+      "aravis: {} camera {}: {} frame(s) lost, no free stream buffer (source.aravis.buffer_count = {}): the "
+      "capture thread fell behind",
+      side_name(camera.side), camera.id, n - camera.underruns_seen, options_.camera.buffer_count);
+  camera.underruns_seen = n;
 }
 
 void AravisSource::trigger_if_due(Clock::time_point now) {
@@ -194,9 +213,20 @@ void AravisSource::trigger_if_due(Clock::time_point now) {
     if (auto st = c.device->trigger(); !st) lose(c, st.error().message);
     if (!cameras_[0].device || !cameras_[1].device) return;
   }
+  // Never two triggers closer than a period: a camera still busy with the
+  // last frame may drop a trigger, and the other camera of the pair may not
+  // (unpaired frames). So a late trigger (a loaded host) delays the next one
+  // instead of being made up for.
   const Clock::duration period = seconds(1.0 / options_.camera.frame_rate_hz);
-  next_trigger_ += period;
-  if (next_trigger_ < now) next_trigger_ = now + period;  // fell behind: no burst
+  next_trigger_ = std::max(next_trigger_ + period, now + period);
+}
+
+std::chrono::microseconds AravisSource::poll_timeout(Clock::time_point now) const {
+  // No triggers while a camera is lost (trigger_if_due): nothing to be back for.
+  if (options_.camera.trigger != TriggerMode::kSoftware || !expecting_frames()) return kPoll;
+  // Back in time for the next trigger: a late one shifts all after it.
+  const auto until = std::chrono::duration_cast<std::chrono::microseconds>(next_trigger_ - now);
+  return std::clamp(until, std::chrono::microseconds{0}, kPoll);
 }
 
 Expected<StereoFrame> AravisSource::make_frame(const camera::StereoPair<CameraFrame>& pair) {
@@ -212,14 +242,16 @@ Expected<StereoFrame> AravisSource::make_frame(const camera::StereoPair<CameraFr
 }
 
 Expected<SourceEvent> AravisSource::next(std::stop_token stop, pipeline::SteadyTime deadline) {
-  // Short polls, alternating between the cameras, keep a frame's wait for
-  // its partner and the answer to a stop request within milliseconds.
-  constexpr std::chrono::microseconds kPoll{1000};
   if (!started_) {
     // Silence before the first call (the daemon still starting) is not a
     // lost camera, and the first software trigger is due now.
     started_ = true;
-    for (Camera& c : cameras_) c.last_frame = Clock::now();
+    for (Camera& c : cameras_) {
+      c.last_frame = Clock::now();
+      // The cameras stream from open(); a pool that ran dry before the first
+      // call (the daemon still loading its detector) lost nothing of the run.
+      if (c.device) c.underruns_base = c.underruns_seen = c.device->underruns();
+    }
     next_trigger_ = Clock::now();
   }
   for (;;) {
@@ -233,7 +265,7 @@ Expected<SourceEvent> AravisSource::next(std::stop_token stop, pipeline::SteadyT
     for (Camera& c : cameras_) {
       if (!c.device) continue;
       any = true;
-      SITEPOSE_TRY_STATUS(poll_camera(c, kPoll));
+      SITEPOSE_TRY_STATUS(poll_camera(c, poll_timeout(Clock::now())));
     }
     if (auto pair = pairer_.pop()) {
       SITEPOSE_TRY(StereoFrame frame, make_frame(*pair));
@@ -251,8 +283,10 @@ Expected<SourceEvent> AravisSource::next(std::stop_token stop, pipeline::SteadyT
 AravisSourceStats AravisSource::stats() const {
   AravisSourceStats s;
   s.pairing = pairer_.counts();
-  for (const Camera& c : cameras_)
+  for (const Camera& c : cameras_) {
     s.failed_buffers += c.failed_before + (c.device ? c.device->failed_buffers() : 0);
+    s.underruns += c.underruns_before + (c.underruns_seen - c.underruns_base);
+  }
   s.disconnects = disconnects_;
   s.reconnects = reconnects_;
   s.clock_offset_left_ns = cameras_[0].clock.offset_ns();

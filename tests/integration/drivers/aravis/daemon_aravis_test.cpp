@@ -7,6 +7,7 @@
 #include <signal.h>
 #include <lcm/lcm-cpp.hpp>
 
+#include <cstdlib>
 #include <map>
 #include <set>
 #include <thread>
@@ -83,36 +84,54 @@ std::string config_text(const TempDir& dir, const Rendered& r, const std::string
          "dynamic: {mode: full}\ndetector: {name: stereo-geometric}\n";
 }
 
-// A camera that can be unplugged: the device then fails (as Aravis reports a
-// lost control channel) and opening it finds nothing until it is back.
-class UnpluggableCamera final : public CameraDevice {
+// A fake camera as the tests see it: it can be unplugged (the device then
+// fails, as Aravis reports a lost control channel, and opening it finds
+// nothing until it is back), and with a feed it checks that each frame's
+// picture is the sequence image of its camera stamp (so no pair can mix
+// two instants).
+class TestCamera final : public CameraDevice {
  public:
-  UnpluggableCamera(std::unique_ptr<CameraDevice> inner, const std::atomic<bool>& unplugged)
-      : inner_(std::move(inner)), unplugged_(unplugged) {}
+  struct Checks {
+    const std::atomic<bool>* unplugged = nullptr;
+    const FakeStereoFeed* feed = nullptr;  // compare pictures with their stamps
+    std::atomic<int>* wrong_pictures = nullptr;
+  };
+  TestCamera(std::unique_ptr<CameraDevice> inner, int side, Checks checks)
+      : inner_(std::move(inner)), side_(side), checks_(checks) {}
   int width() const override { return inner_->width(); }
   int height() const override { return inner_->height(); }
   std::string describe() const override { return inner_->describe(); }
   Expected<Poll> poll(std::chrono::microseconds timeout) override {
-    if (unplugged_.load()) return make_error(ErrorCode::kIoError, "control channel lost");
-    return inner_->poll(timeout);
+    if (checks_.unplugged && checks_.unplugged->load())
+      return make_error(ErrorCode::kIoError, "control channel lost");
+    auto polled = inner_->poll(timeout);
+    if (polled && polled->kind == PollKind::kFrame && checks_.feed &&
+        !checks_.feed->shows(side_, polled->frame.camera_t_ns, polled->frame.gray)) {
+      checks_.wrong_pictures->fetch_add(1);
+    }
+    return polled;
   }
   Status trigger() override { return inner_->trigger(); }
   std::uint64_t failed_buffers() const override { return inner_->failed_buffers(); }
+  std::uint64_t underruns() const override { return inner_->underruns(); }
 
  private:
   std::unique_ptr<CameraDevice> inner_;
-  const std::atomic<bool>& unplugged_;
+  int side_;
+  Checks checks_;
 };
 
-CameraOpener unpluggable(CameraOpener inner, const std::atomic<bool>& right_unplugged) {
-  return [inner = std::move(inner), &right_unplugged](
+// `checks.unplugged` applies to the right camera only.
+CameraOpener test_opener(CameraOpener inner, TestCamera::Checks checks) {
+  return [inner = std::move(inner), checks](
              const std::string& id, const CameraSettings& s) -> Expected<std::unique_ptr<CameraDevice>> {
-    if (id == "Fake_R" && right_unplugged.load())
+    const int side = id == "Fake_R" ? 1 : 0;
+    if (side == 1 && checks.unplugged && checks.unplugged->load())
       return make_error(ErrorCode::kNotFound, "camera Fake_R: not found");
     SITEPOSE_TRY(auto device, inner(id, s));
-    static const std::atomic<bool> never{false};
-    return std::unique_ptr<CameraDevice>(
-        new UnpluggableCamera(std::move(device), id == "Fake_R" ? right_unplugged : never));
+    TestCamera::Checks mine = checks;
+    if (side == 0) mine.unplugged = nullptr;
+    return std::unique_ptr<CameraDevice>(new TestCamera(std::move(device), side, mine));
   };
 }
 
@@ -173,11 +192,19 @@ TEST(AravisDaemon, FullModeOnTwoFakeCamerasTracksTheParallelScenario) {
   TempDir dir("aravis-daemon");
   auto config = daemon::load_daemon_config_from_string(config_text(dir, r, ""), "aravis.yaml", "");
   ASSERT_TRUE(config) << config.error().message;
-  // Rings that hold the whole run: a busy test machine delays frames
-  // instead of dropping them (a live camera's full ring drops the oldest).
+  // This test is about the camera path, not this machine's compute budget:
+  // rings that hold the whole run and a detector deadline of a lossless
+  // replay make a busy test machine delay frames instead of dropping them
+  // or tracking them unmasked (a live camera's full ring drops the oldest,
+  // and a detector call over one frame period is abandoned). At load 21-25
+  // on 2 cores the one-period deadline was missed on 41-65 frames and ATE
+  // went to 0.1-1.6 m; `sitepose bench pipeline --source aravis` measures
+  // the real-time budget.
   config->pipeline.capture_ring_capacity = 128;
   config->pipeline.detect_ring_capacity = 128;
+  config->detect_deadline.detector_deadline_ms = 5000.0;
   FakeStereoFeed feed(r.left, r.right, r.fps, FakeStereoFeed::Playback::kOnce);
+  std::atomic<int> wrong_pictures{0};
   const auto period = std::chrono::nanoseconds(feed.period_ns());
   // True once the trajectory holds the pose of the last image.
   auto last_image_tracked = [&] {
@@ -187,16 +214,25 @@ TEST(AravisDaemon, FullModeOnTwoFakeCamerasTracksTheParallelScenario) {
     }
     return false;
   };
-  const AravisSourceStats stats = run_daemon(*config, aravis_camera_opener(feed.opener_options()), [&] {
-    std::this_thread::sleep_for(4 * period);  // the first image, still: the map initialises on it
-    feed.start();
-    std::this_thread::sleep_for(kFrames * period);
-    testing::wait_for(last_image_tracked, 60s, 100ms);
-  });
+  TestCamera::Checks checks;
+  checks.feed = &feed;
+  checks.wrong_pictures = &wrong_pictures;
+  const AravisSourceStats stats =
+      run_daemon(*config, test_opener(aravis_camera_opener(feed.opener_options()), checks), [&] {
+        std::this_thread::sleep_for(4 * period);  // the first image, still: the map initialises on it
+        feed.start();
+        std::this_thread::sleep_for(kFrames * period);
+        testing::wait_for(last_image_tracked, 60s, 100ms);
+      });
+  // Every frame the cameras made is paired, with its own instant's partner.
+  EXPECT_EQ(feed.missed(0) + feed.missed(1), 0) << "a fake camera's thread slept through a whole frame "
+                                                   "period: the harness, not the source, lost a frame";
   EXPECT_GE(stats.pairing.pairs, static_cast<std::uint64_t>(kFrames));
   EXPECT_EQ(stats.pairing.unpaired_left, 0u);
   EXPECT_EQ(stats.pairing.unpaired_right, 0u);
+  EXPECT_EQ(stats.underruns, 0u);
   EXPECT_EQ(stats.failed_buffers, 0u);
+  EXPECT_EQ(wrong_pictures.load(), 0);
 
   // Poses of the played images, on the sequence's clock (one per image).
   auto tum = io::read_tum_trajectory(dir / "traj.tum");
@@ -212,17 +248,23 @@ TEST(AravisDaemon, FullModeOnTwoFakeCamerasTracksTheParallelScenario) {
   }
   auto result = eval::evaluate(r.gt, est, eval::EvalOptions{});
   ASSERT_TRUE(result) << result.error().message;
+  double load[1] = {0.0};
+  getloadavg(load, 1);
   std::printf(
       "[figures] siteposed on two Aravis fake cameras, parallel %dx%d at %.0f fps, mode full "
-      "(stereo-geometric): %zu of %d images tracked, ATE %.4f m, pairs %llu, unpaired 0, skipped at "
-      "start %llu\n",
-      kW, kH, r.fps, est.size(), kFrames, result->ate_m.rmse,
+      "(stereo-geometric), load %.1f: %zu of %d images tracked, ATE %.4f m, pairs %llu, unpaired %llu/%llu, "
+      "skipped at start %llu, underruns %llu, missed exposures %d, wrong pictures %d, longest fill delay "
+      "%.1f / %.1f ms\n",
+      kW, kH, r.fps, load[0], est.size(), kFrames, result->ate_m.rmse,
       static_cast<unsigned long long>(stats.pairing.pairs),
-      static_cast<unsigned long long>(stats.pairing.skipped_at_start));
-  EXPECT_GE(static_cast<int>(est.size()), kFrames * 9 / 10);
-  // Live capture and the mapper thread make runs differ; the bound leaves
-  // room above the worst run measured (see the commit that set it).
-  EXPECT_LE(result->ate_m.rmse, 0.025);
+      static_cast<unsigned long long>(stats.pairing.unpaired_left),
+      static_cast<unsigned long long>(stats.pairing.unpaired_right),
+      static_cast<unsigned long long>(stats.pairing.skipped_at_start),
+      static_cast<unsigned long long>(stats.underruns), feed.missed(0) + feed.missed(1),
+      wrong_pictures.load(), static_cast<double>(feed.max_fill_delay_ns(0)) * 1e-6,
+      static_cast<double>(feed.max_fill_delay_ns(1)) * 1e-6);
+  EXPECT_EQ(static_cast<int>(est.size()), kFrames);
+  EXPECT_LE(result->ate_m.rmse, 0.02);
 }
 
 TEST(AravisDaemon, LostCameraPublishesLostThenTrackingResumes) {
@@ -236,6 +278,8 @@ TEST(AravisDaemon, LostCameraPublishesLostThenTrackingResumes) {
   ASSERT_TRUE(config) << config.error().message;
   FakeStereoFeed feed(r.left, r.right, r.fps, FakeStereoFeed::Playback::kOnce);
   std::atomic<bool> right_unplugged{false};
+  TestCamera::Checks checks;
+  checks.unplugged = &right_unplugged;
   const auto period = std::chrono::nanoseconds(feed.period_ns());
   const auto gone = 2s;
   std::int64_t unplug_ns = 0, replug_ns = 0;
@@ -245,7 +289,7 @@ TEST(AravisDaemon, LostCameraPublishesLostThenTrackingResumes) {
         .count();
   };
   const AravisSourceStats stats =
-      run_daemon(*config, unpluggable(aravis_camera_opener(feed.opener_options()), right_unplugged), [&] {
+      run_daemon(*config, test_opener(aravis_camera_opener(feed.opener_options()), checks), [&] {
         std::this_thread::sleep_for(4 * period);
         feed.start();
         std::this_thread::sleep_for(kFrames / 2 * period);

@@ -29,6 +29,7 @@ struct Rig {
     std::deque<CameraFrame> frames;
     int opens = 0;
     int triggers = 0;
+    std::uint64_t underruns = 0;  // the open device's count
     std::vector<Clock::time_point> trigger_times;
   };
   std::map<std::string, Camera> cameras;
@@ -69,6 +70,7 @@ class ScriptedCamera final : public CameraDevice {
     return ok_status();
   }
   std::uint64_t failed_buffers() const override { return 0; }
+  std::uint64_t underruns() const override { return rig_.cameras[id_].underruns; }
 
  private:
   Rig& rig_;
@@ -201,6 +203,40 @@ TEST(AravisSource, UnpluggedCameraStallsThenReconnectsWithBackoff) {
   EXPECT_EQ(back->frame.left.at<std::uint8_t>(0, 0), 2);
   EXPECT_EQ(back->frame.seq, 1);
   EXPECT_EQ(source.stats().reconnects, 1u);
+}
+
+TEST(AravisSource, FramesLostToAnEmptyBufferPoolWhileCapturingAreCountedAcrossAReconnect) {
+  TempDir dir;
+  Rig rig;
+  AravisSourceOptions o = options(dir);
+  o.lost_timeout_s = 30.0;
+  auto opened = AravisSource::open(o, opener(rig));
+  ASSERT_TRUE(opened) << opened.error().message;
+  AravisSource& source = **opened;
+  rig.cameras["R"].underruns = 5;  // before capture began: the daemon still starting
+  rig.feed_pair(1000, 1);
+  auto first = next_within(source, 500ms);
+  ASSERT_TRUE(first && first->kind == SourceEventKind::kFrame);
+  EXPECT_EQ(source.stats().underruns, 0u);
+  rig.cameras["L"].underruns = 2;
+  rig.feed_pair(1050, 3);
+  auto second = next_within(source, 500ms);
+  ASSERT_TRUE(second && second->kind == SourceEventKind::kFrame);
+  EXPECT_EQ(source.stats().underruns, 2u);
+
+  rig.cameras["L"].unplugged = true;
+  auto stalled = next_within(source, 50ms);
+  ASSERT_TRUE(stalled);
+  EXPECT_EQ(source.stats().underruns, 2u) << "the lost connection's count is kept";
+  rig.cameras["L"].underruns = 1;  // the new connection's own count
+  rig.cameras["L"].unplugged = false;
+  rig.cameras["L"].frames.clear();
+  rig.cameras["R"].frames.clear();
+  rig.feed_pair(2000, 2);
+  auto back = next_within(source, 500ms);
+  ASSERT_TRUE(back && back->kind == SourceEventKind::kFrame);
+  EXPECT_EQ(source.stats().reconnects, 1u);
+  EXPECT_EQ(source.stats().underruns, 3u);
 }
 
 TEST(AravisSource, SilentCameraIsLostAfterTheTimeout) {

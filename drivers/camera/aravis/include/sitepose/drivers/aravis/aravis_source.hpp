@@ -6,7 +6,8 @@
 // rectified with maps computed once (calib/rectifier.hpp).
 // Timing: free-run (each camera at frame_rate_hz; pair_tolerance must cover
 // the phase between the two), or software trigger (the source triggers both
-// cameras every 1 / frame_rate_hz; they expose within the trigger latency).
+// cameras every 1 / frame_rate_hz, never faster: a late trigger delays the
+// rest; they expose within the trigger latency).
 // Hardware trigger and PTP with scheduled action commands are set up in the
 // cameras' feature files (firmware-config/), not here.
 // A lost camera (Aravis reports it, or it sends nothing for lost_timeout_s)
@@ -56,7 +57,9 @@ Status check_aravis_source_options(const AravisSourceOptions& options);
 
 struct AravisSourceStats {
   PairerCounts pairing;
-  std::uint64_t failed_buffers = 0;  // both cameras, current connections
+  std::uint64_t failed_buffers = 0;  // both cameras, all connections
+  std::uint64_t underruns = 0;       // frames lost for want of a free stream buffer, both cameras,
+                                     // as of each camera's last frame (not after capture stopped)
   std::uint64_t disconnects = 0;
   std::uint64_t reconnects = 0;
   std::int64_t clock_offset_left_ns = 0;  // host - camera (clock_mapper.hpp)
@@ -92,7 +95,10 @@ class AravisSource final : public pipeline::FrameSource {
     Clock::time_point last_frame{};
     Clock::time_point next_attempt{};
     double backoff_s = 0.0;
-    std::uint64_t failed_before = 0;  // failed buffers of earlier connections
+    std::uint64_t failed_before = 0;     // failed buffers of earlier connections
+    std::uint64_t underruns_before = 0;  // underruns of earlier connections
+    std::uint64_t underruns_base = 0;    // of this connection, before capture began (not losses)
+    std::uint64_t underruns_seen = 0;    // of this connection, at its last frame (logged)
   };
 
   AravisSource(const AravisSourceOptions& options, CameraOpener opener, calib::StereoRectifier rectifier,
@@ -101,6 +107,8 @@ class AravisSource final : public pipeline::FrameSource {
   Status try_reconnect(Camera& camera, Clock::time_point now);
   Status poll_camera(Camera& camera, std::chrono::microseconds timeout);
   void trigger_if_due(Clock::time_point now);
+  std::chrono::microseconds poll_timeout(Clock::time_point now) const;
+  void warn_of_underruns(Camera& camera);
   // A triggered camera whose partner is lost gets no triggers: no frames
   // are due then, and silence is not a fault.
   bool expecting_frames() const {

@@ -50,7 +50,7 @@ struct CameraSettings {
   double frame_rate_hz = 20.0;
   int packet_size_bytes = 0;  // GigE: 0 = negotiate the largest that passes
   int packet_delay_ns = 0;    // GigE inter-packet delay (two cameras on one link)
-  int buffer_count = 8;       // stream buffer pool
+  int buffer_count = 8;       // stream buffer pool: frames the capture thread may fall behind by
 };
 
 enum class PollKind { kFrame, kNothing };
@@ -75,6 +75,9 @@ class CameraDevice {
   virtual Status trigger() = 0;
   // Buffers that arrived incomplete or failed.
   virtual std::uint64_t failed_buffers() const = 0;
+  // Frames the camera sent while every stream buffer was taken (the
+  // capture thread fell behind by more than the pool): lost on the host.
+  virtual std::uint64_t underruns() const = 0;
 };
 
 // Opens, configures and starts streaming one camera (device_id: Aravis's
