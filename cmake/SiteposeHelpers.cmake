@@ -24,13 +24,19 @@ function(sitepose_add_library module)
 endfunction()
 
 # sitepose_add_test(<name> SOURCES ... DEPS ... LABELS unit|integration|regression
-#                   [TIMEOUT seconds])
+#                   [TIMEOUT seconds] [SERIAL])
 # One GoogleTest executable; each TEST() is registered with ctest so failures
-# name the case.
+# name the case. SERIAL: ctest runs its cases alone (RUN_SERIAL), for tests
+# whose figures depend on having the machine's cores, such as the ATE of a
+# live pipeline whose mapper thread otherwise starves.
 function(sitepose_add_test name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "SERIAL" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 120)
+  endif()
+  set(serial_property "")
+  if(ARG_SERIAL)
+    set(serial_property RUN_SERIAL TRUE)
   endif()
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main
@@ -40,6 +46,6 @@ function(sitepose_add_test name)
     SITEPOSE_SITEPOSE_EXE="$<TARGET_FILE_DIR:sitepose>/sitepose")
   include(GoogleTest)
   gtest_discover_tests(${name}
-    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
+    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} ${serial_property}
     DISCOVERY_TIMEOUT 60)
 endfunction()
