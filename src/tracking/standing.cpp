@@ -33,7 +33,7 @@ bool TwoMotions::agree() const {
 StandingVerdict judge_two_motions(const TwoMotions& m) {
   if (!m.reestimate_valid || m.reestimate_inliers <= 0) return StandingVerdict::kUnsure;
   if (m.agree()) {
-    const bool near = m.moved_m <= kLeftRadiusM && m.reestimate_m <= kLeftRadiusM;
+    const bool near = m.reestimate_m <= kNearRadiusM;
     const bool view_kept = m.reestimate_inliers >= kKeptShare * m.standing_inliers;
     const bool departed = m.reestimate_precise && m.departing_s >= kDepartureS;
     return near || view_kept || departed ? StandingVerdict::kMoved : StandingVerdict::kUnsure;

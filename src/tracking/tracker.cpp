@@ -424,10 +424,10 @@ void Tracker::check_standing(const PreparedFrame& frame, const std::vector<std::
   EstimateTimings timings = result.timings;
   timings.local_map_ms += held.timings.local_map_ms;
   timings.motion_ba_ms += held.timings.motion_ba_ms;
-  // Held, or in doubt with the re-estimate still near the anchor: the
-  // standing pose is committed (RECOVERING when unsure).
+  // Moved or held: the re-estimate (see standing.hpp). In doubt, the
+  // re-estimate when it stayed near the anchor (RECOVERING either way).
   const bool keep_standing =
-      verdict == StandingVerdict::kHeld ||
+      verdict == StandingVerdict::kMoved || verdict == StandingVerdict::kHeld ||
       (verdict == StandingVerdict::kUnsure && held.valid && m.reestimate_m <= kLeftRadiusM);
   if (keep_standing) result = std::move(held);
   result.standing = verdict;
@@ -483,12 +483,13 @@ std::string not_precise_reason(const PassResult& result) {
 }
 
 // Whether the standing test placed result's pose at the anchor (within the
-// still radius, held there, or agreeing within kLeftRadiusM).
+// still radius, held there, or agreeing within kNearRadiusM).
 bool at_standing_anchor(const PassResult& result) {
   switch (result.standing) {
     case StandingVerdict::kStill:
     case StandingVerdict::kHeld: return true;
-    case StandingVerdict::kMoved: return result.two_motions && result.two_motions->moved_m <= kLeftRadiusM;
+    case StandingVerdict::kMoved:
+      return result.two_motions && result.two_motions->reestimate_m <= kNearRadiusM;
     default: return false;
   }
 }

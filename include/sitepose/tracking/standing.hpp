@@ -26,10 +26,15 @@ namespace sitepose::tracking {
 inline constexpr double kStillRadiusM = 0.01;
 inline constexpr double kStillAngleRad = 0.0087;  // 0.5 deg
 inline constexpr double kStandingWindowS = 0.5;
-// Within kLeftRadiusM of the anchor either hypothesis is right to within
-// the radius (the bound of a right pose), so an estimate that agrees with
-// the re-estimate from the anchor is accepted there. Beyond it the drive-off
-// is confirmed, and the anchor forgotten, only while the re-estimate keeps
+// When the two hypotheses agree, the re-estimate from the anchor is
+// committed: in a drive-off it converges to the moved pose, and where the
+// view constrains the pose weakly it stays with the standing prior. Within
+// kNearRadiusM of the anchor it is accepted as it is: a right pose is within
+// 0.05 m, and this leaves 2 cm for the anchor's own error. Beyond that an
+// agreement counts only while the re-estimate keeps at least kKeptShare of
+// the inliers the standing camera had (or departs steadily, below); a
+// drive-off is confirmed, and the anchor forgotten, once a pose so accepted
+// is more than kLeftRadiusM from the anchor. The re-estimate must keep
 // at least kKeptShare of the inliers the standing camera had: the first
 // centimetres of a drive-off change the view little, whereas a machine that
 // covers the view and drags the pose leaves few of them.
@@ -37,6 +42,7 @@ inline constexpr double kStandingWindowS = 0.5;
 // confirmed once the pose has left the anchor further with every frame,
 // each one agreeing and precise, for kDepartureS: a dragged pose jumps back
 // and forth with whatever the passing machine's texture offers.
+inline constexpr double kNearRadiusM = 0.03;
 inline constexpr double kLeftRadiusM = 0.05;
 inline constexpr double kKeptShare = 0.5;
 inline constexpr double kDepartureS = 0.5;
