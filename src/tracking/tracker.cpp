@@ -610,14 +610,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
     }
   }
   count_close_repeatability(frame, result);
-  map_.write([&](map::MapData& map) {
-    for (map::PointId pid : result.visible_points) {
-      if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
-    }
-    for (map::PointId pid : result.point_of_keypoint) {
-      if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_found;
-    }
-  });
+  count_visible_and_found(result);
   update_standing(frame, result);
   // A pose that has not held yet adds nothing to the map: if it is wrong,
   // its points would be wrong where the map is right. A standing camera
@@ -633,6 +626,17 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
   pose.counters.features_used = result.n_inliers;
   pose.counters.features_used_pass1 = result.n_inliers;
   return pose;
+}
+
+void Tracker::count_visible_and_found(const PassResult& result) {
+  map_.write([&](map::MapData& map) {
+    for (map::PointId pid : result.visible_points) {
+      if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
+    }
+    for (map::PointId pid : result.point_of_keypoint) {
+      if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_found;
+    }
+  });
 }
 
 void Tracker::update_standing(const PreparedFrame& frame, const PassResult& result) {

@@ -175,6 +175,9 @@ class Tracker {
                      const std::vector<std::uint8_t>& usable) const;
   void create_keyframe(const PreparedFrame& frame, const PassResult& result,
                        const std::vector<std::uint8_t>& usable);
+  // Counts a committed frame's visible and matched points on the map points
+  // (the found ratio the mapper culls by).
+  void count_visible_and_found(const PassResult& result);
   // Updates the close-point repeatability counters with a committed frame.
   void count_close_repeatability(const PreparedFrame& frame, const PassResult& result);
 
