@@ -8,6 +8,7 @@
 
 #include "sitepose/core/se3.hpp"
 #include "sitepose/map/map_data.hpp"
+#include "sitepose/tracking/standing.hpp"
 
 namespace sitepose::tracking {
 
@@ -29,7 +30,9 @@ struct PassResult {
   int n_inliers = 0;
   int n_usable_keypoints = 0;
   bool relocalised = false;
-  std::string failure;  // why valid == false or the state is degraded
+  StandingVerdict standing = StandingVerdict::kNotStanding;  // see Tracker::check_standing()
+  std::optional<TwoMotions> two_motions;                     // the test's figures when it ran
+  std::string failure;                                       // why valid == false or the state is degraded
   EstimateTimings timings;
 };
 
