@@ -291,21 +291,14 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     result.T_cam_world = anchor->T_cam_world;
     result.relocalised = anchor->relocalised;
     tracked = true;
-  } else if (has_last_) {
-    if (state_ != TrackingState::kLost) {
-      const SE3 predicted = has_velocity_ ? velocity_ * last_T_cam_world_ : last_T_cam_world_;
-      tracked = track_motion_model(frame, usable, predicted, result);
-      // Too few of the last frame's points re-found (e.g. a machine passing
-      // close hides most of them): the reference keyframe's map from the
-      // predicted pose before relocalisation, which could pick a keyframe
-      // whose points lie on that machine.
-      if (!tracked) tracked = track_reference_map(frame, usable, predicted, result);
-    }
-    // A standing camera most likely still stands, also after a loss (a
-    // machine covered the view): its map from where it stood. After a loss
-    // the pose is held like a relocalisation (see judge_hold()).
-    if (!tracked && standing_.anchor())
-      tracked = track_reference_map(frame, usable, *standing_.anchor(), result);
+  } else if (has_last_ && state_ != TrackingState::kLost) {
+    const SE3 predicted = has_velocity_ ? velocity_ * last_T_cam_world_ : last_T_cam_world_;
+    tracked = track_motion_model(frame, usable, predicted, result);
+    // Too few of the last frame's points re-found (e.g. a machine passing
+    // close hides most of them): the reference keyframe's map from the
+    // predicted pose before relocalisation, which could pick a keyframe
+    // whose points lie on that machine.
+    if (!tracked) tracked = track_reference_map(frame, usable, predicted, result);
   }
   bool relocalised = false;
   if (!tracked) {
@@ -328,62 +321,8 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
   if (!relocalised) track_local_map(frame, usable, anchor, result);
   result.valid = result.n_inliers >= config_.tracking.min_inliers_recovering;
   if (!result.valid) result.failure = "only " + std::to_string(result.n_inliers) + " inliers";
-  if (result.valid && !relocalised) check_standing(frame, usable, result);
   result.timings.total_ms = ms_since(t0);
   return result;
-}
-
-void Tracker::check_standing(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                             PassResult& result) const {
-  const std::optional<SE3>& standing_pose = standing_.anchor();
-  if (!standing_pose) return;
-  if (StandingDetector::still(*standing_pose, result.T_cam_world)) {
-    result.standing = StandingVerdict::kStill;
-    return;
-  }
-  // The second hypothesis: the camera still stands. Tracked from the
-  // anchor as the motion model would (the reference keyframe's local map,
-  // then the local map of its own matches). In a drive-off its matches
-  // pull it to the moved pose; under a dragged pose the background keeps
-  // it at the anchor.
-  PassResult held;
-  held.point_of_keypoint.assign(frame.size(), map::kNoPoint);
-  held.n_usable_keypoints = result.n_usable_keypoints;
-  const bool tracked = track_reference_map(frame, usable, *standing_pose, held);
-  if (tracked) track_local_map(frame, usable, nullptr, held);
-  held.valid = tracked && held.n_inliers >= config_.tracking.min_inliers_recovering;
-  int outside_moved_gate = 0;
-  if (held.valid) {
-    map_.read([&](const map::MapData& map) {
-      for (int k = 0; k < frame.size(); ++k) {
-        const map::MapPoint* p = map.good_point(held.point_of_keypoint[k]);
-        if (p != nullptr && !within_reprojection_gate(frame, k, p->p_world, result.T_cam_world))
-          ++outside_moved_gate;
-      }
-    });
-  }
-  TwoMotions m;
-  m.moved_m = pose_distance(*standing_pose, result.T_cam_world).translation_m;
-  m.reestimate_valid = held.valid;
-  m.reestimate_inliers = held.n_inliers;
-  m.reestimate_m = pose_distance(*standing_pose, held.T_cam_world).translation_m;
-  m.outside_moved_gate = outside_moved_gate;
-  m.reestimate_precise = held.valid && precise_pose(held, config_.tracking.min_inliers_ok);
-  m.standing_inliers = standing_.standing_inliers();
-  m.departing_s = standing_.departing_s(frame.t_ns, m.moved_m);
-  const StandingVerdict verdict = judge_two_motions(m);
-  EstimateTimings timings = result.timings;
-  timings.local_map_ms += held.timings.local_map_ms;
-  timings.motion_ba_ms += held.timings.motion_ba_ms;
-  // Moved or held: the re-estimate (see standing.hpp). In doubt, the
-  // re-estimate when it stayed near the anchor (RECOVERING either way).
-  const bool keep_standing =
-      verdict == StandingVerdict::kMoved || verdict == StandingVerdict::kHeld ||
-      (verdict == StandingVerdict::kUnsure && held.valid && m.reestimate_m <= kLeftRadiusM);
-  if (keep_standing) result = std::move(held);
-  result.standing = verdict;
-  result.two_motions = m;
-  result.timings = timings;
 }
 
 bool Tracker::within_reprojection_gate(const PreparedFrame& frame, int k, const Eigen::Vector3d& p_world,
@@ -433,18 +372,6 @@ std::string not_precise_reason(const PassResult& result) {
          std::to_string(position_sigma_m(result)) + " m";
 }
 
-// Whether the standing test placed result's pose at the anchor (within the
-// still radius, held there, or agreeing within kNearRadiusM).
-bool at_standing_anchor(const PassResult& result) {
-  switch (result.standing) {
-    case StandingVerdict::kStill:
-    case StandingVerdict::kHeld: return true;
-    case StandingVerdict::kMoved:
-      return result.two_motions && result.two_motions->reestimate_m <= kNearRadiusM;
-    default: return false;
-  }
-}
-
 }  // namespace
 
 Tracker::HoldVerdict Tracker::judge_hold(const PreparedFrame& frame, const PassResult& result) const {
@@ -463,10 +390,7 @@ Tracker::HoldVerdict Tracker::judge_hold(const PreparedFrame& frame, const PassR
       return map_aware_position_sigma_m(camera_, pyramid_, frame, data, result);
     });
   }
-  // A standing camera tracked again where it stood (after a machine hid the
-  // view) needs no map-aware bound: the standing test put it at the anchor,
-  // a pose OK before.
-  v.confirmed = v.precise && (map_sigma_m <= kMaxHeldMapAwareSigmaM || at_standing_anchor(result));
+  v.confirmed = v.precise && map_sigma_m <= kMaxHeldMapAwareSigmaM;
   v.dropped = result.valid && ((starts_hold && !v.precise) || (!starts_hold && hold_.fails(v.precise)));
   return v;
 }
@@ -487,8 +411,6 @@ bool Tracker::update_state(const PassResult& result, bool precise, bool confirme
 
 std::string Tracker::state_reason(const PassResult& result) const {
   if (state_ != TrackingState::kRecovering) return "";
-  if (result.standing == StandingVerdict::kUnsure)
-    return "standing camera: the pose left where it stood, but not with the whole view";
   if (!hold_.holding()) {
     if (result.n_inliers < config_.tracking.min_inliers_ok)
       return "only " + std::to_string(result.n_inliers) + " inliers";
@@ -546,11 +468,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
   }
 
   const bool relocalised = update_state(result, verdict.precise, verdict.confirmed);
-  // In doubt whether a standing camera moved: never OK, and no velocity
-  // that would carry a dragged pose on.
-  const bool unsure = result.standing == StandingVerdict::kUnsure;
-  if (unsure) state_ = TrackingState::kRecovering;
-  has_velocity_ = has_last_ && !relocalised && !unsure;
+  has_velocity_ = has_last_ && !relocalised;
   if (has_velocity_) velocity_ = result.T_cam_world * last_T_cam_world_.inverse();
   last_T_cam_world_ = result.T_cam_world;
   has_last_ = true;
@@ -561,25 +479,6 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
     }
   }
   count_close_repeatability(frame, result);
-  count_visible_and_found(result);
-  update_standing(frame, result);
-  // A pose that has not held yet adds nothing to the map: if it is wrong,
-  // its points would be wrong where the map is right. A standing camera
-  // adds nothing either: its view has no parallax to add, and what it would
-  // add is whatever passes in front of it (the points that drag the pose).
-  if (!hold_.holding() && !standing_.anchor() && need_keyframe(frame, result, usable))
-    create_keyframe(frame, result, usable);
-
-  pose.state = state_;
-  pose.state_reason = state_reason(result);
-  pose.T_world_cam = result.T_cam_world.inverse();
-  pose.covariance = result.covariance_world_cam.value_or(Matrix6d::Identity() * 1e6);
-  pose.counters.features_used = result.n_inliers;
-  pose.counters.features_used_pass1 = result.n_inliers;
-  return pose;
-}
-
-void Tracker::count_visible_and_found(const PassResult& result) {
   map_.write([&](map::MapData& map) {
     for (map::PointId pid : result.visible_points) {
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
@@ -588,22 +487,17 @@ void Tracker::count_visible_and_found(const PassResult& result) {
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_found;
     }
   });
-}
+  // A pose that has not held yet adds nothing to the map: if it is wrong,
+  // its points would be wrong where the map is right.
+  if (!hold_.holding() && need_keyframe(frame, result, usable)) create_keyframe(frame, result, usable);
 
-void Tracker::update_standing(const PreparedFrame& frame, const PassResult& result) {
-  if (result.relocalised) {  // the camera may be anywhere: stand anew
-    standing_.forget();
-    return;
-  }
-  if (result.two_motions) standing_.note_departure(frame.t_ns, *result.two_motions);
-  if (result.standing == StandingVerdict::kStill) standing_.note_still();
-  const std::optional<SE3>& standing_pose = standing_.anchor();
-  if (result.standing == StandingVerdict::kMoved && standing_pose &&
-      pose_distance(*standing_pose, result.T_cam_world).translation_m > kLeftRadiusM) {
-    standing_.forget();
-  }
-  if (result.standing != StandingVerdict::kUnsure && !hold_.holding())
-    standing_.update(frame.t_ns, result.T_cam_world, result.n_inliers);
+  pose.state = state_;
+  pose.state_reason = state_reason(result);
+  pose.T_world_cam = result.T_cam_world.inverse();
+  pose.covariance = result.covariance_world_cam.value_or(Matrix6d::Identity() * 1e6);
+  pose.counters.features_used = result.n_inliers;
+  pose.counters.features_used_pass1 = result.n_inliers;
+  return pose;
 }
 
 void Tracker::count_close_repeatability(const PreparedFrame& frame, const PassResult& result) {

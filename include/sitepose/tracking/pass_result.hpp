@@ -8,7 +8,6 @@
 
 #include "sitepose/core/se3.hpp"
 #include "sitepose/map/map_data.hpp"
-#include "sitepose/tracking/standing.hpp"
 
 namespace sitepose::tracking {
 
@@ -30,9 +29,7 @@ struct PassResult {
   int n_inliers = 0;
   int n_usable_keypoints = 0;
   bool relocalised = false;
-  StandingVerdict standing = StandingVerdict::kNotStanding;  // see Tracker::check_standing()
-  std::optional<TwoMotions> two_motions;                     // the test's figures when it ran
-  std::string failure;                                       // why valid == false or the state is degraded
+  std::string failure;  // why valid == false or the state is degraded
   EstimateTimings timings;
 };
 

@@ -31,7 +31,6 @@
 #include "sitepose/tracking/prepared_frame.hpp"
 #include "sitepose/tracking/projection_search.hpp"
 #include "sitepose/tracking/relocaliser.hpp"
-#include "sitepose/tracking/standing.hpp"
 
 namespace sitepose::tracking {
 
@@ -131,15 +130,6 @@ class Tracker {
   // reference keyframe there) before the frame counts as lost.
   bool track_reference_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                            const SE3& predicted, PassResult& result) const;
-  // While the camera stands (standing_ has an anchor) and result's pose left
-  // the still radius: re-estimates the pose from the anchor and sets
-  // result.standing (standing.hpp); on kHeld result becomes the
-  // re-estimate.
-  void check_standing(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                      PassResult& result) const;
-  // Commits result's standing verdict: the detector learns the pose, or
-  // forgets the anchor on a confirmed drive-off.
-  void update_standing(const PreparedFrame& frame, const PassResult& result);
   // Without anchor: the local map of result's own matches, which stay.
   // With anchor: the anchor's local map, every keypoint matched afresh.
   void track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -178,9 +168,6 @@ class Tracker {
                      const std::vector<std::uint8_t>& usable) const;
   void create_keyframe(const PreparedFrame& frame, const PassResult& result,
                        const std::vector<std::uint8_t>& usable);
-  // Counts a committed frame's visible and matched points on the map points
-  // (the found ratio the mapper culls by).
-  void count_visible_and_found(const PassResult& result);
   // Updates the close-point repeatability counters with a committed frame.
   void count_close_repeatability(const PreparedFrame& frame, const PassResult& result);
 
@@ -199,7 +186,6 @@ class Tracker {
   bool has_velocity_ = false;
   Relocaliser relocaliser_;
   RelocalisationHold hold_;                                 // since the last relocalisation
-  StandingDetector standing_;                               // where the camera stands, if it does
   std::vector<std::pair<map::PointId, int>> last_matches_;  // point, octave
   std::vector<map::PointId> last_close_points_;             // sorted; for the repeatability counters
   map::KeyFrameId reference_keyframe_ = map::kNoKeyFrame;
