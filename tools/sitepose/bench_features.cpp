@@ -108,11 +108,8 @@ const CommandRegistrar kBenchFeatures{
      "ORB extraction time of the masked grid extractor vs cv::ORB with the same feature count, one run",
      [](CLI::App& sub) -> CommandAction {
        auto args = std::make_shared<Args>();
-       sub.add_option("--scenario", args->scenario,
-                      "Scenario to simulate in-process (ignored with --sequence)")
-           ->capture_default_str();
-       sub.add_option("--sequence", args->sequence, "Recorded sequence directory instead of a scenario");
-       sub.add_option("--config", args->config_path, "sitepose YAML config (its orb section is used)");
+       add_frame_source_options(sub, args->scenario, args->sequence, args->config_path,
+                                "sitepose YAML config (its orb section is used)");
        sub.add_option("--frames", args->frames, "Frames (0 = all)")->capture_default_str();
        sub.add_option("--repeats", args->repeats, "Extractions per frame and extractor")
            ->capture_default_str();

@@ -168,11 +168,8 @@ const CommandRegistrar kBenchPlacerec{
      "Place-recognition query cost with N keyframes: keyframe database (bag of words) vs the exact vote",
      [](CLI::App& sub) -> CommandAction {
        auto args = std::make_shared<Args>();
-       sub.add_option("--scenario", args->scenario,
-                      "Scenario to simulate in-process (ignored with --sequence)")
-           ->capture_default_str();
-       sub.add_option("--sequence", args->sequence, "Recorded sequence directory instead of a scenario");
-       sub.add_option("--config", args->config_path, "sitepose YAML config (its orb section is used)");
+       add_frame_source_options(sub, args->scenario, args->sequence, args->config_path,
+                                "sitepose YAML config (its orb section is used)");
        sub.add_option("--vocabulary", args->vocabulary,
                       "Vocabulary file (sitepose vocab train); default: one trained on the keyframes")
            ->check(CLI::ExistingFile);

@@ -83,11 +83,8 @@ const CommandRegistrar kBenchTrack{
      "Tracking time per stage (p50/p99), frames/s and memory on a simulated scenario or a sequence",
      [](CLI::App& sub) -> CommandAction {
        auto args = std::make_shared<BenchTrackArgs>();
-       sub.add_option("--scenario", args->scenario,
-                      "Scenario to simulate in-process (ignored with --sequence)")
-           ->capture_default_str();
-       sub.add_option("--sequence", args->sequence, "Recorded sequence directory instead of a scenario");
-       sub.add_option("--config", args->config_path, "sitepose YAML config (mode is forced to none)");
+       add_frame_source_options(sub, args->scenario, args->sequence, args->config_path,
+                                "sitepose YAML config (mode is forced to none)");
        sub.add_option("--frames", args->frames, "Frames to track (0 = all)")
            ->capture_default_str()
            ->check(CLI::Range(0, std::numeric_limits<int>::max()));
