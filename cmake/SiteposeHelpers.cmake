@@ -23,6 +23,16 @@ function(sitepose_add_library module)
   set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE ON)
 endfunction()
 
+# Every test executable labelled asan joins the target sitepose_asan_tests,
+# which the asan build preset builds (tools/asan.sh): the label alone decides
+# what runs under the sanitizers, so a new asan test cannot be left unbuilt.
+add_custom_target(sitepose_asan_tests)
+function(sitepose_register_asan_test target labels)
+  if("asan" IN_LIST labels)
+    add_dependencies(sitepose_asan_tests ${target})
+  endif()
+endfunction()
+
 # sitepose_add_test(<name> SOURCES ... DEPS ... LABELS unit|integration|regression
 #                   [TIMEOUT seconds] [SERIAL])
 # One GoogleTest executable; each TEST() is registered with ctest so failures
@@ -44,6 +54,7 @@ function(sitepose_add_test name)
   target_compile_definitions(${name} PRIVATE
     SITEPOSE_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     SITEPOSE_SITEPOSE_EXE="$<TARGET_FILE_DIR:sitepose>/sitepose")
+  sitepose_register_asan_test(${name} "${ARG_LABELS}")
   include(GoogleTest)
   gtest_discover_tests(${name}
     PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} ${serial_property}
