@@ -57,6 +57,16 @@ function(sitepose_add_test name)
   sitepose_register_asan_test(${name} "${ARG_LABELS}")
   include(GoogleTest)
   gtest_discover_tests(${name}
-    PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} ${serial_property}
+    PROPERTIES TIMEOUT ${ARG_TIMEOUT} ${serial_property}
     DISCOVERY_TIMEOUT 60)
+  # Labels are set by a script ctest reads after the discovered list:
+  # through gtest_discover_tests' PROPERTIES a list of labels ("unit;asan")
+  # is flattened (CMake 3.25), the test got label unit only and the second
+  # label became a property name.
+  set(labels_script ${CMAKE_CURRENT_BINARY_DIR}/${name}_labels.cmake)
+  file(WRITE ${labels_script}
+    "if(DEFINED ${name}_TESTS)\n"
+    "  set_tests_properties(\${${name}_TESTS} PROPERTIES LABELS \"${ARG_LABELS}\")\n"
+    "endif()\n")
+  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${labels_script})
 endfunction()
