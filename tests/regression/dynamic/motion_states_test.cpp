@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -15,6 +16,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "dynamic_scenario.hpp"
 
@@ -47,6 +49,18 @@ void dump(const DynamicRunResult& run) {
   }
 }
 
+// Each moving-called-static object-frame (the unsafe error), to tell a
+// start from rest from a miss in mid-motion.
+void print_moving_called_static(const std::string& scenario, const DynamicRunResult& run) {
+  for (const ObjectSample& s : run.samples) {
+    if (s.moving_gt && *s.moving_gt && s.object.verdict.state == dynamic::MotionState::kStatic) {
+      std::printf("[figures] %s moving called static: frame %lld, %s %u, %d matched points\n",
+                  scenario.c_str(), static_cast<long long>(s.frame), s.object.verdict.class_name.c_str(),
+                  s.object.verdict.instance, s.object.verdict.matched_points);
+    }
+  }
+}
+
 struct Figures {
   StateScores all;
   std::map<std::string, StateScores> by_class;
@@ -70,6 +84,7 @@ Figures run_full(const std::string& scenario, int frames) {
   dump(f.run);
   f.all = score_states(f.run.samples, kMinObjectPoints);
   print_scores(scenario, "all", f.all);
+  print_moving_called_static(scenario, f.run);
   std::set<std::string> classes;
   for (const ObjectSample& smp : f.run.samples) classes.insert(smp.object.verdict.class_name);
   for (const std::string& c : classes) {
@@ -138,11 +153,19 @@ TEST(MotionStates, Standing) {
   EXPECT_GE(f.all.balanced_accuracy(), 0.95);
 }
 
-// The truck comes into view at about 30 s (frame ~180), the roller later.
+// The ego stands while the truck passes (in view in frames 212-368, moving
+// in all of them); the roller comes into view at frame 443, beyond these
+// frames, and neither stops in view. With no static ground truth balanced
+// accuracy and AUC are undefined (NaN), so the decided verdicts are bounded
+// through the unknown share. Measured (seeds 5, 6, 7): 70-71 testable
+// object-frames, unknown 0 / 1.4 / 0 %, 70 moving called moving, moving
+// called static 0.
 TEST(MotionStates, Stopgo) {
   const Figures f = run_full("stopgo", 300);
-  EXPECT_GT(f.all.testable, 20);
+  EXPECT_GE(f.all.testable, 60);
+  EXPECT_EQ(f.all.static_called_static + f.all.static_called_moving, 0) << "static truth: bound BA and AUC";
   EXPECT_EQ(f.all.moving_called_static, 0);
+  EXPECT_LE(f.all.unknown_share(), 0.05);
 }
 
 TEST(MotionStates, Crowded) {
@@ -150,6 +173,22 @@ TEST(MotionStates, Crowded) {
   EXPECT_EQ(f.all.moving_called_static, 0);
   EXPECT_GE(f.all.balanced_accuracy(), 0.95);  // measured 1.000, AUC 0.982, unknown 2.3 %
   EXPECT_LE(f.all.unknown_share(), 0.1);
+}
+
+// crowded with three people on foot, 216 frames: the walking person waits
+// from frame ~120 and walks on at ~180; the roller stops at frame 183 for 22
+// frames; the parked truck drives off at frame 180. Measured (seeds 4, 5,
+// 6): no person frame is testable more than once (a person's static verdict
+// needs 16 points), so people stay masked and are never called static;
+// moving called static 4 / 4 / 3 object-frames, all machines (issue 22 asks
+// 0; this guards the figure).
+TEST(MotionStates, CrowdedPeople) {
+  const Figures f = run_full("crowded-people", 216);
+  ASSERT_EQ(f.by_class.count("person"), 1u);
+  EXPECT_GE(f.by_class.at("person").samples, 100);  // measured 145-146
+  EXPECT_EQ(f.by_class.at("person").moving_called_static, 0);
+  EXPECT_LE(f.all.moving_called_static, 4);
+  EXPECT_GE(f.all.balanced_accuracy(), 0.95);  // measured 0.984-0.990
 }
 
 }  // namespace
