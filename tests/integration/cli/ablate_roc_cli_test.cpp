@@ -3,26 +3,21 @@
 // unknown verdicts split by reason; the same figures are printed.
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <cstdlib>
 #include <map>
 #include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "sitepose/testing/command.hpp"
 #include "sitepose/testing/files.hpp"
 
 namespace sitepose {
 namespace {
 
+using testing::run_command;
 using testing::TempDir;
-
-int run(const std::string& command) {
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
 
 std::vector<std::string> split(const std::string& line) {
   std::vector<std::string> fields;
@@ -70,12 +65,12 @@ machines:
   - {class: excavator, paint: yellow, x_m: 3, y_m: -12, yaw_deg: 20}
   - {class: roller, paint: orange, waypoints: [[4, -6], [-12, -6]], speed_mps: 0.9}
 )");
-  ASSERT_EQ(run(exe + " sim --scenario " + scenario + " --width 320 --height 180 --out " + (dir / "seq") +
-                " > " + (dir / "sim.txt") + " 2>&1"),
+  ASSERT_EQ(run_command(exe + " sim --scenario " + scenario + " --width 320 --height 180 --out " +
+                        (dir / "seq") + " > " + (dir / "sim.txt") + " 2>&1"),
             0)
       << testing::read_text(dir / "sim.txt");
-  const int status = run(exe + " ablate roc --sequence " + (dir / "seq") + " --out-dir " + (dir / "out") +
-                         " > " + (dir / "roc.txt") + " 2>&1");
+  const int status = run_command(exe + " ablate roc --sequence " + (dir / "seq") + " --out-dir " +
+                                 (dir / "out") + " > " + (dir / "roc.txt") + " 2>&1");
   const std::string out = testing::read_text(dir / "roc.txt");
   ASSERT_EQ(status, 0) << out;
 
