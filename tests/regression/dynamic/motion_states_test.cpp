@@ -1,10 +1,11 @@
 // Motion states on the scenarios of issue 22: articulated machines that
 // work in place (slewing), a standing camera (standing, stopgo) and a
-// crowded site. Figures per scenario: balanced accuracy of the decided
-// verdicts, ROC AUC of the motion score, the share of testable
-// object-frames left unknown, and the unsafe error (moving called static),
-// per class and per unknown reason. SITEPOSE_STATES_DUMP=1 prints every
-// object-frame.
+// crowded site, with people on foot (crowded-people). Figures per scenario:
+// balanced accuracy of the decided verdicts, ROC AUC of the motion score,
+// the share of testable object-frames left unknown, and the unsafe error
+// (moving called static), per class and per unknown reason; each stop and
+// how long the machine stays masked after it. SITEPOSE_STATES_DUMP=1 prints
+// every object-frame.
 
 #include <gtest/gtest.h>
 
