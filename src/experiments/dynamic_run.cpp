@@ -106,6 +106,38 @@ std::vector<RemaskEvent> remask_latencies(const std::vector<ObjectSample>& sampl
   return out;
 }
 
+std::vector<UnmaskEvent> unmask_latencies(const std::vector<ObjectSample>& samples, int min_points) {
+  std::map<std::uint16_t, std::vector<const ObjectSample*>> by_instance;
+  for (const auto& s : samples) {
+    if (s.moving_gt) by_instance[s.object.verdict.instance].push_back(&s);
+  }
+  std::vector<UnmaskEvent> out;
+  for (const auto& [instance, list] : by_instance) {
+    bool was_moving = false;
+    std::optional<UnmaskEvent> open;
+    for (const ObjectSample* s : list) {
+      if (*s->moving_gt) {
+        if (open) {
+          out.push_back(*open);
+          open.reset();
+        }
+        was_moving = true;
+        continue;
+      }
+      if (!was_moving) continue;  // parked from the start: not a stop
+      if (!open) open = UnmaskEvent{instance, s->object.verdict.class_name, s->frame, 0, 0, -1};
+      open->stop_frames = static_cast<int>(s->frame - open->stop_frame) + 1;
+      if (open->latency_frames >= 0) continue;
+      open->testable_frames += s->object.verdict.matched_points >= min_points ? 1 : 0;
+      if (s->object.verdict.state == dynamic::MotionState::kStatic) {
+        open->latency_frames = static_cast<int>(s->frame - open->stop_frame);
+      }
+    }
+    if (open) out.push_back(*open);
+  }
+  return out;
+}
+
 int static_flips(const std::vector<ObjectSample>& samples, int min_points) {
   std::map<std::uint16_t, std::vector<const ObjectSample*>> by_instance;
   std::map<std::uint16_t, bool> ever_moving;

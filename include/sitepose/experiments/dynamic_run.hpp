@@ -82,6 +82,20 @@ struct RemaskEvent {
 };
 std::vector<RemaskEvent> remask_latencies(const std::vector<ObjectSample>& samples);
 
+// The other direction: from the first ground-truth static frame after a
+// moving one (a machine stops) to the first frame its state is static
+// (unmasked, usable in pass 2). One entry per stop; the stop lasts until the
+// instance's next ground-truth moving frame or its last sample.
+struct UnmaskEvent {
+  std::uint16_t instance = 0;
+  std::string class_name;
+  std::int64_t stop_frame = 0;
+  int stop_frames = 0;      // frames from the stop to its end (or the last sample)
+  int testable_frames = 0;  // stop samples up to the unmasking one with >= min_points matched points
+  int latency_frames = -1;  // -1 = still masked when the stop ended
+};
+std::vector<UnmaskEvent> unmask_latencies(const std::vector<ObjectSample>& samples, int min_points);
+
 // State changes of objects that are static in the ground truth for the
 // whole run, after their first static verdict (flicker). A change to
 // unknown in a frame where the object has fewer than `min_points` matched

@@ -6,34 +6,30 @@
 // RSS +1.9 % after warm-up.)
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <cstdlib>
 #include <string>
 #include <vector>
 
+#include "sitepose/testing/command.hpp"
 #include "sitepose/testing/files.hpp"
 
 namespace sitepose {
 namespace {
 
+using testing::run_command;
 using testing::TempDir;
-
-int run(const std::string& command) {
-  const int status = std::system(command.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
 
 TEST(BenchSoak, RssStaysFlatAfterWarmUpOnALoopedSequence) {
   TempDir dir("soak");
   const std::string exe = SITEPOSE_SITEPOSE_EXE;
-  ASSERT_EQ(run(exe + " sim --scenario backforth --frames 216 --width 320 --height 180 --out " +
-                (dir / "seq") + " > " + (dir / "sim.txt") + " 2>&1"),
+  ASSERT_EQ(run_command(exe + " sim --scenario backforth --frames 216 --width 320 --height 180 --out " +
+                        (dir / "seq") + " > " + (dir / "sim.txt") + " 2>&1"),
             0)
       << testing::read_text(dir / "sim.txt");
-  const int status = run(exe + " bench soak --sequence " + (dir / "seq") +
-                         " --frames 432 --sample-every 72 --warmup-frames 216 --max-rss-growth 10 --csv " +
-                         (dir / "soak.csv") + " > " + (dir / "soak.txt") + " 2>&1");
+  const int status =
+      run_command(exe + " bench soak --sequence " + (dir / "seq") +
+                  " --frames 432 --sample-every 72 --warmup-frames 216 --max-rss-growth 10 --csv " +
+                  (dir / "soak.csv") + " > " + (dir / "soak.txt") + " 2>&1");
   const std::string out = testing::read_text(dir / "soak.txt");
   EXPECT_EQ(status, 0) << out;
   const std::vector<std::string> rows = testing::read_lines(dir / "soak.csv");

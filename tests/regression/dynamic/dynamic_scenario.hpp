@@ -47,6 +47,7 @@ class Scenario {
     source_ = cache_frames(std::move(*source));
   }
   const std::string& error() const { return error_; }
+  double fps() const { return source_ ? source_->fps() : 0.0; }
 
   // detector: empty = the scenario's labels, else a detector by name.
   ModeFigures run(config::MaskingMode mode,

@@ -1,13 +1,15 @@
 // Motion states on the scenarios of issue 22: articulated machines that
 // work in place (slewing), a standing camera (standing, stopgo) and a
-// crowded site. Figures per scenario: balanced accuracy of the decided
-// verdicts, ROC AUC of the motion score, the share of testable
-// object-frames left unknown, and the unsafe error (moving called static),
-// per class and per unknown reason. SITEPOSE_STATES_DUMP=1 prints every
-// object-frame.
+// crowded site, with people on foot (crowded-people). Figures per scenario:
+// balanced accuracy of the decided verdicts, ROC AUC of the motion score,
+// the share of testable object-frames left unknown, and the unsafe error
+// (moving called static), per class and per unknown reason; each stop and
+// how long the machine stays masked after it. SITEPOSE_STATES_DUMP=1 prints
+// every object-frame.
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -15,6 +17,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "dynamic_scenario.hpp"
 
@@ -47,11 +50,37 @@ void dump(const DynamicRunResult& run) {
   }
 }
 
+// Each moving-called-static object-frame (the unsafe error), to tell a
+// start from rest from a miss in mid-motion.
+void print_moving_called_static(const std::string& scenario, const DynamicRunResult& run) {
+  for (const ObjectSample& s : run.samples) {
+    if (s.moving_gt && *s.moving_gt && s.object.verdict.state == dynamic::MotionState::kStatic) {
+      std::printf("[figures] %s moving called static: frame %lld, %s %u, %d matched points\n",
+                  scenario.c_str(), static_cast<long long>(s.frame), s.object.verdict.class_name.c_str(),
+                  s.object.verdict.instance, s.object.verdict.matched_points);
+    }
+  }
+}
+
 struct Figures {
   StateScores all;
   std::map<std::string, StateScores> by_class;
+  std::vector<UnmaskEvent> stops;  // machines and people that stop
+  double fps = 0.0;
   DynamicRunResult run;
 };
+
+// Frames (and seconds) from each true stop to the first unmasked frame.
+void print_stops(const std::string& scenario, const std::vector<UnmaskEvent>& stops, double fps) {
+  for (const UnmaskEvent& e : stops) {
+    std::printf(
+        "[figures] %s %s %u stops at frame %lld (%d frames): unmasked after %d frames (%.2f s), %d testable "
+        "frames before\n",
+        scenario.c_str(), e.class_name.c_str(), e.instance, static_cast<long long>(e.stop_frame),
+        e.stop_frames, e.latency_frames, e.latency_frames >= 0 ? e.latency_frames / fps : NAN,
+        e.testable_frames);
+  }
+}
 
 // SITEPOSE_STATES_SEED renders another seed of the scenario (figures over
 // several renderings); default the scenario's.
@@ -70,6 +99,10 @@ Figures run_full(const std::string& scenario, int frames) {
   dump(f.run);
   f.all = score_states(f.run.samples, kMinObjectPoints);
   print_scores(scenario, "all", f.all);
+  print_moving_called_static(scenario, f.run);
+  f.stops = unmask_latencies(f.run.samples, kMinObjectPoints);
+  f.fps = s.fps();
+  print_stops(scenario, f.stops, f.fps);
   std::set<std::string> classes;
   for (const ObjectSample& smp : f.run.samples) classes.insert(smp.object.verdict.class_name);
   for (const std::string& c : classes) {
@@ -89,6 +122,16 @@ double unmasked_share(const DynamicRunResult& run, std::uint16_t instance) {
   }
   std::printf("[figures] instance %u unmasked in %d of %d testable frames\n", instance, unmasked, testable);
   return testable > 0 ? static_cast<double>(unmasked) / testable : 0.0;
+}
+
+// Issue 22: a machine that stops is unmasked within a second or two. The
+// first stop of `instance` must be unmasked within `max_s` of its true stop.
+void expect_unmasked_within(const Figures& f, std::uint16_t instance, double max_s) {
+  const auto stop = std::find_if(f.stops.begin(), f.stops.end(),
+                                 [&](const UnmaskEvent& e) { return e.instance == instance; });
+  ASSERT_NE(stop, f.stops.end()) << "instance " << instance << " never stops in view";
+  EXPECT_GE(stop->latency_frames, 0) << "still masked when its stop ended";
+  EXPECT_LE(stop->latency_frames, max_s * f.fps);
 }
 
 // Moving-called-static object-frames that are NOT within the first
@@ -130,19 +173,30 @@ TEST(MotionStates, Slewing) {
 // The ego stands while a truck passes twice and a roller starts and stops
 // (the time-chosen reference). Measured (seed 21, 150 frames): balanced
 // accuracy 0.971, AUC 0.957, unknown 2.7 %, moving called static 0; the
-// parked excavator is called moving in 2 of 124 testable frames (safe).
+// parked excavator is called moving in 2 of 124 testable frames (safe). The
+// roller stops at frame 136 and is unmasked 6 frames (1.0 s) later (seeds
+// 21, 22, 23; docs/dynamic/motion_states.md).
 TEST(MotionStates, Standing) {
   const Figures f = run_full("standing", 150);
   EXPECT_EQ(f.all.moving_called_static, 0);
   EXPECT_LE(f.all.unknown_share(), 0.1);
   EXPECT_GE(f.all.balanced_accuracy(), 0.95);
+  expect_unmasked_within(f, 2, 2.0);
 }
 
-// The truck comes into view at about 30 s (frame ~180), the roller later.
+// The ego stands while the truck passes (in view in frames 212-368, moving
+// in all of them); the roller comes into view at frame 443, beyond these
+// frames, and neither stops in view. With no static ground truth balanced
+// accuracy and AUC are undefined (NaN), so the decided verdicts are bounded
+// through the unknown share. Measured (seeds 5, 6, 7): 70-71 testable
+// object-frames, unknown 0 / 1.4 / 0 %, 70 moving called moving, moving
+// called static 0.
 TEST(MotionStates, Stopgo) {
   const Figures f = run_full("stopgo", 300);
-  EXPECT_GT(f.all.testable, 20);
+  EXPECT_GE(f.all.testable, 60);
+  EXPECT_EQ(f.all.static_called_static + f.all.static_called_moving, 0) << "static truth: bound BA and AUC";
   EXPECT_EQ(f.all.moving_called_static, 0);
+  EXPECT_LE(f.all.unknown_share(), 0.05);
 }
 
 TEST(MotionStates, Crowded) {
@@ -150,6 +204,25 @@ TEST(MotionStates, Crowded) {
   EXPECT_EQ(f.all.moving_called_static, 0);
   EXPECT_GE(f.all.balanced_accuracy(), 0.95);  // measured 1.000, AUC 0.982, unknown 2.3 %
   EXPECT_LE(f.all.unknown_share(), 0.1);
+}
+
+// crowded with three people on foot, 216 frames: the walking person is in
+// view in frames 0-128 (walking from frame 38), the crouching one in frames
+// 108-148; the roller stops at frame 183 for 22 frames; the parked truck
+// drives off at frame 180. Measured (seeds 4, 5, 6): no person frame is
+// testable more than once (a person's static verdict needs 16 points), so
+// people stay masked and are never called static; moving called static
+// 4 / 4 / 3 object-frames, all machines in the first 2 frames of a start
+// (issue 22 asks 0; this guards the figure); the roller is unmasked 1 / 1 / 0
+// frames after its stop.
+TEST(MotionStates, CrowdedPeople) {
+  const Figures f = run_full("crowded-people", 216);
+  ASSERT_EQ(f.by_class.count("person"), 1u);
+  EXPECT_GE(f.by_class.at("person").samples, 100);  // measured 145-146
+  EXPECT_EQ(f.by_class.at("person").moving_called_static, 0);
+  EXPECT_LE(f.all.moving_called_static, 4);
+  EXPECT_GE(f.all.balanced_accuracy(), 0.95);  // measured 0.984-0.990
+  expect_unmasked_within(f, 2, 2.0);
 }
 
 }  // namespace
