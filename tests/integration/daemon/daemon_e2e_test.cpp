@@ -14,8 +14,8 @@
 
 #include "daemon_test_util.hpp"
 #include "sitepose/health_t.hpp"
+#include "sitepose/io/json_file.hpp"
 #include "sitepose/pose_t.hpp"
-#include "sitepose/testing/mini_json.hpp"
 
 namespace sitepose::daemon::testing {
 namespace {
@@ -181,16 +181,14 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
                           SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + (dir / "can.log") + " > " +
                           (dir / "can.json");
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  const std::string json = read_text(dir / "can.json");
-  sitepose::testing::JsonParser parser(json);
-  auto decoded = parser.parse();
-  ASSERT_TRUE(decoded.has_value()) << parser.error();
-  EXPECT_TRUE((*decoded)["errors"].array().empty());
-  std::vector<const sitepose::testing::Json*> rapid, quality, gnss;
-  for (const auto& m : (*decoded)["messages"].array()) {
-    if (m["name"].string() == "N2kPositionRapidUpdate") rapid.push_back(&m);
-    if (m["name"].string() == "SiteposePoseQuality") quality.push_back(&m);
-    if (m["name"].string() == "N2kGnssPositionData") gnss.push_back(&m);
+  auto decoded = io::read_json_file(dir / "can.json");
+  ASSERT_TRUE(decoded.has_value()) << decoded.error().message;
+  EXPECT_TRUE(decoded->at("errors").empty());
+  std::vector<const io::Json*> rapid, quality, gnss;
+  for (const auto& m : decoded->at("messages")) {
+    if (m.at("name").get<std::string>() == "N2kPositionRapidUpdate") rapid.push_back(&m);
+    if (m.at("name").get<std::string>() == "SiteposePoseQuality") quality.push_back(&m);
+    if (m.at("name").get<std::string>() == "N2kGnssPositionData") gnss.push_back(&m);
   }
   ASSERT_EQ(rapid.size(), capture.poses.size());
   ASSERT_EQ(quality.size(), capture.poses.size());
@@ -199,14 +197,14 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
     const auto& p = capture.poses[i];
     // candump line times and 129029's date (days) + time of day (1e-4 s):
     // the pose's utime.
-    EXPECT_NEAR((*rapid[i])["t"].number(), p.utime * 1e-6, 2e-6) << i;
-    EXPECT_NEAR((*gnss[i])["t"].number(), p.utime * 1e-6, 2e-6) << i;
-    const double n2k_s =
-        (*gnss[i])["signals"]["Date"].number() * 86400.0 + (*gnss[i])["signals"]["Time"].number();
+    EXPECT_NEAR(rapid[i]->at("t").get<double>(), p.utime * 1e-6, 2e-6) << i;
+    EXPECT_NEAR(gnss[i]->at("t").get<double>(), p.utime * 1e-6, 2e-6) << i;
+    const double n2k_s = gnss[i]->at("signals").at("Date").get<double>() * 86400.0 +
+                         gnss[i]->at("signals").at("Time").get<double>();
     EXPECT_NEAR(n2k_s, p.utime * 1e-6, 1.01e-4) << i;
-    EXPECT_NEAR((*rapid[i])["signals"]["Latitude"].number(), p.latitude_deg, 0.5e-7 + 1e-12) << i;
-    EXPECT_NEAR((*rapid[i])["signals"]["Longitude"].number(), p.longitude_deg, 0.5e-7 + 1e-12) << i;
-    EXPECT_EQ((*quality[i])["signals"]["TrackingState"].number(), p.state) << i;
+    EXPECT_NEAR(rapid[i]->at("signals").at("Latitude").get<double>(), p.latitude_deg, 0.5e-7 + 1e-12) << i;
+    EXPECT_NEAR(rapid[i]->at("signals").at("Longitude").get<double>(), p.longitude_deg, 0.5e-7 + 1e-12) << i;
+    EXPECT_EQ(quality[i]->at("signals").at("TrackingState").get<double>(), p.state) << i;
   }
 
   // systemd: READY once, STATUS lines, WATCHDOG pings while frames flowed.
