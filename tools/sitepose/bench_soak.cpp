@@ -188,8 +188,9 @@ std::string png_path_of(const std::string& csv) {
   return std::filesystem::path(csv).replace_extension(".png").string();
 }
 
-// RSS, map points, keyframes and latency p99 over the frames, one panel each
-// (their scales differ by orders of magnitude), stacked in one image.
+// RSS, map points, keyframes and the frame-to-publish latency p99 of each
+// window over the frames, one panel each (their scales differ by orders of
+// magnitude), stacked in one image.
 Status write_soak_png(const std::string& path, const std::vector<Sample>& samples, const std::string& what) {
   struct Panel {
     const char* title;
@@ -204,10 +205,7 @@ Status write_soak_png(const std::string& path, const std::vector<Sample>& sample
        "keyframes",
        [](const Sample& s) { return static_cast<double>(s.keyframes); },
        {40, 150, 40}},
-      {"frame-to-publish latency p99 (window)",
-       "ms",
-       [](const Sample& s) { return s.p99_ms; },
-       {150, 40, 150}},
+      {"latency p99", "ms", [](const Sample& s) { return s.p99_ms; }, {150, 40, 150}},
   };
   std::vector<cv::Mat> images;
   for (const Panel& panel : panels) {
