@@ -24,13 +24,18 @@ function(sitepose_add_library module)
 endfunction()
 
 # Every test executable labelled asan joins the target sitepose_asan_tests,
-# which the asan build preset builds (tools/asan.sh): the label alone decides
-# what runs under the sanitizers, so a new asan test cannot be left unbuilt.
+# which the asan build preset builds (tools/asan.sh); one labelled tsan joins
+# sitepose_tsan_tests, which the tsan build preset builds. The label alone
+# decides what runs under a sanitizer, so a new such test cannot be left
+# unbuilt.
 add_custom_target(sitepose_asan_tests)
-function(sitepose_register_asan_test target labels)
-  if("asan" IN_LIST labels)
-    add_dependencies(sitepose_asan_tests ${target})
-  endif()
+add_custom_target(sitepose_tsan_tests)
+function(sitepose_register_sanitizer_test target labels)
+  foreach(sanitizer asan tsan)
+    if(sanitizer IN_LIST labels)
+      add_dependencies(sitepose_${sanitizer}_tests ${target})
+    endif()
+  endforeach()
 endfunction()
 
 # sitepose_add_test(<name> SOURCES ... DEPS ... LABELS unit|integration|regression
@@ -54,19 +59,19 @@ function(sitepose_add_test name)
   target_compile_definitions(${name} PRIVATE
     SITEPOSE_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     SITEPOSE_SITEPOSE_EXE="$<TARGET_FILE_DIR:sitepose>/sitepose")
-  sitepose_register_asan_test(${name} "${ARG_LABELS}")
+  sitepose_register_sanitizer_test(${name} "${ARG_LABELS}")
   include(GoogleTest)
   gtest_discover_tests(${name}
+    TEST_LIST ${name}_TESTS
     PROPERTIES TIMEOUT ${ARG_TIMEOUT} ${serial_property}
     DISCOVERY_TIMEOUT 60)
-  # Labels are set by a script ctest reads after the discovered list:
-  # through gtest_discover_tests' PROPERTIES a list of labels ("unit;asan")
-  # is flattened (CMake 3.25), the test got label unit only and the second
-  # label became a property name.
+  # The labels from a script ctest reads after the discovered tests:
+  # gtest_discover_tests' PROPERTIES splits a list of labels into property
+  # names (LABELS unit asan would set the label unit and a property asan).
   set(labels_script ${CMAKE_CURRENT_BINARY_DIR}/${name}_labels.cmake)
   file(WRITE ${labels_script}
-    "if(DEFINED ${name}_TESTS)\n"
-    "  set_tests_properties(\${${name}_TESTS} PROPERTIES LABELS \"${ARG_LABELS}\")\n"
-    "endif()\n")
+    "foreach(test IN LISTS ${name}_TESTS)\n"
+    "  set_tests_properties(\"\${test}\" PROPERTIES LABELS \"${ARG_LABELS}\")\n"
+    "endforeach()\n")
   set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES ${labels_script})
 endfunction()

@@ -128,6 +128,7 @@ Expected<NeesResult> run_nees(const LabelledSource& source, const config::Sitepo
   output::TravelledDistance travelled;  // over every pose the daemon would publish, OK or not
   DynamicRunOptions run_options;
   run_options.frames = options.frames;
+  run_options.stop = options.stop;
   run_options.on_frame = [&](int i, int frames, const slam::FrameReport& report) {
     const double travelled_m = travelled.update(report.pose);
     if (report.pose.state == TrackingState::kOk) ok.push_back({i, report.pose, travelled_m});
@@ -143,6 +144,7 @@ Expected<NeesResult> run_nees(const LabelledSource& source, const config::Sitepo
   NeesResult result;
   result.name = source.name();
   result.frames = run.frames;
+  result.partial = run.partial;
   result.frames_ok = static_cast<int>(ok.size());
   result.alert_limit_m = options.alert_limit_m;
   if (ok.empty()) return result;

@@ -5,11 +5,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
 
 #include "sitepose/eval/evaluate.hpp"
+#include "sitepose/io/json_file.hpp"
 #include "sitepose/views/frame_view.hpp"
 
 // Charts are drawn here as SVG text (no plotting library, no script): a page
@@ -423,30 +425,37 @@ const std::vector<std::string>& report_sections() {
   return sections;
 }
 
-std::vector<double> read_occlusion_ratios(const std::string& meta_json_path) {
-  std::ifstream in(meta_json_path);
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::string json = text.str();
-  const auto key = json.find("\"occlusion_ratio\"");
+Expected<std::vector<double>> read_occlusion_ratios(const std::string& meta_json_path) {
+  SITEPOSE_TRY(const io::Json meta, io::read_json_file(meta_json_path));
   std::vector<double> values;
-  if (key == std::string::npos) return values;
-  const auto open = json.find('[', key);
-  const auto close = json.find(']', open);
-  if (open == std::string::npos || close == std::string::npos) return values;
-  std::stringstream list(json.substr(open + 1, close - open - 1));
-  for (std::string item; std::getline(list, item, ',');) values.push_back(std::atof(item.c_str()));
+  if (!meta.is_object() || !meta.contains("occlusion_ratio")) return values;
+  const io::Json& list = meta["occlusion_ratio"];
+  const auto bad =
+      make_error(ErrorCode::kParseError, meta_json_path + ": \"occlusion_ratio\" is not a list of numbers");
+  if (!list.is_array()) return bad;
+  for (const io::Json& v : list) {
+    // The writer turns a NaN into null (io::to_json_text).
+    if (v.is_null()) {
+      values.push_back(std::numeric_limits<double>::quiet_NaN());
+    } else if (v.is_number()) {
+      values.push_back(v.get<double>());
+    } else {
+      return bad;
+    }
+  }
   return values;
 }
 
-GroundTruth ground_truth_of(const io::Sequence& sequence) {
+Expected<GroundTruth> ground_truth_of(const io::Sequence& sequence) {
   GroundTruth gt;
   gt.poses = sequence.gt_poses();
   for (std::size_t i = 0; i < sequence.size(); ++i)
     gt.times_s.push_back(static_cast<double>(sequence.time_ns(i)) * 1e-9);
   for (const auto& b : sequence.boxes())
     gt.moving[b.frame][static_cast<std::uint16_t>(b.instance)] = b.moving;
-  if (const auto meta = sequence.meta_json_path()) gt.occlusion_ratio = read_occlusion_ratios(*meta);
+  if (const auto meta = sequence.meta_json_path()) {
+    SITEPOSE_TRY(gt.occlusion_ratio, read_occlusion_ratios(*meta));
+  }
   return gt;
 }
 

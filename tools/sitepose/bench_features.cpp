@@ -2,7 +2,8 @@
 // OrbExtractor) against cv::ORB with the same feature count, levels and
 // scale on the same left images, measured side by side in one run: ours on
 // the calling thread alone, ours with its levels on a TaskPool, cv::ORB.
-// Timings only, never pass/fail.
+// Timings only, never pass/fail. Ctrl-C / SIGTERM: the figures of the frames
+// done, marked partial, exit 130.
 
 #include <chrono>
 #include <cstdio>
@@ -12,6 +13,7 @@
 
 #include "command_config.hpp"
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
 #include "sitepose/features/orb_extractor.hpp"
 #include "sitepose/slam/run_recorder.hpp"
@@ -35,6 +37,7 @@ double ms_between(std::chrono::steady_clock::time_point a, std::chrono::steady_c
 }
 
 int run(const Args& args) {
+  install_interrupt_handlers();
   auto loaded = load_command_config(args.config_path);
   if (!loaded) return fail(kCommand, loaded.error().message, 2);
   const config::OrbConfig& orb = loaded->orb;
@@ -57,8 +60,9 @@ int run(const Args& args) {
   double cv_kps = 0.0;
   const int frames = args.frames > 0 ? std::min(args.frames, (*source)->size()) : (*source)->size();
   cv::Size size;
-  for (int i = 0; i < frames; ++i) {
-    auto frame = (*source)->read(i);
+  int done = 0;
+  for (; done < frames && !interrupted(); ++done) {
+    auto frame = (*source)->read(done);
     if (!frame) return fail(kCommand, frame.error().message, 2);
     const cv::Mat& image = frame->frame.left;
     size = image.size();
@@ -86,9 +90,10 @@ int run(const Args& args) {
   const auto b = slam::summarize(cv_ms);
   const auto c = slam::summarize(pooled_ms);
   const double n = static_cast<double>(std::max<std::size_t>(1, ours_ms.size()));
-  std::printf("bench features: %s, %d frames x %d, %dx%d, %d features, %d levels, scale %.2f\n",
-              (*source)->name().c_str(), frames, args.repeats, size.width, size.height, orb.n_features,
-              orb.n_levels, orb.scale_factor);
+  const bool partial = done < frames;
+  std::printf("bench features: %s, %d frames%s x %d, %dx%d, %d features, %d levels, scale %.2f\n",
+              (*source)->name().c_str(), done, partial ? " (interrupted: partial)" : "", args.repeats,
+              size.width, size.height, orb.n_features, orb.n_levels, orb.scale_factor);
   std::printf("%-26s %9s %9s %9s %11s\n", "extractor", "p50 ms", "p99 ms", "mean ms", "keypoints");
   std::printf("%-26s %9.2f %9.2f %9.2f %11.0f\n", "sitepose OrbExtractor", a.p50_ms, a.p99_ms, a.mean_ms,
               ours_kps / n);
@@ -100,7 +105,7 @@ int run(const Args& args) {
               cv::getNumThreads());
   std::printf("ratio OrbExtractor / cv::ORB (p50): %.2f; with the pool: %.2f\n",
               b.p50_ms > 0.0 ? a.p50_ms / b.p50_ms : 0.0, b.p50_ms > 0.0 ? c.p50_ms / b.p50_ms : 0.0);
-  return 0;
+  return partial ? report_interrupted(kCommand, "printed the figures of the frames done") : 0;
 }
 
 const CommandRegistrar kBenchFeatures{

@@ -5,7 +5,8 @@
 // of position (3 dof) and pose (6 dof) with the chi-square 95 % band of the
 // window mean, and the integrity flag's false alarms and missed detections
 // at the shipped alert limit (experiments/pose_consistency.hpp). Figures
-// only, never pass/fail.
+// only, never pass/fail. Ctrl-C / SIGTERM: the figures and CSV of the frames
+// tracked, marked partial, exit 130.
 
 #include <cmath>
 #include <cstdio>
@@ -16,6 +17,7 @@
 
 #include "command_config.hpp"
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/experiments/pose_consistency.hpp"
 
 namespace sitepose::cli {
@@ -68,9 +70,10 @@ double share(int count, int total) { return total > 0 ? static_cast<double>(coun
 void print_result(const experiments::NeesResult& r, const Args& args) {
   const int n = static_cast<int>(r.samples.size());
   std::printf(
-      "bench nees: %s, %d frames, %d OK (first OK frame %d defines the SLAM frame: offset to the "
+      "bench nees: %s, %d frames%s, %d OK (first OK frame %d defines the SLAM frame: offset to the "
       "ground truth's %.3g m; not scored), %d scored\n",
-      r.name.c_str(), r.frames, r.frames_ok, r.anchor_frame, r.anchor_offset_m, n);
+      r.name.c_str(), r.frames, r.partial ? " (interrupted: partial)" : "", r.frames_ok, r.anchor_frame,
+      r.anchor_offset_m, n);
   const output::CovarianceOptions& c = args.nees.covariance;
   std::printf(
       "published covariance: scale %g x tracker + floor %g m / %g deg + drift %g m / %g deg x "
@@ -103,6 +106,7 @@ void print_result(const experiments::NeesResult& r, const Args& args) {
 }
 
 int run(const Args& args) {
+  install_interrupt_handlers();
   auto config = load_command_config(args.config_path, args.mode);
   if (!config) return fail(kCommand, config.error().message, 2);
   auto source = experiments::open_simulated(args.scenario, args.frames, args.seed, args.width, args.height);
@@ -112,11 +116,17 @@ int run(const Args& args) {
   options.on_frame = [](int done, int frames) {
     if (done % 50 == 0 || done == frames) std::fprintf(stderr, "bench nees: %d/%d frames\n", done, frames);
   };
+  options.stop = [] { return interrupted(); };
   auto result = experiments::run_nees(**source, *config, options);
   if (!result) return fail(kCommand, result.error().message, 1);
   print_result(*result, args);
   if (!args.csv.empty()) {
     if (auto st = write_csv(args.csv, *result); !st) return fail(kCommand, st.error().message, 1);
+  }
+  if (result->partial) {
+    return report_interrupted(kCommand, args.csv.empty() ? "printed the figures of the frames tracked"
+                                                         : "printed the figures and wrote the CSV of the "
+                                                           "frames tracked");
   }
   return 0;
 }

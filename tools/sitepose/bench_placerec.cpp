@@ -9,6 +9,8 @@
 // keeps, so the exact vote's figures are an upper bound). Also
 // the share of queries whose best candidate lies within 2 m of the query
 // (ground truth), at the unrepeated size. Timings only, never pass/fail.
+// Ctrl-C / SIGTERM: the rows of the map sizes measured completely, marked
+// partial, exit 130.
 
 #include <algorithm>
 #include <chrono>
@@ -17,6 +19,7 @@
 
 #include "command_config.hpp"
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
 #include "sitepose/experiments/vocabulary_training.hpp"
 #include "sitepose/features/orb_extractor.hpp"
@@ -59,7 +62,8 @@ struct Measured {
 };
 
 // keyframes: indices into frames; each repeated `copies` times (id = copy *
-// n + i). Queries: the frames that are not keyframes.
+// n + i). Queries: the frames that are not keyframes. Ends early when
+// interrupted (the caller drops that size).
 Measured measure(const std::vector<Frame>& frames, const std::vector<int>& keyframes, int copies, int queries,
                  const std::shared_ptr<const placerec::Vocabulary>& vocabulary) {
   placerec::KeyFrameDatabase db(vocabulary);
@@ -89,7 +93,7 @@ Measured measure(const std::vector<Frame>& frames, const std::vector<int>& keyfr
       between.push_back(q);
   }
   const std::size_t n_queries = std::min<std::size_t>(between.size(), static_cast<std::size_t>(queries));
-  for (std::size_t i = 0; i < n_queries; ++i) {
+  for (std::size_t i = 0; i < n_queries && !interrupted(); ++i) {
     const std::size_t q = between[i * between.size() / n_queries];
     const cv::Mat& d = frames[q].descriptors;
     const std::vector<std::uint8_t> usable(static_cast<std::size_t>(d.rows), 1);
@@ -110,6 +114,7 @@ Measured measure(const std::vector<Frame>& frames, const std::vector<int>& keyfr
 }
 
 int run(const Args& args) {
+  install_interrupt_handlers();
   auto config = load_command_config(args.config_path);
   if (!config) return fail(kCommand, config.error().message, 2);
   auto source = args.sequence.empty() ? experiments::open_simulated(args.scenario, args.frames)
@@ -120,6 +125,11 @@ int run(const Args& args) {
   std::vector<Frame> frames;
   const int n_frames = args.frames > 0 ? std::min(args.frames, (*source)->size()) : (*source)->size();
   for (int i = 0; i < n_frames; ++i) {
+    if (interrupted()) {
+      std::printf("bench placerec: %d of %d frames extracted (interrupted: partial), no map size measured\n",
+                  i, n_frames);
+      return report_interrupted(kCommand, "measured nothing: it stopped while extracting the features");
+    }
     auto frame = (*source)->read(i);
     if (!frame) return fail(kCommand, frame.error().message, 2);
     auto features = extractor->extract(frame->frame.left);
@@ -136,6 +146,7 @@ int run(const Args& args) {
     vocabulary = std::make_shared<const placerec::Vocabulary>(std::move(*loaded));
   } else {
     std::vector<cv::Mat> training;
+    training.reserve(keyframes.size());
     for (int i : keyframes) training.push_back(frames[i].descriptors);
     auto trained = placerec::Vocabulary::train(training);
     if (!trained) return fail(kCommand, trained.error().message, 1);
@@ -147,9 +158,11 @@ int run(const Args& args) {
               args.vocabulary.empty() ? ", trained on these keyframes" : "");
   std::printf("%10s %10s %14s %14s %14s %12s %12s\n", "keyframes", "queries", "bow words us", "bow db us",
               "bow total us", "exact us", "exact/bow");
+  std::size_t sizes_done = 0;
   for (int size : args.sizes) {
     const int copies = std::max(1, size / std::max<int>(1, static_cast<int>(keyframes.size())));
     const Measured m = measure(frames, keyframes, copies, args.queries, vocabulary);
+    if (interrupted()) break;  // this size's queries were cut short: no row
     const double q = std::max(1, m.queries);
     const double bow = (m.transform_us + m.score_us) / q;
     std::printf("%10zu %10d %14.1f %14.1f %14.1f %12.1f %12.1f\n", keyframes.size() * copies, m.queries,
@@ -159,6 +172,11 @@ int run(const Args& args) {
       std::printf("%10s best candidate within 2 m of the query: bow %.1f %%, exact %.1f %%\n", "",
                   100.0 * m.bow_right / q, 100.0 * m.exact_right / q);
     }
+    ++sizes_done;
+  }
+  if (interrupted()) {
+    std::printf("%zu of %zu map sizes measured (interrupted: partial)\n", sizes_done, args.sizes.size());
+    return report_interrupted(kCommand, "printed the rows of the map sizes measured");
   }
   return 0;
 }

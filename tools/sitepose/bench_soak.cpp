@@ -3,25 +3,32 @@
 // held in memory and looped, with continuing frame numbers and times, for
 // --frames frames at the pipeline's own pace (lossless back-pressure). Every
 // --sample-every published frames one CSV row: RSS, keyframes, map points,
-// drops, track errors and the frame-to-publish latency p99 of the window.
+// drops, track errors and the frame-to-publish latency p99 of the window,
+// and beside the CSV a PNG of RSS, map size and p99 over the frames.
 // The sequence should end where it starts (the backforth scenario, one
 // pass: `sitepose sim --scenario backforth --frames 216`), or every loop is
 // a jump the tracker must relocalise from.
 // With --max-rss-growth PCT it is a check: exit 1 when the last RSS exceeds
 // the RSS at the end of the warm-up (--warmup-frames) by more than PCT %.
+// Ctrl-C / SIGTERM ends the source: the pipeline drains, the last row and
+// the PNG are written, the summary says partial, exit 130.
 
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <opencv2/core.hpp>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "command_config.hpp"
 #include "command_registry.hpp"
+#include "interrupt.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/detect/create_detector.hpp"
+#include "sitepose/experiments/charts.hpp"
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
@@ -60,7 +67,7 @@ class LoopingSource final : public pipeline::FrameSource {
   std::string describe() const override { return "memory (looped)"; }
   bool live() const override { return false; }
   Expected<pipeline::SourceEvent> next(std::stop_token stop, pipeline::SteadyTime) override {
-    if (next_ >= total_ || stop.stop_requested())
+    if (next_ >= total_ || stop.stop_requested() || interrupted())
       return pipeline::SourceEvent{pipeline::SourceEventKind::kEnd, {}};
     const std::size_t loop = next_ / frames_.size();  // frame.seq stays the recorded index
     StereoFrame frame = frames_[next_ % frames_.size()];
@@ -176,7 +183,68 @@ Expected<std::vector<Sample>> soak(const BenchSoakArgs& a, const config::Sitepos
   return samples;
 }
 
+// The CSV's neighbour: same name, .png.
+std::string png_path_of(const std::string& csv) {
+  return std::filesystem::path(csv).replace_extension(".png").string();
+}
+
+// RSS, map points, keyframes and the frame-to-publish latency p99 of each
+// window over the frames, one panel each (their scales differ by orders of
+// magnitude), stacked in one image.
+Status write_soak_png(const std::string& path, const std::vector<Sample>& samples, const std::string& what) {
+  struct Panel {
+    const char* title;
+    const char* y_label;
+    double (*value)(const Sample&);
+    cv::Scalar color_bgr;
+  };
+  const Panel panels[] = {
+      {"RSS", "MB", [](const Sample& s) { return s.rss_mb; }, {180, 60, 20}},
+      {"map points", "points", [](const Sample& s) { return static_cast<double>(s.points); }, {40, 40, 200}},
+      {"keyframes",
+       "keyframes",
+       [](const Sample& s) { return static_cast<double>(s.keyframes); },
+       {40, 150, 40}},
+      {"latency p99", "ms", [](const Sample& s) { return s.p99_ms; }, {150, 40, 150}},
+  };
+  std::vector<cv::Mat> images;
+  for (const Panel& panel : panels) {
+    experiments::ChartSeries series{panel.title, {}, {}, panel.color_bgr};
+    for (const Sample& s : samples) {
+      series.x.push_back(static_cast<double>(s.frames));
+      series.y.push_back(panel.value(s));
+    }
+    experiments::ChartOptions options;
+    options.title = std::string(panel.title) + ": " + what;
+    options.x_label = "frames published";
+    options.y_label = panel.y_label;
+    options.height_px = 320;
+    images.push_back(experiments::render_line_chart({series}, options));
+  }
+  cv::Mat stacked;
+  cv::vconcat(images, stacked);
+  return experiments::write_png(path, stacked);
+}
+
+// Exit status of the --max-rss-growth check over the samples.
+int check_rss_growth(const BenchSoakArgs& a, const std::vector<Sample>& samples) {
+  const Sample* warm = nullptr;
+  for (const Sample& s : samples) {
+    if (s.frames >= static_cast<std::size_t>(a.warmup_frames) && warm == nullptr) warm = &s;
+  }
+  if (warm == nullptr || warm == &samples.back()) {
+    return fail(kCommand, "no sample after the warm-up of " + std::to_string(a.warmup_frames) + " frames", 2);
+  }
+  const double growth_pct = 100.0 * (samples.back().rss_mb / warm->rss_mb - 1.0);
+  std::printf(
+      "RSS after warm-up (%zu frames) %.1f MB, at the end (%zu frames) %.1f MB: %+.1f %% (limit %.1f %%)\n",
+      warm->frames, warm->rss_mb, samples.back().frames, samples.back().rss_mb, growth_pct,
+      a.max_rss_growth_pct);
+  return growth_pct <= a.max_rss_growth_pct ? 0 : 1;
+}
+
 int run_bench_soak(const BenchSoakArgs& a) {
+  install_interrupt_handlers();
   auto loaded = load_command_config(a.config_path, a.mode);
   if (!loaded) return fail(kCommand, loaded.error().message, 2);
   config::SiteposeConfig& config = *loaded;
@@ -195,20 +263,18 @@ int run_bench_soak(const BenchSoakArgs& a) {
   const bool written = std::ferror(csv) == 0;
   if (std::fclose(csv) != 0 || !written) return fail(kCommand, a.csv + ": write failed", 1);
   if (!samples) return fail(kCommand, samples.error().message, 1);
+  const std::size_t done = samples->empty() ? 0 : samples->back().frames;
+  const bool partial = interrupted() && done < static_cast<std::size_t>(a.frames);
+  const std::string png = png_path_of(a.csv);
+  const std::string what =
+      std::to_string(done) + " frames looping " + std::filesystem::path(a.sequence).filename().string() +
+      ", dynamic.mode " + config::to_string(config.dynamic.mode) + (partial ? " (interrupted: partial)" : "");
+  if (auto st = write_soak_png(png, *samples, what); !st) return fail(kCommand, st.error().message, 1);
+  std::printf("soak: %zu of %d frames%s; wrote %s and %s\n", done, a.frames,
+              partial ? " (interrupted: partial)" : "", a.csv.c_str(), png.c_str());
+  if (partial) return report_interrupted(kCommand, "wrote the CSV rows and the PNG of the frames done");
   if (a.max_rss_growth_pct < 0.0) return 0;
-  const Sample* warm = nullptr;
-  for (const Sample& s : *samples) {
-    if (s.frames >= static_cast<std::size_t>(a.warmup_frames) && warm == nullptr) warm = &s;
-  }
-  if (warm == nullptr || warm == &samples->back()) {
-    return fail(kCommand, "no sample after the warm-up of " + std::to_string(a.warmup_frames) + " frames", 2);
-  }
-  const double growth_pct = 100.0 * (samples->back().rss_mb / warm->rss_mb - 1.0);
-  std::printf(
-      "RSS after warm-up (%zu frames) %.1f MB, at the end (%zu frames) %.1f MB: %+.1f %% (limit %.1f %%)\n",
-      warm->frames, warm->rss_mb, samples->back().frames, samples->back().rss_mb, growth_pct,
-      a.max_rss_growth_pct);
-  return growth_pct <= a.max_rss_growth_pct ? 0 : 1;
+  return check_rss_growth(a, *samples);
 }
 
 const CommandRegistrar kBenchSoak{
@@ -221,7 +287,8 @@ const CommandRegistrar kBenchSoak{
                       "Sequence directory that ends where it starts (e.g. `sitepose sim --scenario backforth "
                       "--frames 216 --out DIR`)")
            ->required();
-       sub.add_option("--csv", args->csv, "CSV of the samples")->required();
+       sub.add_option("--csv", args->csv, "CSV of the samples; the PNG of them goes beside it (.png)")
+           ->required();
        sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)");
        sub.add_option("--mode", args->mode, "Masking mode none|bbox|pixel|hierarchical|full (default full)");
        sub.add_option("--frames", args->frames, "Frames to run (default 20000)")

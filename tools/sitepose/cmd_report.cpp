@@ -27,7 +27,9 @@ int run(const ReportArgs& args) {
     auto opened = io::open_sequence(args.gt);
     if (!opened) return fail(kCommand, "--gt: " + opened.error().message, 2);
     if (!(*opened)->has_gt()) return fail(kCommand, "--gt: " + args.gt + " has no ground-truth poses", 2);
-    gt = views::ground_truth_of(**opened);
+    auto truth = views::ground_truth_of(**opened);
+    if (!truth) return fail(kCommand, "--gt: " + truth.error().message, 2);
+    gt = std::move(*truth);
   }
   const std::string generator =
       std::string("sitepose ") + version_string() + " (" + git_revision() + ", " + build_type() + ")";

@@ -39,6 +39,9 @@ struct NeesOptions {
   output::CovarianceOptions covariance{1.0, 0.005, 0.02, 0.005, 0.007};
   double alert_limit_m = 0.10;
   std::function<void(int, int)> on_frame;  // (frame done, frames)
+  // Polled before each frame; true ends the run there, scored so far
+  // (NeesResult::partial).
+  std::function<bool()> stop;
 };
 
 struct NeesSample {
@@ -70,6 +73,7 @@ MeanBand chi_square_mean_band_95(int samples, int dof);
 struct NeesResult {
   std::string name;
   int frames = 0;                // frames tracked
+  bool partial = false;          // NeesOptions::stop ended the run early
   int frames_ok = 0;             // OK frames, the first (defining the frame) included
   int anchor_frame = -1;         // the first OK frame
   double anchor_offset_m = 0.0;  // |translation of T_gt_slam|

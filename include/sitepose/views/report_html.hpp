@@ -27,15 +27,18 @@ struct GroundTruth {
   std::vector<double> occlusion_ratio;  // per sequence frame; empty when unknown
 };
 
-// From a sitepose sequence (poses.txt, labels/boxes.csv, meta.json).
-GroundTruth ground_truth_of(const io::Sequence& sequence);
+// From a sitepose sequence (poses.txt, labels/boxes.csv, meta.json); an
+// error when its meta.json does not parse.
+Expected<GroundTruth> ground_truth_of(const io::Sequence& sequence);
 
 // The page's sections, in order: HTML ids (<section id="...">).
 const std::vector<std::string>& report_sections();
 
 // The per-frame occlusion ratio of a simulated sequence's meta.json
-// ("occlusion_ratio": [...]); empty when absent.
-std::vector<double> read_occlusion_ratios(const std::string& meta_json_path);
+// ("occlusion_ratio": [...], null for NaN); empty when absent, kNotFound /
+// kParseError naming the file when it cannot be read or is not a list of
+// numbers.
+Expected<std::vector<double>> read_occlusion_ratios(const std::string& meta_json_path);
 
 // The page for `record`; `gt` null when there is none. `generator`: the
 // version line of the program writing it.

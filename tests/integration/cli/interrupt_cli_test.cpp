@@ -1,9 +1,11 @@
 // The command-line interfaces of issue 21, through the built binary:
-// Ctrl-C and SIGTERM in `sitepose run` and `sitepose sim` (exit 130, and
-// what was done is written and readable — run: the trajectory of every
-// frame tracked, stats marked partial; sim: a complete shorter sequence, no
-// half folder), global options after the subcommand, valid JSON files, and
-// the trajectory formats scoring the same in eval.
+// Ctrl-C and SIGTERM in `sitepose run`, `sitepose sim` and the benches
+// (exit 130, and what was done is written and readable — run: the
+// trajectory of every frame tracked, stats marked partial; sim: a complete
+// shorter sequence, no half folder; bench soak and nees: the CSV rows of
+// what was done, the figures marked partial), global options after the
+// subcommand, valid JSON files, and the trajectory formats scoring the same
+// in eval.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -227,6 +229,88 @@ TEST_F(InterruptCli, SigintInBenchTrackPrintsThePartialFigures) {
   EXPECT_NE(printed.find("(interrupted: partial)"), std::string::npos) << printed;
   EXPECT_NE(testing::read_text(out / "err.txt").find("interrupted (SIGINT)"), std::string::npos)
       << testing::read_text(out / "err.txt");
+}
+
+// Lines of a CSV file after its header, each split at the commas.
+std::vector<std::vector<std::string>> csv_rows(const fs::path& path, std::string& header) {
+  std::ifstream in(path);
+  std::getline(in, header);
+  std::vector<std::vector<std::string>> rows;
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> fields;
+    std::istringstream split(line);
+    for (std::string field; std::getline(split, field, ',');) fields.push_back(field);
+    rows.push_back(fields);
+  }
+  return rows;
+}
+
+std::size_t count_fields(const std::string& header) {
+  return static_cast<std::size_t>(std::count(header.begin(), header.end(), ',')) + 1;
+}
+
+// bench soak, stopped once it has written two samples: every CSV row whole,
+// frames rising and short of --frames, the PNG beside the CSV, exit 130.
+TEST_F(InterruptCli, SigintInBenchSoakKeepsTheRowsDoneAndWritesThePng) {
+  const fs::path out = dir_->path() / "soak";
+  fs::create_directories(out);
+  const pid_t pid =
+      start_sitepose({"bench", "soak", "--sequence", seq().string(), "--mode", "none", "--frames", "100000",
+                      "--sample-every", "10", "--csv", (out / "soak.csv").string()},
+                     out / "out.txt", out / "err.txt");
+  std::string header;
+  ASSERT_TRUE(testing::wait_for([&] { return csv_rows(out / "soak.csv", header).size() >= 2; },
+                                std::chrono::seconds(60)))
+      << testing::read_text(out / "err.txt");
+  ::kill(pid, SIGINT);
+  ASSERT_EQ(exit_status(pid), 130) << testing::read_text(out / "err.txt");
+  const std::string printed = testing::read_text(out / "out.txt");
+  EXPECT_NE(printed.find("(interrupted: partial)"), std::string::npos) << printed;
+  EXPECT_NE(testing::read_text(out / "err.txt").find("interrupted (SIGINT)"), std::string::npos);
+  const auto rows = csv_rows(out / "soak.csv", header);
+  ASSERT_GE(rows.size(), 2u);
+  double last_frames = 0.0;
+  for (const auto& row : rows) {
+    ASSERT_EQ(row.size(), count_fields(header)) << header;
+    const double frames = std::stod(row[0]);
+    EXPECT_GT(frames, last_frames);
+    last_frames = frames;
+  }
+  EXPECT_LT(last_frames, 100000.0);
+  const std::string png = testing::read_text(out / "soak.png");
+  EXPECT_EQ(png.substr(0, 4), "\x89PNG") << "soak.png: " << png.size() << " bytes";
+}
+
+// bench nees, stopped by SIGTERM after 50 frames: the figures of the frames
+// tracked marked partial, one whole CSV row per frame scored, exit 130.
+TEST_F(InterruptCli, SigtermInBenchNeesWritesTheCsvOfTheFramesTracked) {
+  const fs::path out = dir_->path() / "nees";
+  fs::create_directories(out);
+  const pid_t pid = start_sitepose({"bench", "nees", "--scenario", "static", "--frames", "1000", "--width",
+                                    "320", "--height", "180", "--csv", (out / "nees.csv").string()},
+                                   out / "out.txt", out / "err.txt");
+  ASSERT_TRUE(testing::wait_for(
+      [&] { return testing::read_text(out / "err.txt").find("bench nees: 50/") != std::string::npos; },
+      std::chrono::seconds(60)))
+      << testing::read_text(out / "err.txt");
+  ::kill(pid, SIGTERM);
+  ASSERT_EQ(exit_status(pid), 130) << testing::read_text(out / "err.txt");
+  EXPECT_NE(testing::read_text(out / "err.txt").find("interrupted (SIGTERM)"), std::string::npos);
+  const std::string printed = testing::read_text(out / "out.txt");
+  int frames = 0;
+  int scored = 0;
+  const auto at = printed.find("bench nees: ");
+  ASSERT_NE(at, std::string::npos) << printed;
+  const std::string line = printed.substr(at, printed.find('\n', at) - at);
+  EXPECT_NE(line.find("(interrupted: partial)"), std::string::npos) << line;
+  ASSERT_EQ(std::sscanf(line.c_str() + line.find(", ") + 2, "%d frames", &frames), 1) << line;
+  ASSERT_EQ(std::sscanf(line.c_str() + line.rfind(", ") + 2, "%d scored", &scored), 1) << line;
+  EXPECT_GE(frames, 50);
+  EXPECT_LT(frames, 1000);
+  std::string header;
+  const auto rows = csv_rows(out / "nees.csv", header);
+  EXPECT_EQ(rows.size(), static_cast<std::size_t>(scored)) << line;
+  for (const auto& row : rows) ASSERT_EQ(row.size(), count_fields(header));
 }
 
 TEST_F(InterruptCli, GlobalOptionsAfterTheSubcommand) {

@@ -8,14 +8,12 @@
 
 #include <sched.h>
 
-#include <random>
-
 #include <lcm/lcm-cpp.hpp>
 
 #include "daemon_test_util.hpp"
 #include "sitepose/health_t.hpp"
+#include "sitepose/io/json_file.hpp"
 #include "sitepose/pose_t.hpp"
-#include "sitepose/testing/mini_json.hpp"
 
 namespace sitepose::daemon::testing {
 namespace {
@@ -23,28 +21,6 @@ namespace {
 using namespace std::chrono_literals;
 
 constexpr char kPython[] = "/usr/bin/python3";
-
-std::string config_text(const std::string& seq, const TempDir& dir, const std::string& rate,
-                        const std::string& lcm_url) {
-  return "source:\n  replay: {sequence: \"" + seq + "\", rate: " + rate +
-         "}\n"
-         "pipeline: {stall_timeout_s: 2.0}\n"
-         "supervisor: {status_interval_s: 0.5}\n"
-         "outputs:\n"
-         "  trajectory: {path: \"" +
-         (dir / "traj.tum") +
-         "\", append: false}\n"
-         "  can: {path: \"" +
-         (dir / "can.log") +
-         "\"}\n"
-         "  lcm: {url: \"" +
-         lcm_url +
-         "\"}\n"
-         "geo:\n  mode: fixed\n"
-         "  origin: {latitude_deg: 48.137, longitude_deg: 11.575, height_m: 520.0}\n"
-         "  T_site_slam: {translation_m: [0, 0, 2], rotation_wxyz: [0.5, -0.5, 0.5, -0.5]}\n"
-         "dynamic: {mode: none}\n";
-}
 
 struct LcmCapture {
   std::mutex mutex;
@@ -181,16 +157,14 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
                           SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + (dir / "can.log") + " > " +
                           (dir / "can.json");
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
-  const std::string json = read_text(dir / "can.json");
-  sitepose::testing::JsonParser parser(json);
-  auto decoded = parser.parse();
-  ASSERT_TRUE(decoded.has_value()) << parser.error();
-  EXPECT_TRUE((*decoded)["errors"].array().empty());
-  std::vector<const sitepose::testing::Json*> rapid, quality, gnss;
-  for (const auto& m : (*decoded)["messages"].array()) {
-    if (m["name"].string() == "N2kPositionRapidUpdate") rapid.push_back(&m);
-    if (m["name"].string() == "SiteposePoseQuality") quality.push_back(&m);
-    if (m["name"].string() == "N2kGnssPositionData") gnss.push_back(&m);
+  auto decoded = io::read_json_file(dir / "can.json");
+  ASSERT_TRUE(decoded.has_value()) << decoded.error().message;
+  EXPECT_TRUE(decoded->at("errors").empty());
+  std::vector<const io::Json*> rapid, quality, gnss;
+  for (const auto& m : decoded->at("messages")) {
+    if (m.at("name").get<std::string>() == "N2kPositionRapidUpdate") rapid.push_back(&m);
+    if (m.at("name").get<std::string>() == "SiteposePoseQuality") quality.push_back(&m);
+    if (m.at("name").get<std::string>() == "N2kGnssPositionData") gnss.push_back(&m);
   }
   ASSERT_EQ(rapid.size(), capture.poses.size());
   ASSERT_EQ(quality.size(), capture.poses.size());
@@ -199,14 +173,14 @@ TEST(DaemonEndToEnd, ReplayPublishesEveryPoseOnLcmCanAndTrajectory) {
     const auto& p = capture.poses[i];
     // candump line times and 129029's date (days) + time of day (1e-4 s):
     // the pose's utime.
-    EXPECT_NEAR((*rapid[i])["t"].number(), p.utime * 1e-6, 2e-6) << i;
-    EXPECT_NEAR((*gnss[i])["t"].number(), p.utime * 1e-6, 2e-6) << i;
-    const double n2k_s =
-        (*gnss[i])["signals"]["Date"].number() * 86400.0 + (*gnss[i])["signals"]["Time"].number();
+    EXPECT_NEAR(rapid[i]->at("t").get<double>(), p.utime * 1e-6, 2e-6) << i;
+    EXPECT_NEAR(gnss[i]->at("t").get<double>(), p.utime * 1e-6, 2e-6) << i;
+    const double n2k_s = gnss[i]->at("signals").at("Date").get<double>() * 86400.0 +
+                         gnss[i]->at("signals").at("Time").get<double>();
     EXPECT_NEAR(n2k_s, p.utime * 1e-6, 1.01e-4) << i;
-    EXPECT_NEAR((*rapid[i])["signals"]["Latitude"].number(), p.latitude_deg, 0.5e-7 + 1e-12) << i;
-    EXPECT_NEAR((*rapid[i])["signals"]["Longitude"].number(), p.longitude_deg, 0.5e-7 + 1e-12) << i;
-    EXPECT_EQ((*quality[i])["signals"]["TrackingState"].number(), p.state) << i;
+    EXPECT_NEAR(rapid[i]->at("signals").at("Latitude").get<double>(), p.latitude_deg, 0.5e-7 + 1e-12) << i;
+    EXPECT_NEAR(rapid[i]->at("signals").at("Longitude").get<double>(), p.longitude_deg, 0.5e-7 + 1e-12) << i;
+    EXPECT_EQ(quality[i]->at("signals").at("TrackingState").get<double>(), p.state) << i;
   }
 
   // systemd: READY once, STATUS lines, WATCHDOG pings while frames flowed.
@@ -256,22 +230,6 @@ TEST(DaemonEndToEnd, FullModeKeepsThePoseWhereMachinesPullPlainSlamAlong) {
   EXPECT_LE(full_ate_m, 0.5 * none_ate_m);
 }
 
-// Counts the pose/quality frames (PGN 65296 = 0xFF10) of a candump log and
-// those whose TrackingState (data byte 1, bits 4-5) is not LOST.
-std::pair<int, int> count_quality_frames(const std::string& path) {
-  int all = 0, not_lost = 0;
-  for (const auto& line : read_lines(path)) {
-    const auto hash = line.find('#');
-    if (hash == std::string::npos || hash < 8) continue;
-    const std::string id = line.substr(hash - 8, 8);
-    if (id.substr(2, 4) != "FF10") continue;
-    ++all;
-    const int state = (std::stoi(line.substr(hash + 3, 2), nullptr, 16) >> 4) & 0x3;
-    not_lost += state != 2;
-  }
-  return {all, not_lost};
-}
-
 TEST(DaemonEndToEnd, SigtermMidRunStopsWithinTwoSecondsAndLosesNoLine) {
   const std::string seq = shared_sequence();
   ASSERT_FALSE(seq.empty());
@@ -299,52 +257,8 @@ TEST(DaemonEndToEnd, SigtermMidRunStopsWithinTwoSecondsAndLosesNoLine) {
   EXPECT_TRUE(notify.wait_for_message("STOPPING=1", 5s));
 }
 
-// SIGTERM at spread-out points of a run (during start-up, before the first
-// pose, mid-run): every run stops within 2 s, cleanly, the trajectory
-// holds only whole lines that parse, and exactly the poses published on CAN
-// that were not LOST. Delays from a fixed seed, printed for a rerun.
-TEST(DaemonEndToEnd, SigtermAtRandomPointsLosesNoLine) {
-  const std::string seq = shared_sequence();
-  ASSERT_FALSE(seq.empty());
-  std::mt19937 rng(20);
-  std::uniform_int_distribution<int> delay_ms(0, 5000);
-  constexpr int kRuns = 8;
-  int lines_total = 0;
-  for (int run = 0; run < kRuns; ++run) {
-    TempDir dir("sigterm-random");
-    write_file(dir / "siteposed.yaml", config_text(seq, dir, "recorded", "memq://"));
-    const int delay = delay_ms(rng);
-    SCOPED_TRACE("run " + std::to_string(run) + ", SIGTERM after " + std::to_string(delay) + " ms");
-    Child daemon({SITEPOSED_EXE, "--config", dir / "siteposed.yaml"}, {}, dir / "stderr.txt");
-    std::this_thread::sleep_for(std::chrono::milliseconds(delay));
-    const auto t0 = Clock::now();
-    ASSERT_EQ(kill(daemon.pid(), SIGTERM), 0);
-    const int status = daemon.wait(10s);
-    EXPECT_LT(Clock::now() - t0, 2s);
-    // Before siteposed blocks the stop signals (its first lines; seconds on a
-    // loaded machine) SIGTERM ends it by default (128 + 15, a clean stop for
-    // systemd); nothing is open yet then.
-    if (status == 128 + SIGTERM) {
-      EXPECT_FALSE(fs::exists(dir / "traj.tum")) << "killed by SIGTERM after the outputs opened";
-      continue;
-    }
-    EXPECT_EQ(status, 0) << read_text(dir / "stderr.txt");
-    if (!fs::exists(dir / "traj.tum")) continue;  // stopped before the outputs opened
-    const auto tum = read_lines(dir / "traj.tum");
-    expect_complete_tum_lines(tum);
-    auto parsed = io::read_tum_trajectory(dir / "traj.tum");
-    EXPECT_TRUE(parsed) << parsed.error().message;
-    if (fs::exists(dir / "can.log")) {
-      const auto [published, not_lost] = count_quality_frames(dir / "can.log");
-      EXPECT_EQ(static_cast<int>(tum.size()), not_lost) << "TUM lines vs poses published on CAN";
-      EXPECT_GE(published, not_lost);
-    }
-    lines_total += static_cast<int>(tum.size());
-  }
-  RecordProperty("runs", kRuns);
-  RecordProperty("trajectory_lines", lines_total);
-  EXPECT_GT(lines_total, 0) << "no run got as far as a pose: the delays test nothing mid-run";
-}
+// SIGTERM at spread-out points of a run, 8 times (50: daemon_sigterm_sweep_test).
+TEST(DaemonEndToEnd, SigtermAtRandomPointsLosesNoLine) { expect_sigterm_at_random_points_loses_no_line(8); }
 
 // The replayed sequence loses its images mid-run (a disk unmounted, a
 // folder cleaned): siteposed ends with status 1 naming the missing image,

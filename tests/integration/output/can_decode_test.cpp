@@ -16,17 +16,16 @@
 #include <string>
 #include <vector>
 
+#include "sitepose/io/json_file.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/can_sink.hpp"
 #include "sitepose/output/candump.hpp"
 #include "sitepose/testing/files.hpp"
-#include "sitepose/testing/mini_json.hpp"
 
 namespace sitepose::output {
 namespace {
 
-using sitepose::testing::Json;
-using sitepose::testing::JsonParser;
+using io::Json;
 
 constexpr double kPi = std::numbers::pi;
 constexpr char kPython[] = "/usr/bin/python3";
@@ -87,11 +86,10 @@ class CanDecodeTest : public ::testing::Test {
     const std::string cmd = std::string(kPython) + " " SITEPOSE_SOURCE_DIR "/tools/can_decode.py --dbc " +
                             SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + log + " > " + json_path;
     const int rc = std::system(cmd.c_str());
-    const std::string json = sitepose::testing::read_text(json_path);  // the parser keeps a view of it
-    JsonParser parser(json);
-    auto parsed = parser.parse();
-    EXPECT_TRUE(parsed.has_value()) << parser.error() << "\n" << json.substr(0, 500);
-    if (parsed) out = *parsed;
+    auto parsed = io::read_json_file(json_path);
+    EXPECT_TRUE(parsed.has_value()) << parsed.error().message << "\n"
+                                    << sitepose::testing::read_text(json_path).substr(0, 500);
+    if (parsed) out = std::move(*parsed);
     return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
   }
 
@@ -106,14 +104,14 @@ void expect_near_or_null(const Json& v, bool expect_null, double expected, doubl
     return;
   }
   ASSERT_FALSE(v.is_null()) << what;
-  EXPECT_NEAR(v.number(), expected, tol) << what;
+  EXPECT_NEAR(v.get<double>(), expected, tol) << what;
 }
 
 TEST_F(CanDecodeTest, DecodedValuesMatchThePosesWithinResolution) {
   Json out;
   ASSERT_EQ(decode(write_log(), out), 0);
-  ASSERT_TRUE(out["errors"].array().empty());
-  const auto& msgs = out["messages"].array();
+  ASSERT_TRUE(out.at("errors").empty());
+  const auto& msgs = out.at("messages");
   const char* order[] = {"N2kPositionRapidUpdate", "N2kCogSogRapidUpdate", "N2kVesselHeading",
                          "N2kGnssPositionData",    "J1939VehiclePosition", "J1939VehicleDirectionSpeed",
                          "SiteposePoseQuality"};
@@ -124,69 +122,74 @@ TEST_F(CanDecodeTest, DecodedValuesMatchThePosesWithinResolution) {
     const std::string at = "pose " + std::to_string(k);
     for (int m = 0; m < 7; ++m) {
       const Json& msg = msgs[7 * k + m];
-      ASSERT_EQ(msg["name"].string(), order[m]) << at;
-      EXPECT_EQ(msg["source_address"].number(), 0x1C) << at;
+      ASSERT_EQ(msg.at("name").get<std::string>(), order[m]) << at;
+      EXPECT_EQ(msg.at("source_address").get<double>(), 0x1C) << at;
       // The log keeps microseconds, truncated.
-      EXPECT_NEAR(msg["t"].number(), (in.utc_t_ns / 1000) * 1e-6, 2e-6) << at;
+      EXPECT_NEAR(msg.at("t").get<double>(), (in.utc_t_ns / 1000) * 1e-6, 2e-6) << at;
     }
-    const Json& rapid = msgs[7 * k]["signals"];
-    expect_near_or_null(rapid["Latitude"], lost, in.latitude_deg, 0.5e-7 + 1e-12, at + " 129025 lat");
-    expect_near_or_null(rapid["Longitude"], lost, in.longitude_deg, 0.5e-7 + 1e-12, at + " 129025 lon");
+    const Json& rapid = msgs[7 * k].at("signals");
+    expect_near_or_null(rapid.at("Latitude"), lost, in.latitude_deg, 0.5e-7 + 1e-12, at + " 129025 lat");
+    expect_near_or_null(rapid.at("Longitude"), lost, in.longitude_deg, 0.5e-7 + 1e-12, at + " 129025 lon");
 
-    const Json& cog = msgs[7 * k + 1]["signals"];
-    EXPECT_EQ(cog["Sid"].number(), k % 253) << at;
-    EXPECT_EQ(cog["CogReference"].number(), 0) << at;
-    expect_near_or_null(cog["Cog"], lost, wrap_two_pi(in.course_over_ground_rad), 0.5e-4 + 1e-9, at + " cog");
-    expect_near_or_null(cog["Sog"], lost, in.speed_over_ground_mps, 0.005 + 1e-9, at + " sog");
+    const Json& cog = msgs[7 * k + 1].at("signals");
+    EXPECT_EQ(cog.at("Sid").get<double>(), k % 253) << at;
+    EXPECT_EQ(cog.at("CogReference").get<double>(), 0) << at;
+    expect_near_or_null(cog.at("Cog"), lost, wrap_two_pi(in.course_over_ground_rad), 0.5e-4 + 1e-9,
+                        at + " cog");
+    expect_near_or_null(cog.at("Sog"), lost, in.speed_over_ground_mps, 0.005 + 1e-9, at + " sog");
 
-    const Json& hdg = msgs[7 * k + 2]["signals"];
-    EXPECT_EQ(hdg["Sid"].number(), k % 253) << at;
-    expect_near_or_null(hdg["Heading"], lost, wrap_two_pi(in.heading_rad), 0.5e-4 + 1e-9, at + " heading");
-    EXPECT_TRUE(hdg["Deviation"].is_null()) << at;
-    EXPECT_TRUE(hdg["Variation"].is_null()) << at;
-    EXPECT_EQ(hdg["Reference"].number(), 0) << at;
+    const Json& hdg = msgs[7 * k + 2].at("signals");
+    EXPECT_EQ(hdg.at("Sid").get<double>(), k % 253) << at;
+    expect_near_or_null(hdg.at("Heading"), lost, wrap_two_pi(in.heading_rad), 0.5e-4 + 1e-9, at + " heading");
+    EXPECT_TRUE(hdg.at("Deviation").is_null()) << at;
+    EXPECT_TRUE(hdg.at("Variation").is_null()) << at;
+    EXPECT_EQ(hdg.at("Reference").get<double>(), 0) << at;
 
-    const Json& gnss = msgs[7 * k + 3]["signals"];
-    EXPECT_EQ(gnss["Sid"].number(), k % 253) << at;
-    const double t_s = gnss["Date"].number() * 86400.0 + gnss["Time"].number();
+    const Json& gnss = msgs[7 * k + 3].at("signals");
+    EXPECT_EQ(gnss.at("Sid").get<double>(), k % 253) << at;
+    const double t_s = gnss.at("Date").get<double>() * 86400.0 + gnss.at("Time").get<double>();
     EXPECT_NEAR(t_s, in.utc_t_ns * 1e-9, 1e-4 + 1e-6) << at;
-    expect_near_or_null(gnss["Latitude"], lost, in.latitude_deg, 1e-12, at + " 129029 lat");
-    expect_near_or_null(gnss["Longitude"], lost, in.longitude_deg, 1e-12, at + " 129029 lon");
-    expect_near_or_null(gnss["Altitude"], lost, in.altitude_m, 0.5e-6 + 1e-9, at + " 129029 alt");
-    EXPECT_EQ(gnss["GnssType"].number(), 6) << at;
-    EXPECT_EQ(gnss["Method"].number(), lost ? 0 : 6) << at;
-    EXPECT_EQ(gnss["Integrity"].number(), in.quality.state == TrackingState::kRecovering ? 2 : 0) << at;
-    EXPECT_TRUE(gnss["NumberOfSvs"].is_null()) << at;
-    EXPECT_TRUE(gnss["Hdop"].is_null()) << at;
+    expect_near_or_null(gnss.at("Latitude"), lost, in.latitude_deg, 1e-12, at + " 129029 lat");
+    expect_near_or_null(gnss.at("Longitude"), lost, in.longitude_deg, 1e-12, at + " 129029 lon");
+    expect_near_or_null(gnss.at("Altitude"), lost, in.altitude_m, 0.5e-6 + 1e-9, at + " 129029 alt");
+    EXPECT_EQ(gnss.at("GnssType").get<double>(), 6) << at;
+    EXPECT_EQ(gnss.at("Method").get<double>(), lost ? 0 : 6) << at;
+    EXPECT_EQ(gnss.at("Integrity").get<double>(), in.quality.state == TrackingState::kRecovering ? 2 : 0)
+        << at;
+    EXPECT_TRUE(gnss.at("NumberOfSvs").is_null()) << at;
+    EXPECT_TRUE(gnss.at("Hdop").is_null()) << at;
     const bool no_geoid = std::isnan(in.geoidal_separation_m);
-    expect_near_or_null(gnss["GeoidalSeparation"], lost || no_geoid, in.geoidal_separation_m, 0.005 + 1e-9,
+    expect_near_or_null(gnss.at("GeoidalSeparation"), lost || no_geoid, in.geoidal_separation_m, 0.005 + 1e-9,
                         at + " 129029 separation");
-    EXPECT_EQ(gnss["ReferenceStations"].number(), 0) << at;
+    EXPECT_EQ(gnss.at("ReferenceStations").get<double>(), 0) << at;
 
-    const Json& vp = msgs[7 * k + 4]["signals"];
-    expect_near_or_null(vp["Latitude"], lost, in.latitude_deg, 0.5e-7 + 1e-9, at + " VP lat");
-    expect_near_or_null(vp["Longitude"], lost, in.longitude_deg, 0.5e-7 + 1e-9, at + " VP lon");
+    const Json& vp = msgs[7 * k + 4].at("signals");
+    expect_near_or_null(vp.at("Latitude"), lost, in.latitude_deg, 0.5e-7 + 1e-9, at + " VP lat");
+    expect_near_or_null(vp.at("Longitude"), lost, in.longitude_deg, 0.5e-7 + 1e-9, at + " VP lon");
 
-    const Json& vds = msgs[7 * k + 5]["signals"];
-    expect_near_or_null(vds["CompassBearing"], lost, wrap_two_pi(in.heading_rad) * 180 / kPi,
+    const Json& vds = msgs[7 * k + 5].at("signals");
+    expect_near_or_null(vds.at("CompassBearing"), lost, wrap_two_pi(in.heading_rad) * 180 / kPi,
                         0.5 / 128 + 1e-9, at + " bearing");
-    expect_near_or_null(vds["NavigationBasedVehicleSpeed"], lost, in.speed_over_ground_mps * 3.6,
+    expect_near_or_null(vds.at("NavigationBasedVehicleSpeed"), lost, in.speed_over_ground_mps * 3.6,
                         0.5 / 256 + 1e-9, at + " speed");
-    expect_near_or_null(vds["Pitch"], lost, in.pitch_rad * 180 / kPi, 0.5 / 128 + 1e-9, at + " pitch");
+    expect_near_or_null(vds.at("Pitch"), lost, in.pitch_rad * 180 / kPi, 0.5 / 128 + 1e-9, at + " pitch");
     // SPN 580 is above mean sea level.
-    expect_near_or_null(vds["Altitude"], lost || no_geoid, in.altitude_m - in.geoidal_separation_m,
+    expect_near_or_null(vds.at("Altitude"), lost || no_geoid, in.altitude_m - in.geoidal_separation_m,
                         0.0625 + 1e-9, at + " altitude");
 
     const Json& pq = msgs[7 * k + 6];
-    EXPECT_TRUE(pq["e2e"]["crc_ok"].boolean()) << at;
-    EXPECT_EQ(pq["e2e"]["counter"].number(), k % 16) << at;
+    EXPECT_TRUE(pq.at("e2e").at("crc_ok").get<bool>()) << at;
+    EXPECT_EQ(pq.at("e2e").at("counter").get<double>(), k % 16) << at;
     const int state_code = lost ? 2 : (in.quality.state == TrackingState::kRecovering ? 1 : 0);
-    EXPECT_EQ(pq["signals"]["TrackingState"].number(), state_code) << at;
-    EXPECT_EQ(pq["signals"]["FeaturesUsed"].number(), in.quality.features_used) << at;
-    EXPECT_NEAR(pq["signals"]["PositionStd"].number(), in.quality.position_std_m, 0.0005 + 1e-9) << at;
-    EXPECT_NEAR(pq["signals"]["RotationStd"].number(), in.quality.rotation_std_rad * 180 / kPi, 0.05 + 1e-9)
+    EXPECT_EQ(pq.at("signals").at("TrackingState").get<double>(), state_code) << at;
+    EXPECT_EQ(pq.at("signals").at("FeaturesUsed").get<double>(), in.quality.features_used) << at;
+    EXPECT_NEAR(pq.at("signals").at("PositionStd").get<double>(), in.quality.position_std_m, 0.0005 + 1e-9)
         << at;
-    EXPECT_NEAR(pq["signals"]["MaskedAreaRatio"].number(), in.quality.masked_area_ratio * 100, 0.2 + 1e-9)
+    EXPECT_NEAR(pq.at("signals").at("RotationStd").get<double>(), in.quality.rotation_std_rad * 180 / kPi,
+                0.05 + 1e-9)
+        << at;
+    EXPECT_NEAR(pq.at("signals").at("MaskedAreaRatio").get<double>(), in.quality.masked_area_ratio * 100,
+                0.2 + 1e-9)
         << at;
   }
 }
@@ -214,13 +217,14 @@ TEST_F(CanDecodeTest, CorruptionAndMissingFramesAreDetected) {
   }
   Json out;
   EXPECT_EQ(decode(bad_log, out), 1);
-  ASSERT_FALSE(out["errors"].array().empty());
-  EXPECT_NE(out["errors"].array()[0].string().find("fast packet"), std::string::npos);
+  ASSERT_FALSE(out.at("errors").empty());
+  EXPECT_NE(out.at("errors").at(0).get<std::string>().find("fast packet"), std::string::npos);
   int crc_failures = 0;
   int gnss = 0;
-  for (const Json& m : out["messages"].array()) {
-    if (m["name"].string() == "SiteposePoseQuality" && !m["e2e"]["crc_ok"].boolean()) ++crc_failures;
-    if (m["name"].string() == "N2kGnssPositionData") ++gnss;
+  for (const Json& m : out.at("messages")) {
+    if (m.at("name").get<std::string>() == "SiteposePoseQuality" && !m.at("e2e").at("crc_ok").get<bool>())
+      ++crc_failures;
+    if (m.at("name").get<std::string>() == "N2kGnssPositionData") ++gnss;
   }
   EXPECT_EQ(crc_failures, 1);
   EXPECT_EQ(gnss, kPoses - 1);

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include "sitepose/testing/files.hpp"
 #include "sitepose/views/report_html.hpp"
 
 namespace sitepose::views {
@@ -49,6 +52,37 @@ TEST(ReportHtml, HasEverySectionAndNeedsNoNetwork) {
   EXPECT_NE(html.find("#3 run"), std::string::npos);
   EXPECT_NE(html.find("#e000e0"), std::string::npos);
   EXPECT_NE(html.find("#00a0e0"), std::string::npos);
+}
+
+// meta.json through the JSON parser: null (how a NaN is written) reads as
+// NaN, no list as none; a file that is not JSON or a list that is not
+// numbers is an error naming the file, not a guess.
+TEST(ReportHtml, OcclusionRatiosAreReadFromMetaJson) {
+  testing::TempDir dir;
+  const std::string meta = dir / "meta.json";
+  testing::write_file(meta, "{\"T_site_world\": [[1, 0], [0, 1]], \"occlusion_ratio\": [0.25, null, 1e-3]}");
+  auto read = read_occlusion_ratios(meta);
+  ASSERT_TRUE(read) << read.error().message;
+  ASSERT_EQ(read->size(), 3u);
+  EXPECT_DOUBLE_EQ((*read)[0], 0.25);
+  EXPECT_TRUE(std::isnan((*read)[1]));
+  EXPECT_DOUBLE_EQ((*read)[2], 1e-3);
+
+  testing::write_file(meta, "{\"frames\": 3}");
+  read = read_occlusion_ratios(meta);
+  ASSERT_TRUE(read) << read.error().message;
+  EXPECT_TRUE(read->empty());
+
+  testing::write_file(meta, "{\"occlusion_ratio\": [0.1 0.2]}");
+  read = read_occlusion_ratios(meta);
+  ASSERT_FALSE(read);
+  EXPECT_EQ(read.error().code, ErrorCode::kParseError);
+  EXPECT_NE(read.error().message.find(meta), std::string::npos) << read.error().message;
+
+  testing::write_file(meta, "{\"occlusion_ratio\": [0.1, \"high\"]}");
+  read = read_occlusion_ratios(meta);
+  ASSERT_FALSE(read);
+  EXPECT_NE(read.error().message.find("not a list of numbers"), std::string::npos) << read.error().message;
 }
 
 }  // namespace

@@ -14,16 +14,15 @@
 
 #include "can_test_support.hpp"
 #include "sitepose/drivers/socketcan/socketcan_sink.hpp"
+#include "sitepose/io/json_file.hpp"
 #include "sitepose/output/can_pose_encoder.hpp"
 #include "sitepose/output/can_sink.hpp"
 #include "sitepose/testing/files.hpp"
-#include "sitepose/testing/mini_json.hpp"
 
 namespace sitepose::drivers::socketcan {
 namespace {
 
-using sitepose::testing::Json;
-using sitepose::testing::JsonParser;
+using io::Json;
 
 constexpr char kPython[] = "/usr/bin/python3";
 constexpr int kPoses = 12;
@@ -89,34 +88,32 @@ TEST(SocketCanDbc, FramesFromTheSinkDecodeToTheValuesSent) {
   const std::string cmd = std::string(kPython) + " " SITEPOSE_SOURCE_DIR "/tools/can_decode.py --dbc " +
                           SITEPOSE_SOURCE_DIR "/config/can/sitepose.dbc " + log + " > " + json_path;
   const int rc = std::system(cmd.c_str());
-  const std::string json = sitepose::testing::read_text(json_path);
-  JsonParser parser(json);
-  auto out = parser.parse();
-  ASSERT_TRUE(out.has_value()) << parser.error();
-  EXPECT_TRUE((*out)["errors"].array().empty()) << json.substr(0, 2000);
+  auto out = io::read_json_file(json_path);
+  ASSERT_TRUE(out.has_value()) << out.error().message;
+  EXPECT_TRUE(out->at("errors").empty()) << sitepose::testing::read_text(json_path).substr(0, 2000);
   EXPECT_EQ(WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, 0);
-  const auto& msgs = (*out)["messages"].array();
+  const auto& msgs = out->at("messages");
   ASSERT_EQ(msgs.size(), static_cast<std::size_t>(7 * kPoses));
   for (int k = 0; k < kPoses; ++k) {
     const output::CanPoseInputs p = pose(k);
     const std::string at = "pose " + std::to_string(k);
-    for (int m = 0; m < 7; ++m) EXPECT_EQ(msgs[7 * k + m]["source_address"].number(), 0x2A) << at;
-    const Json& rapid = msgs[7 * k]["signals"];
-    EXPECT_NEAR(rapid["Latitude"].number(), p.latitude_deg, 0.5e-7 + 1e-12) << at;
-    EXPECT_NEAR(rapid["Longitude"].number(), p.longitude_deg, 0.5e-7 + 1e-12) << at;
+    for (int m = 0; m < 7; ++m) EXPECT_EQ(msgs[7 * k + m].at("source_address").get<double>(), 0x2A) << at;
+    const Json& rapid = msgs[7 * k].at("signals");
+    EXPECT_NEAR(rapid.at("Latitude").get<double>(), p.latitude_deg, 0.5e-7 + 1e-12) << at;
+    EXPECT_NEAR(rapid.at("Longitude").get<double>(), p.longitude_deg, 0.5e-7 + 1e-12) << at;
     const Json& gnss = msgs[7 * k + 3];
-    ASSERT_EQ(gnss["name"].string(), "N2kGnssPositionData") << at;
-    const double alt = gnss["signals"]["Altitude"].number();
+    ASSERT_EQ(gnss.at("name").get<std::string>(), "N2kGnssPositionData") << at;
+    const double alt = gnss.at("signals").at("Altitude").get<double>();
     if (k == kPoses - 1) {
       EXPECT_NEAR(alt, 9223372036854.775804, 0.01) << at;  // clamped, inside the DBC range
     } else {
       EXPECT_NEAR(alt, p.altitude_m, 0.5e-6 + 1e-9) << at;
     }
-    const Json& vp = msgs[7 * k + 4]["signals"];
-    EXPECT_NEAR(vp["Latitude"].number(), p.latitude_deg, 0.5e-7 + 1e-9) << at;
-    EXPECT_NEAR(vp["Longitude"].number(), p.longitude_deg, 0.5e-7 + 1e-9) << at;
-    EXPECT_TRUE(msgs[7 * k + 6]["e2e"]["crc_ok"].boolean()) << at;
-    EXPECT_EQ(msgs[7 * k + 6]["signals"]["FeaturesUsed"].number(), p.quality.features_used) << at;
+    const Json& vp = msgs[7 * k + 4].at("signals");
+    EXPECT_NEAR(vp.at("Latitude").get<double>(), p.latitude_deg, 0.5e-7 + 1e-9) << at;
+    EXPECT_NEAR(vp.at("Longitude").get<double>(), p.longitude_deg, 0.5e-7 + 1e-9) << at;
+    EXPECT_TRUE(msgs[7 * k + 6].at("e2e").at("crc_ok").get<bool>()) << at;
+    EXPECT_EQ(msgs[7 * k + 6].at("signals").at("FeaturesUsed").get<double>(), p.quality.features_used) << at;
   }
 }
 

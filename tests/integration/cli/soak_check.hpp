@@ -1,0 +1,50 @@
+#pragma once
+// `sitepose bench soak` as a memory regression (issue 20), shared by the CI
+// test and its longer sweep: one back-and-forth pass of the backforth
+// scenario (it ends where it starts) looped through the daemon's pipeline in
+// mode full; RSS at the end within 10 % of RSS after the warm-up, no frame
+// dropped, a CSV row per sample and the PNG beside it.
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "sitepose/testing/command.hpp"
+#include "sitepose/testing/files.hpp"
+
+namespace sitepose::testing {
+
+// A soak of `frames` frames sampled every `sample_every`, the RSS reference
+// after `warmup_frames`; its output is recorded as the property
+// soak_output.
+inline void expect_flat_rss_soak(int frames, int sample_every, int warmup_frames) {
+  TempDir dir("soak");
+  const std::string exe = SITEPOSE_SITEPOSE_EXE;
+  ASSERT_EQ(run_command(exe + " sim --scenario backforth --frames 216 --width 320 --height 180 --out " +
+                        (dir / "seq") + " > " + (dir / "sim.txt") + " 2>&1"),
+            0)
+      << read_text(dir / "sim.txt");
+  const int status =
+      run_command(exe + " bench soak --sequence " + (dir / "seq") + " --frames " + std::to_string(frames) +
+                  " --sample-every " + std::to_string(sample_every) + " --warmup-frames " +
+                  std::to_string(warmup_frames) + " --max-rss-growth 10 --csv " + (dir / "soak.csv") + " > " +
+                  (dir / "soak.txt") + " 2>&1");
+  const std::string out = read_text(dir / "soak.txt");
+  EXPECT_EQ(status, 0) << out;
+  const std::vector<std::string> rows = read_lines(dir / "soak.csv");
+  const std::size_t samples = static_cast<std::size_t>((frames + sample_every - 1) / sample_every);
+  ASSERT_EQ(rows.size(), 1 + samples) << out;  // header + a row per sample
+  EXPECT_EQ(rows[0], "frames,rss_mb,keyframes,map_points,drops,track_errors,latency_p99_ms");
+  EXPECT_EQ(rows.back().rfind(std::to_string(frames) + ",", 0), 0u) << rows.back();
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    // drops: the fifth field; the source waits for the pipeline (lossless).
+    std::size_t pos = 0;
+    for (int field = 0; field < 4; ++field) pos = rows[i].find(',', pos) + 1;
+    EXPECT_EQ(rows[i].substr(pos, rows[i].find(',', pos) - pos), "0") << rows[i];
+  }
+  EXPECT_EQ(read_text(dir / "soak.png").substr(0, 4), "\x89PNG");
+  ::testing::Test::RecordProperty("soak_output", out);
+}
+
+}  // namespace sitepose::testing
