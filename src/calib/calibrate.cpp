@@ -1,6 +1,8 @@
 // calibrate_stereo: corner search over the views, then the OpenCV fits.
 
+#include <map>
 #include <opencv2/calib3d.hpp>
+#include <set>
 
 #include "sitepose/calib/stereo_calibrate.hpp"
 
@@ -16,10 +18,58 @@ struct Observations {
   cv::Size size;
 };
 
-// Corner search in view `i`; records the result and, when found in both
-// images, the observations.
-Status observe_view(const CalibrationView& view, const BoardSpec& board, Observations& obs,
-                    ViewResult& result) {
+// The corners both cameras see, in the left image's order, with their
+// board points.
+struct CommonCorners {
+  std::vector<cv::Point3f> object;
+  std::vector<cv::Point2f> left;
+  std::vector<cv::Point2f> right;
+};
+
+CommonCorners common_corners(const BoardCorners& left, const BoardCorners& right,
+                             const std::vector<cv::Point3f>& board) {
+  std::map<int, cv::Point2f> right_by_id;
+  for (std::size_t i = 0; i < right.ids.size(); ++i) right_by_id.emplace(right.ids[i], right.points_px[i]);
+  CommonCorners common;
+  for (std::size_t i = 0; i < left.ids.size(); ++i) {
+    const int id = left.ids[i];
+    const auto twin = right_by_id.find(id);
+    if (twin == right_by_id.end() || id < 0 || static_cast<std::size_t>(id) >= board.size()) continue;
+    common.object.push_back(board[static_cast<std::size_t>(id)]);
+    common.left.push_back(left.points_px[i]);
+    common.right.push_back(twin->second);
+  }
+  return common;
+}
+
+// Why a view with these corners is not used ("" when it is).
+std::string why_not_used(const BoardCorners& left, const BoardCorners& right, const CommonCorners& common,
+                         const BoardSpec& board, const CalibrateOptions& options) {
+  if (left.empty() || right.empty()) {
+    return left.empty() && right.empty() ? "board not found in either image"
+           : left.empty()                ? "board not found in the left image"
+                                         : "board not found in the right image";
+  }
+  if (board.kind != BoardKind::kCharuco) return "";
+  if (static_cast<int>(common.object.size()) < options.min_common_corners) {
+    return std::to_string(common.object.size()) + " ChArUco corners seen by both cameras, fewer than " +
+           std::to_string(options.min_common_corners);
+  }
+  // Corners on one line of the board do not fix its pose.
+  std::set<float> xs, ys;
+  for (const cv::Point3f& p : common.object) {
+    xs.insert(p.x);
+    ys.insert(p.y);
+  }
+  if (xs.size() < 2 || ys.size() < 2) return "the ChArUco corners seen by both cameras lie on one line";
+  return "";
+}
+
+// Corner search in one view; records the result and, when the board is
+// found in both images, the observations.
+Status observe_view(const CalibrationView& view, const BoardSpec& board,
+                    const std::vector<cv::Point3f>& points, const CalibrateOptions& options,
+                    Observations& obs, ViewResult& result) {
   result.name = view.name;
   const cv::Size size = view.left.size();
   if (view.right.size() != size) {
@@ -33,18 +83,15 @@ Status observe_view(const CalibrationView& view, const BoardSpec& board, Observa
                           std::to_string(size.height) + ", the first view was " +
                           std::to_string(obs.size.width) + "x" + std::to_string(obs.size.height));
   }
-  std::vector<cv::Point2f> left = find_board_corners(view.left, board);
-  std::vector<cv::Point2f> right = find_board_corners(view.right, board);
-  if (left.empty() || right.empty()) {
-    result.why_skipped = left.empty() && right.empty() ? "board not found in either image"
-                         : left.empty()                ? "board not found in the left image"
-                                                       : "board not found in the right image";
-    return ok_status();
-  }
+  const BoardCorners left = find_board_corners(view.left, board);
+  const BoardCorners right = find_board_corners(view.right, board);
+  CommonCorners common = common_corners(left, right, points);
+  result.why_skipped = why_not_used(left, right, common, board, options);
+  if (!result.why_skipped.empty()) return ok_status();
   result.used = true;
-  obs.object.push_back(board_points(board));
-  obs.left.push_back(std::move(left));
-  obs.right.push_back(std::move(right));
+  obs.object.push_back(std::move(common.object));
+  obs.left.push_back(std::move(common.left));
+  obs.right.push_back(std::move(common.right));
   return ok_status();
 }
 
@@ -87,9 +134,10 @@ Expected<CalibrationReport> calibrate_stereo(
   CalibrationReport report;
   Observations obs;
   report.views.resize(count);
+  const std::vector<cv::Point3f> points = board_points(board);
   for (std::size_t i = 0; i < count; ++i) {
     SITEPOSE_TRY(const CalibrationView view, load(i));
-    SITEPOSE_TRY_STATUS(observe_view(view, board, obs, report.views[i]));
+    SITEPOSE_TRY_STATUS(observe_view(view, board, points, options, obs, report.views[i]));
     if (report.views[i].used) obs.view_index.push_back(i);
     if (options.progress) options.progress(static_cast<int>(i + 1), static_cast<int>(count), report.views[i]);
   }

@@ -8,11 +8,40 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
+#include "charuco.hpp"
+
 namespace sitepose::calib {
 
 namespace fs = std::filesystem;
 
-Expected<BoardSpec> parse_board(const std::string& text, double square_m) {
+namespace {
+
+// A ChArUco board's own checks: markers inside their squares, and a
+// dictionary with a marker for every white square.
+Status check_charuco(const BoardSpec& board) {
+  const CharucoMarkers& m = board.markers;
+  if (!(m.marker_m > 0.0) || !(m.marker_m < board.square_m)) {
+    return make_error(ErrorCode::kInvalidArgument, "marker size " + std::to_string(m.marker_m) +
+                                                       " m: must be > 0 and smaller than the square (" +
+                                                       std::to_string(board.square_m) + " m)");
+  }
+  SITEPOSE_TRY(const auto dictionary, detail::charuco_dictionary(m.dictionary));
+  const int squares = (board.cols + 1) * (board.rows + 1);
+  const int markers_needed = squares / 2;
+  if (dictionary->bytesList.rows < markers_needed) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "ChArUco dictionary " + m.dictionary + " has " +
+                          std::to_string(dictionary->bytesList.rows) + " markers; a board of " +
+                          std::to_string(board.cols + 1) + "x" + std::to_string(board.rows + 1) +
+                          " squares needs " + std::to_string(markers_needed));
+  }
+  return ok_status();
+}
+
+}  // namespace
+
+Expected<BoardSpec> parse_board(const std::string& text, double square_m,
+                                const std::optional<CharucoMarkers>& markers) {
   BoardSpec board;
   const auto x = text.find_first_of("xX");
   auto parse_int = [](const std::string& s, int& out) {
@@ -29,7 +58,7 @@ Expected<BoardSpec> parse_board(const std::string& text, double square_m) {
     return make_error(ErrorCode::kInvalidArgument,
                       "board \"" + text + "\": needs at least 2x2 inner corners");
   }
-  if (board.cols == board.rows) {
+  if (board.cols == board.rows && !markers) {
     return make_error(ErrorCode::kInvalidArgument,
                       "board \"" + text +
                           "\": a square board has an ambiguous orientation; use one with "
@@ -40,10 +69,19 @@ Expected<BoardSpec> parse_board(const std::string& text, double square_m) {
                       "square size " + std::to_string(square_m) + " m: must be > 0");
   }
   board.square_m = square_m;
+  if (markers) {
+    board.kind = BoardKind::kCharuco;
+    board.markers = *markers;
+    SITEPOSE_TRY_STATUS(check_charuco(board));
+  }
   return board;
 }
 
 std::vector<cv::Point3f> board_points(const BoardSpec& board) {
+  if (board.kind == BoardKind::kCharuco) {
+    const auto charuco = detail::make_charuco_board(board);
+    return charuco ? charuco->chessboardCorners : std::vector<cv::Point3f>{};
+  }
   std::vector<cv::Point3f> points;
   points.reserve(static_cast<std::size_t>(board.cols) * static_cast<std::size_t>(board.rows));
   for (int r = 0; r < board.rows; ++r) {
@@ -55,7 +93,9 @@ std::vector<cv::Point3f> board_points(const BoardSpec& board) {
   return points;
 }
 
-std::vector<cv::Point2f> find_board_corners(const cv::Mat& gray, const BoardSpec& board) {
+namespace {
+
+std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const BoardSpec& board) {
   std::vector<cv::Point2f> corners;
   const cv::Size pattern(board.cols, board.rows);
   const int flags = cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE;
@@ -73,6 +113,17 @@ std::vector<cv::Point2f> find_board_corners(const cv::Mat& gray, const BoardSpec
   cv::cornerSubPix(gray, corners, cv::Size(half, half), cv::Size(-1, -1),
                    cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
   return corners;
+}
+
+}  // namespace
+
+BoardCorners find_board_corners(const cv::Mat& gray, const BoardSpec& board) {
+  if (board.kind == BoardKind::kCharuco) return detail::find_charuco_corners(gray, board);
+  BoardCorners found;
+  found.points_px = find_chessboard_corners(gray, board);
+  found.ids.resize(found.points_px.size());
+  for (std::size_t i = 0; i < found.ids.size(); ++i) found.ids[i] = static_cast<int>(i);
+  return found;
 }
 
 Expected<std::vector<std::string>> list_calibration_views(const std::string& dir) {

@@ -1,4 +1,4 @@
-// `sitepose calibrate`: stereo calibration from chessboard views
+// `sitepose calibrate`: stereo calibration from chessboard or ChArUco views
 // (DIR/left/NAME.png, DIR/right/NAME.png) into the OpenCV YAML file the
 // camera sources read (calib/calibration_file.hpp). Exit status 0 ok,
 // 1 failure while running or writing, 2 bad usage or too few usable views.
@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "command_registry.hpp"
@@ -20,7 +21,10 @@ namespace {
 struct CalibrateArgs {
   std::string images;
   std::string board;
+  std::string board_type = "chessboard";
   double square_m = 0.0;
+  double marker_m = 0.0;
+  std::string dictionary = calib::CharucoMarkers{}.dictionary;
   std::string out;
   int min_views = 5;
   bool free_k3 = false;
@@ -52,10 +56,31 @@ void print_result(const calib::CalibrationReport& report, const StereoCamera& re
               rectified.width, rectified.height);
 }
 
+// The board of --board, --square-m and, for --board-type charuco, --marker-m
+// and --dictionary; the error names the options.
+Expected<calib::BoardSpec> board_from_args(const CalibrateArgs& a) {
+  std::optional<calib::CharucoMarkers> markers;
+  if (a.board_type == "charuco") {
+    markers = calib::CharucoMarkers{a.marker_m, a.dictionary};
+  } else if (a.marker_m != 0.0 || a.dictionary != calib::CharucoMarkers{}.dictionary) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "--marker-m and --dictionary describe a ChArUco board; add --board-type charuco");
+  }
+  auto board = calib::parse_board(a.board, a.square_m, markers);
+  if (!board) {
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        std::string(markers ? "--board/--square-m/--marker-m/--dictionary: " : "--board/--square-m: ") +
+            board.error().message);
+  }
+  return board;
+}
+
 int run_calibrate(const CalibrateArgs& a) {
   const std::string cmd = "calibrate";
-  auto board = calib::parse_board(a.board, a.square_m);
-  if (!board) return fail(cmd, "--board/--square-m: " + board.error().message, 2);
+  auto board = board_from_args(a);
+  if (!board) return fail(cmd, board.error().message, 2);
+  const bool charuco = board->kind == calib::BoardKind::kCharuco;
   auto names = calib::list_calibration_views(a.images);
   if (!names) return fail(cmd, names.error().message, 2);
   calib::CalibrateOptions options;
@@ -74,8 +99,14 @@ int run_calibrate(const CalibrateArgs& a) {
       std::fprintf(stderr, "sitepose calibrate: corners %d/%d views\n", done, total);
     }
   };
-  std::fprintf(stderr, "sitepose calibrate: %zu views in %s, board %dx%d inner corners, %g m squares\n",
-               names->size(), a.images.c_str(), board->cols, board->rows, board->square_m);
+  char marker_text[96] = "";
+  if (charuco) {
+    std::snprintf(marker_text, sizeof(marker_text), ", %g m markers of %s", board->markers.marker_m,
+                  board->markers.dictionary.c_str());
+  }
+  std::fprintf(stderr, "sitepose calibrate: %zu views in %s, %s %dx%d inner corners, %g m squares%s\n",
+               names->size(), a.images.c_str(), a.board_type.c_str(), board->cols, board->rows,
+               board->square_m, marker_text);
   auto report = calib::calibrate_stereo(
       names->size(), [&](std::size_t i) { return calib::load_calibration_view(a.images, (*names)[i]); },
       *board, options);
@@ -93,20 +124,32 @@ int run_calibrate(const CalibrateArgs& a) {
 
 const CommandRegistrar kCalibrate{
     {"", "calibrate",
-     "Stereo calibration from chessboard views: K1 D1 K2 D2 R T and the rectification, written as "
-     "the OpenCV YAML file the camera sources read",
+     "Stereo calibration from chessboard or ChArUco views: K1 D1 K2 D2 R T and the rectification, "
+     "written as the OpenCV YAML file the camera sources read",
      [](CLI::App& sub) -> CommandAction {
        auto args = std::make_shared<CalibrateArgs>();
        sub.add_option("--images", args->images,
                       "Folder with left/NNNNNN.png and right/NNNNNN.png (same names, taken together)")
            ->type_name("DIR")
            ->required();
-       sub.add_option("--board", args->board, "Chessboard inner corners, COLSxROWS (e.g. 9x6)")
+       sub.add_option("--board", args->board,
+                      "Board inner corners, COLSxROWS (e.g. 9x6: 10 x 7 squares), for both board types")
            ->type_name("COLSxROWS")
            ->required();
-       sub.add_option("--square-m", args->square_m, "Side of one chessboard square (m)")
+       sub.add_option("--square-m", args->square_m, "Side of one board square (m)")
            ->type_name("S")
            ->required();
+       sub.add_option("--board-type", args->board_type,
+                      "chessboard: seen whole in both images; charuco: ArUco markers in the white squares, "
+                      "usable when partly hidden or cut off (views use the corners both cameras see)")
+           ->check(CLI::IsMember({"chessboard", "charuco"}))
+           ->capture_default_str();
+       sub.add_option("--marker-m", args->marker_m,
+                      "ChArUco: side of one marker (m), smaller than --square-m")
+           ->type_name("M");
+       sub.add_option("--dictionary", args->dictionary, "ChArUco: the predefined OpenCV ArUco dictionary")
+           ->check(CLI::IsMember(calib::charuco_dictionary_names()))
+           ->capture_default_str();
        sub.add_option("--out", args->out, "Calibration file to write (OpenCV FileStorage YAML)")
            ->type_name("FILE.yaml")
            ->required();

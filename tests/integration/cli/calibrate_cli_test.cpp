@@ -11,6 +11,7 @@
 #include <string>
 
 #include "sitepose/calib/calibration_file.hpp"
+#include "sitepose/testing/charuco_target.hpp"
 #include "sitepose/testing/checkerboard.hpp"
 #include "sitepose/testing/files.hpp"
 
@@ -36,8 +37,9 @@ CliResult run_sitepose(const testing::TempDir& dir, const std::string& args) {
 
 // The rendered set as DIR/left/NNNNNN.png, DIR/right/NNNNNN.png, plus one
 // view where the board is out of sight.
-void write_views(const testing::TempDir& dir, const testing::StereoRigTruth& rig, std::size_t count) {
-  const auto views = testing::render_calibration_set(rig, testing::CheckerboardSpec{}, count);
+void write_views(const testing::TempDir& dir, const testing::StereoRigTruth& rig, std::size_t count,
+                 const testing::PlanarTarget& target = testing::checkerboard_target({})) {
+  const auto views = testing::render_calibration_set(rig, target, count);
   std::filesystem::create_directories(dir.path() / "views" / "left");
   std::filesystem::create_directories(dir.path() / "views" / "right");
   char name[32];
@@ -87,6 +89,38 @@ TEST(CalibrateCli, TooFewViewsAndBadBoardsExitTwo) {
       run_sitepose(dir, "calibrate --images " + (dir / "none") + " --board 9x6 --square-m 0.03 --out x.yaml");
   EXPECT_EQ(no_dir.exit_status, 2);
   EXPECT_NE(no_dir.err.find("none"), std::string::npos) << no_dir.err;
+}
+
+TEST(CalibrateCli, ChArUcoBoardRecoversTheRig) {
+  testing::TempDir dir;
+  const testing::StereoRigTruth rig = testing::test_stereo_rig();
+  write_views(dir, rig, 10, testing::charuco_target(9, 6, 0.035, 0.026, cv::aruco::DICT_5X5_100));
+  const CliResult r =
+      run_sitepose(dir, "calibrate --images " + (dir / "views") +
+                            " --board 9x6 --square-m 0.035 --board-type charuco --marker-m 0.026 "
+                            "--dictionary DICT_5X5_100 --out " +
+                            (dir / "stereo.yaml"));
+  ASSERT_EQ(r.exit_status, 0) << r.err;
+  EXPECT_NE(r.err.find("charuco 9x6 inner corners, 0.035 m squares, 0.026 m markers of DICT_5X5_100"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.out.find("views used    10 of 11"), std::string::npos) << r.out;
+  auto c = calib::read_stereo_calibration(dir / "stereo.yaml");
+  ASSERT_TRUE(c) << c.error().message;
+  EXPECT_NEAR(c->K1.at<double>(0, 0), rig.K_left(0, 0), 0.005 * rig.K_left(0, 0));
+  EXPECT_NEAR(c->K2.at<double>(0, 2), rig.K_right(0, 2), 3.0);
+  EXPECT_NEAR(cv::norm(c->T), rig.baseline_m(), 0.01 * rig.baseline_m());
+
+  // Marker options without --board-type charuco, and a marker as big as a square.
+  const std::string common =
+      "calibrate --images " + (dir / "views") + " --board 9x6 --square-m 0.035 --out " + (dir / "c.yaml");
+  const CliResult stray = run_sitepose(dir, common + " --marker-m 0.026");
+  EXPECT_EQ(stray.exit_status, 2);
+  EXPECT_NE(stray.err.find("add --board-type charuco"), std::string::npos) << stray.err;
+  const CliResult big = run_sitepose(dir, common + " --board-type charuco --marker-m 0.035");
+  EXPECT_EQ(big.exit_status, 2);
+  EXPECT_NE(big.err.find("smaller than the square"), std::string::npos) << big.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "c.yaml"));
 }
 
 }  // namespace

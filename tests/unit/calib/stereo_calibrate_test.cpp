@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sitepose/calib/rectifier.hpp"
+#include "sitepose/testing/charuco_target.hpp"
 #include "sitepose/testing/checkerboard.hpp"
 
 namespace sitepose::calib {
@@ -16,7 +17,9 @@ namespace {
 using testing::CheckerboardSpec;
 using testing::StereoRigTruth;
 
-BoardSpec board_of(const CheckerboardSpec& spec) { return {spec.cols, spec.rows, spec.square_m}; }
+BoardSpec board_of(const CheckerboardSpec& spec) {
+  return {BoardKind::kChessboard, spec.cols, spec.rows, spec.square_m, {}};
+}
 
 std::function<Expected<CalibrationView>(std::size_t)> loader(
     const std::vector<std::pair<cv::Mat, cv::Mat>>& views) {
@@ -103,8 +106,8 @@ TEST_F(RenderedCalibration, RectifiedCornersLieOnTheSameRows) {
   ASSERT_TRUE(rectifier) << rectifier.error().message;
   cv::Mat left, right;
   ASSERT_TRUE(rectifier->rectify((*views_)[0].first, (*views_)[0].second, left, right));
-  const auto cl = find_board_corners(left, board_of(spec_));
-  const auto cr = find_board_corners(right, board_of(spec_));
+  const auto cl = find_board_corners(left, board_of(spec_)).points_px;
+  const auto cr = find_board_corners(right, board_of(spec_)).points_px;
   ASSERT_EQ(cl.size(), cr.size());
   ASSERT_FALSE(cl.empty());
   double worst = 0.0;
@@ -168,6 +171,87 @@ TEST(StereoCalibrate, ParsesBoardSpecs) {
   ASSERT_EQ(points.size(), 54u);
   EXPECT_FLOAT_EQ(points[10].x, 0.025f);
   EXPECT_FLOAT_EQ(points[10].y, 0.025f);
+}
+
+// A ChArUco board of 9x6 inner corners (10 x 7 squares of 35 mm, 26 mm
+// markers of DICT_5X5_100) and its rendered set.
+BoardSpec charuco_spec() {
+  auto board = parse_board("9x6", 0.035, CharucoMarkers{0.026, "DICT_5X5_100"});
+  EXPECT_TRUE(board) << board.error().message;
+  return board ? *board : BoardSpec{};
+}
+
+std::vector<std::pair<cv::Mat, cv::Mat>> charuco_views(const StereoRigTruth& rig) {
+  return testing::render_calibration_set(
+      rig, testing::charuco_target(9, 6, 0.035, 0.026, cv::aruco::DICT_5X5_100));
+}
+
+TEST(StereoCalibrateCharuco, RecoversTheRigWithinTheChessboardBounds) {
+  const StereoRigTruth rig = testing::test_stereo_rig();
+  const auto views = charuco_views(rig);
+  auto report = calibrate_stereo(views.size(), loader(views), charuco_spec(), {});
+  ASSERT_TRUE(report) << report.error().message;
+  const StereoCalibration& c = report->calibration;
+  std::printf("charuco: fx %.3f / %.3f  cx %.3f / %.3f  baseline %.5f / %.5f m  rms %.3f px, %d views\n",
+              c.K1.at<double>(0, 0), rig.K_left(0, 0), c.K1.at<double>(0, 2), rig.K_left(0, 2), cv::norm(c.T),
+              rig.baseline_m(), c.rms_px, report->views_used);
+  EXPECT_EQ(report->views_used, 10);
+  EXPECT_LT(c.rms_px, 0.3);
+  for (auto [est, truth] : {std::pair{&c.K1, &rig.K_left}, std::pair{&c.K2, &rig.K_right}}) {
+    EXPECT_NEAR(est->at<double>(0, 0), (*truth)(0, 0), 0.005 * (*truth)(0, 0));
+    EXPECT_NEAR(est->at<double>(1, 1), (*truth)(1, 1), 0.005 * (*truth)(1, 1));
+    EXPECT_NEAR(est->at<double>(0, 2), (*truth)(0, 2), 3.0);
+    EXPECT_NEAR(est->at<double>(1, 2), (*truth)(1, 2), 3.0);
+  }
+  EXPECT_NEAR(cv::norm(c.T), rig.baseline_m(), 0.01 * rig.baseline_m());
+}
+
+TEST(StereoCalibrateCharuco, PartlyHiddenBoardsAreUsedWhereAChessboardIsNot) {
+  const StereoRigTruth rig = testing::test_stereo_rig();
+  auto views = charuco_views(rig);
+  auto chessboard_views = testing::render_calibration_set(rig, CheckerboardSpec{});
+  // Something covers the left third of both images of view 0 in each set.
+  for (auto* set : {&views, &chessboard_views}) {
+    for (cv::Mat* image : {&(*set)[0].first, &(*set)[0].second}) {
+      (*image)(cv::Rect(0, 0, rig.size.width / 3 + 60, rig.size.height)) = 110;
+    }
+  }
+  auto charuco = calibrate_stereo(views.size(), loader(views), charuco_spec(), {});
+  ASSERT_TRUE(charuco) << charuco.error().message;
+  EXPECT_TRUE(charuco->views[0].used) << charuco->views[0].why_skipped;
+  auto chessboard = calibrate_stereo(chessboard_views.size(), loader(chessboard_views), board_of({}), {});
+  ASSERT_TRUE(chessboard) << chessboard.error().message;
+  EXPECT_FALSE(chessboard->views[0].used);
+  // Fewer common corners than options.min_common_corners: named and
+  // skipped (the board has 54, so every view is; the progress reports why).
+  CalibrateOptions strict;
+  strict.min_common_corners = 55;
+  std::vector<std::string> why;
+  strict.progress = [&why](int, int, const ViewResult& v) { why.push_back(v.why_skipped); };
+  auto too_few = calibrate_stereo(views.size(), loader(views), charuco_spec(), strict);
+  ASSERT_FALSE(too_few);
+  EXPECT_NE(too_few.error().message.find("0 of 10 views"), std::string::npos) << too_few.error().message;
+  ASSERT_EQ(why.size(), views.size());
+  EXPECT_NE(why[0].find("ChArUco corners seen by both cameras, fewer than 55"), std::string::npos) << why[0];
+}
+
+TEST(StereoCalibrateCharuco, ParsesBoardsAndNamesWhatIsWrong) {
+  const auto square = parse_board("7x7", 0.03, CharucoMarkers{0.02, "DICT_4X4_50"});
+  ASSERT_TRUE(square) << "markers fix the orientation: " << square.error().message;
+  EXPECT_EQ(square->kind, BoardKind::kCharuco);
+  EXPECT_EQ(board_points(*square).size(), 49u);
+  const auto big_marker = parse_board("9x6", 0.03, CharucoMarkers{0.03, "DICT_4X4_50"});
+  ASSERT_FALSE(big_marker);
+  EXPECT_NE(big_marker.error().message.find("smaller than the square"), std::string::npos);
+  const auto unknown = parse_board("9x6", 0.03, CharucoMarkers{0.02, "DICT_3X3_9"});
+  ASSERT_FALSE(unknown);
+  EXPECT_NE(unknown.error().message.find("DICT_5X5_100"), std::string::npos) << "lists the known ones";
+  // 16 x 11 squares hold 88 markers; DICT_4X4_50 has 50.
+  const auto small_dictionary = parse_board("15x10", 0.03, CharucoMarkers{0.02, "DICT_4X4_50"});
+  ASSERT_FALSE(small_dictionary);
+  EXPECT_NE(small_dictionary.error().message.find("has 50 markers"), std::string::npos)
+      << small_dictionary.error().message;
+  EXPECT_EQ(charuco_dictionary_names().size(), 17u);
 }
 
 }  // namespace

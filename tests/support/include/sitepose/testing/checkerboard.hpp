@@ -1,8 +1,9 @@
 #pragma once
-// Chessboard views of a known stereo rig, for calibration tests: the board
-// plane is warped into each camera by its homography K [r1 r2 t], rendered
-// at 4x and area-averaged down (so corners are anti-aliased and sub-pixel
-// positions are meaningful). No lens distortion. Needs OpenCV imgproc.
+// Chessboard views (or views of any planar target) of a known stereo rig,
+// for calibration tests: the board plane is warped into each camera by its
+// homography K [r1 r2 t], rendered at 4x and area-averaged down (so corners
+// are anti-aliased and sub-pixel positions are meaningful). No lens
+// distortion. Needs OpenCV imgproc.
 
 #include <cmath>
 #include <cstdint>
@@ -34,25 +35,14 @@ inline cv::Matx33d rotation_deg(double ax, double ay, double az) {
   return rz * ry * rx;
 }
 
-// 8-bit gray image of the board (one white square of margin around it) on a
+// 8-bit gray image of a planar texture seen by `view`: texture pixel
+// (x, y) (centres at integers) lies at board-plane point
+// texture_to_board * (x, y, 1). Rendered at 4x and area-averaged down, on a
 // mid-grey background, with Gaussian noise of `noise_sigma` grey levels.
-inline cv::Mat render_checkerboard(const BoardView& view, const CheckerboardSpec& board, cv::Size size,
-                                   std::uint64_t seed = 1, double noise_sigma = 1.0) {
+inline cv::Mat render_planar_texture(const BoardView& view, const cv::Mat& texture,
+                                     const cv::Matx33d& texture_to_board, cv::Size size, std::uint64_t seed,
+                                     double noise_sigma) {
   constexpr int kSuper = 4;
-  constexpr int kPxPerSquare = 40;
-  const int squares_x = board.cols + 1, squares_y = board.rows + 1;
-  cv::Mat texture((squares_y + 2) * kPxPerSquare, (squares_x + 2) * kPxPerSquare, CV_8UC1, cv::Scalar(235));
-  for (int j = 0; j < squares_y; ++j) {
-    for (int i = 0; i < squares_x; ++i) {
-      if ((i + j) % 2 == 0) {
-        texture(cv::Rect((i + 1) * kPxPerSquare, (j + 1) * kPxPerSquare, kPxPerSquare, kPxPerSquare)) = 20;
-      }
-    }
-  }
-  // Texture pixel (centre at integer x) -> board plane (inner corner 0 at the origin).
-  const double s = board.square_m / kPxPerSquare;
-  const double origin = -2.0 * board.square_m + 0.5 * s;
-  const cv::Matx33d texture_to_board(s, 0, origin, 0, s, origin, 0, 0, 1);
   // Pixel u of the final image covers 4x pixels 4u .. 4u+3, centred at 4u + 1.5.
   const double off = (kSuper - 1) / 2.0;
   const cv::Matx33d to_super(kSuper, 0, off, 0, kSuper, off, 0, 0, 1);
@@ -97,26 +87,56 @@ inline StereoRigTruth test_stereo_rig() {
   return rig;
 }
 
+// A planar calibration target: its picture and where the picture lies on
+// the board plane (see render_planar_texture), and the point the views
+// centre on.
+struct PlanarTarget {
+  cv::Mat texture;
+  cv::Matx33d texture_to_board;
+  cv::Vec3d centre_on_board;
+};
+
+// The chessboard of `board` as a target, centred on its inner corners.
+inline PlanarTarget checkerboard_target(const CheckerboardSpec& board) {
+  constexpr int kPxPerSquare = 40;
+  const int squares_x = board.cols + 1, squares_y = board.rows + 1;
+  PlanarTarget target;
+  target.texture =
+      cv::Mat((squares_y + 2) * kPxPerSquare, (squares_x + 2) * kPxPerSquare, CV_8UC1, cv::Scalar(235));
+  for (int j = 0; j < squares_y; ++j) {
+    for (int i = 0; i < squares_x; ++i) {
+      if ((i + j) % 2 == 0) {
+        target.texture(cv::Rect((i + 1) * kPxPerSquare, (j + 1) * kPxPerSquare, kPxPerSquare, kPxPerSquare)) =
+            20;
+      }
+    }
+  }
+  // Texture pixel (centre at integer x) -> board plane (inner corner 0 at the origin).
+  const double s = board.square_m / kPxPerSquare;
+  const double origin = -2.0 * board.square_m + 0.5 * s;
+  target.texture_to_board = cv::Matx33d(s, 0, origin, 0, s, origin, 0, 0, 1);
+  target.centre_on_board =
+      cv::Vec3d((board.cols - 1) * board.square_m / 2.0, (board.rows - 1) * board.square_m / 2.0, 0.0);
+  return target;
+}
+
 // Board pose with its centre at `centre_cam` (left camera frame) and the
 // given tilt; both images of view i of a calibration set.
-inline std::pair<cv::Mat, cv::Mat> render_stereo_view(const StereoRigTruth& rig,
-                                                      const CheckerboardSpec& board,
+inline std::pair<cv::Mat, cv::Mat> render_stereo_view(const StereoRigTruth& rig, const PlanarTarget& target,
                                                       const cv::Matx33d& R_left_board,
                                                       const cv::Vec3d& centre_cam, std::uint64_t seed) {
-  const cv::Vec3d board_centre((board.cols - 1) * board.square_m / 2.0,
-                               (board.rows - 1) * board.square_m / 2.0, 0.0);
-  const cv::Vec3d t_left = centre_cam - R_left_board * board_centre;
+  const cv::Vec3d t_left = centre_cam - R_left_board * target.centre_on_board;
   const BoardView left{rig.K_left, R_left_board, t_left};
   const BoardView right{rig.K_right, rig.R_right_left * R_left_board,
                         rig.R_right_left * t_left + rig.t_right_left};
-  return {render_checkerboard(left, board, rig.size, seed),
-          render_checkerboard(right, board, rig.size, seed + 1)};
+  return {render_planar_texture(left, target.texture, target.texture_to_board, rig.size, seed, 1.0),
+          render_planar_texture(right, target.texture, target.texture_to_board, rig.size, seed + 1, 1.0)};
 }
 
 // Up to ten views (the first `count`) spread in tilt (up to 30 deg), roll and
-// distance (0.55-0.9 m), the board centred between the cameras.
+// distance (0.55-0.9 m), the target centred between the cameras.
 inline std::vector<std::pair<cv::Mat, cv::Mat>> render_calibration_set(const StereoRigTruth& rig,
-                                                                       const CheckerboardSpec& board,
+                                                                       const PlanarTarget& target,
                                                                        std::size_t count = 10) {
   struct Pose {
     double ax, ay, az, x, y, z;
@@ -131,10 +151,17 @@ inline std::vector<std::pair<cv::Mat, cv::Mat>> render_calibration_set(const Ste
   for (const Pose& p : poses) {
     if (views.size() == count) break;
     views.push_back(
-        render_stereo_view(rig, board, rotation_deg(p.ax, p.ay, p.az), cv::Vec3d(p.x, p.y, p.z), seed));
+        render_stereo_view(rig, target, rotation_deg(p.ax, p.ay, p.az), cv::Vec3d(p.x, p.y, p.z), seed));
     seed += 2;
   }
   return views;
+}
+
+// The chessboard calibration set.
+inline std::vector<std::pair<cv::Mat, cv::Mat>> render_calibration_set(const StereoRigTruth& rig,
+                                                                       const CheckerboardSpec& board,
+                                                                       std::size_t count = 10) {
+  return render_calibration_set(rig, checkerboard_target(board), count);
 }
 
 }  // namespace sitepose::testing
