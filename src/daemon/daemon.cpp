@@ -11,6 +11,7 @@
 #include "sitepose/core/build_info.hpp"
 #include "sitepose/core/log.hpp"
 #include "sitepose/drivers/aravis/aravis_camera.hpp"
+#include "sitepose/drivers/aravis/feature_file.hpp"
 #include "sitepose/geo/nmea.hpp"
 #include "sitepose/io/output_path.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
@@ -158,6 +159,12 @@ Status check_startable(const DaemonConfig& config) {
     }
     camera = (*source)->camera();
     SITEPOSE_TRY_STATUS(tracking_camera(config, *camera));
+  }
+  if (config.source_type == "aravis" && !config.aravis.feature_file.empty()) {
+    if (auto features = drivers::aravis::read_feature_file(config.aravis.feature_file); !features) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        "source.aravis.feature_file: " + features.error().message);
+    }
   }
   SITEPOSE_TRY_STATUS(check_detector(config, camera));
   if (auto anchoring = Anchoring::create(config.geo, publish_options(config)); !anchoring) {

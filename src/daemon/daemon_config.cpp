@@ -79,7 +79,8 @@ Section<drivers::aravis::CameraSettings> camera_settings_section() {
       .section("roi", &C::roi, roi_section())
       .choice("trigger", &C::trigger,
               {Choice<a::TriggerMode>{a::TriggerMode::kFreeRun, "free_run"},
-               Choice<a::TriggerMode>{a::TriggerMode::kSoftware, "software"}})
+               Choice<a::TriggerMode>{a::TriggerMode::kSoftware, "software"},
+               Choice<a::TriggerMode>{a::TriggerMode::kHardware, "hardware"}})
       .key("frame_rate_hz", &C::frame_rate_hz, in_range(0.1, 1000.0))
       .key("packet_size_bytes", &C::packet_size_bytes, in_range(0, 16384))
       .key("packet_delay_ns", &C::packet_delay_ns, in_range(0, 100'000'000))
@@ -94,6 +95,7 @@ Section<drivers::aravis::AravisSourceOptions> aravis_section() {
   s.key("left_id", &A::left_id)
       .key("right_id", &A::right_id)
       .key("calibration", &A::calibration)
+      .key("feature_file", &A::feature_file)
       .embed(&A::camera, camera_settings_section())
       .key("pair_tolerance_ms", &A::pair_tolerance_ms, in_range(0.001, 1000.0))
       .choice("pair_clock", &A::pair_clock,
@@ -547,9 +549,9 @@ Expected<DaemonConfig> load_daemon_config_from_string(const std::string& text, c
   DaemonConfig c;
   daemon_sections().read(reader.root(), c);
   SITEPOSE_TRY_STATUS(reader.finish());
-  for (std::string* path :
-       {&c.replay.sequence_dir, &c.aravis.calibration, &c.v4l2.options.calibration_file, &c.trajectory.path,
-        &c.can.path, &c.geo.nmea_file, &c.geo.geoid, &c.map.map_file, &c.orbslam2_settings}) {
+  for (std::string* path : {&c.replay.sequence_dir, &c.aravis.calibration, &c.aravis.feature_file,
+                            &c.v4l2.options.calibration_file, &c.trajectory.path, &c.can.path,
+                            &c.geo.nmea_file, &c.geo.geoid, &c.map.map_file, &c.orbslam2_settings}) {
     *path = resolve(base_dir, *path);
   }
   SITEPOSE_TRY_STATUS(import_orbslam2_settings(c, source_name));

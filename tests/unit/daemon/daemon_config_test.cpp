@@ -243,9 +243,12 @@ TEST(DaemonConfig, AravisSourceErrorsNameTheKeys) {
                  "           pair_tolerance_ms: 20}\n");
   EXPECT_TRUE(contains(relations, "right_id: must differ from left_id")) << relations;
   EXPECT_TRUE(contains(relations, "pair_tolerance_ms = 20")) << relations;
-  const std::string trigger = load_error(
-      kAravisBase + "  aravis: {left_id: A, right_id: B, calibration: c.yaml, trigger: hardware}\n");
+  const std::string trigger =
+      load_error(kAravisBase + "  aravis: {left_id: A, right_id: B, calibration: c.yaml, trigger: laser}\n");
   EXPECT_TRUE(contains(trigger, "source.aravis.trigger")) << trigger;
+  const std::string hardware = load_error(
+      kAravisBase + "  aravis: {left_id: A, right_id: B, calibration: c.yaml, trigger: hardware}\n");
+  EXPECT_TRUE(contains(hardware, "trigger: hardware needs a feature_file")) << hardware;
   // A replay source still needs its sequence.
   const std::string replay = load_error("source: {type: replay}\n");
   EXPECT_TRUE(contains(replay, "source.replay.sequence")) << replay;

@@ -71,6 +71,7 @@ class AravisCamera final : public CameraDevice {
     if (error == nullptr) return ok_status();
     return Unexpected{take_error(error, code, id_ + ": " + what)};
   }
+  Status apply_features(const FeatureFile& file);
   Status configure_exposure_gain(const CameraSettings& s);
   Status configure_timing(const CameraSettings& s);
 
@@ -96,7 +97,27 @@ AravisCamera::~AravisCamera() {
   g_object_unref(camera_);
 }
 
+// Each step of the feature file in order; the first one the camera refuses
+// ends the configuration, named by its file and line.
+Status AravisCamera::apply_features(const FeatureFile& file) {
+  ArvDevice* device = arv_camera_get_device(camera_);
+  for (const FeatureStep& step : file.steps) {
+    GError* error = nullptr;
+    if (step.value) {
+      arv_device_set_features_from_string(device, step.text().c_str(), &error);
+    } else {
+      arv_device_execute_command(device, step.name.c_str(), &error);
+    }
+    SITEPOSE_TRY_STATUS(
+        check(error, "feature_file " + file.path + ":" + std::to_string(step.line) + ": " + step.text()));
+  }
+  return ok_status();
+}
+
 Status AravisCamera::configure(const CameraSettings& s) {
+  if (s.features) {
+    SITEPOSE_TRY_STATUS(apply_features(*s.features));
+  }
   GError* error = nullptr;
   arv_camera_set_acquisition_mode(camera_, ARV_ACQUISITION_MODE_CONTINUOUS, &error);
   SITEPOSE_TRY_STATUS(check(error, "AcquisitionMode Continuous"));
@@ -169,6 +190,7 @@ Status AravisCamera::configure_timing(const CameraSettings& s) {
     arv_camera_set_trigger(camera_, "Software", &error);
     return check(error, "TriggerSource Software");
   }
+  if (s.trigger == TriggerMode::kHardware) return ok_status();  // the feature file set the line up
   arv_camera_clear_triggers(camera_, &error);
   SITEPOSE_TRY_STATUS(check(error, "TriggerMode Off"));
   const bool rate_available = arv_camera_is_frame_rate_available(camera_, &error);

@@ -37,6 +37,15 @@ void wait_until(std::stop_token stop, Clock::time_point until) {
 
 // Opens one camera, retrying absent ones (kNotFound) with back-off until
 // `wait_s` has passed.
+const char* trigger_name(TriggerMode trigger) {
+  switch (trigger) {
+    case TriggerMode::kFreeRun: return "free-run";
+    case TriggerMode::kSoftware: return "software trigger";
+    case TriggerMode::kHardware: return "hardware trigger";
+  }
+  return "?";
+}
+
 Expected<std::unique_ptr<CameraDevice>> open_waiting(const CameraOpener& opener, const std::string& id,
                                                      Side side, const AravisSourceOptions& o,
                                                      const std::stop_token& stop) {
@@ -83,13 +92,22 @@ Status check_aravis_source_options(const AravisSourceOptions& o) {
     add("reconnect_min_s: must be > 0 and <= reconnect_max_s");
   }
   if (!(o.wait_for_camera_s >= 0.0)) add("wait_for_camera_s: must be >= 0");
+  if (o.camera.trigger == TriggerMode::kHardware && o.feature_file.empty()) {
+    add("trigger: hardware needs a feature_file that sets up the trigger line");
+  }
   if (bad.empty()) return ok_status();
   return make_error(ErrorCode::kInvalidArgument, bad);
 }
 
-Expected<std::unique_ptr<AravisSource>> AravisSource::open(const AravisSourceOptions& options,
+Expected<std::unique_ptr<AravisSource>> AravisSource::open(const AravisSourceOptions& options_in,
                                                            CameraOpener opener, const std::stop_token& stop) {
-  SITEPOSE_TRY_STATUS(check_aravis_source_options(options));
+  SITEPOSE_TRY_STATUS(check_aravis_source_options(options_in));
+  AravisSourceOptions options = options_in;
+  if (!options.feature_file.empty()) {
+    auto features = read_feature_file(options.feature_file);
+    if (!features) return make_error(features.error().code, "feature_file: " + features.error().message);
+    options.camera.features = std::make_shared<const FeatureFile>(std::move(*features));
+  }
   std::array<std::unique_ptr<CameraDevice>, 2> devices;
   for (const Side side : {Side::kLeft, Side::kRight}) {
     const std::string& id = side == Side::kLeft ? options.left_id : options.right_id;
@@ -133,8 +151,7 @@ AravisSource::~AravisSource() = default;
 std::string AravisSource::describe() const {
   auto side = [](const Camera& c) { return c.device ? c.device->describe() : c.id + " (lost)"; };
   return fmt::format("aravis stereo pair: left {}, right {}, {} at {:g} Hz, pairing within {:g} ms, {} {}",
-                     side(cameras_[0]), side(cameras_[1]),
-                     options_.camera.trigger == TriggerMode::kSoftware ? "software trigger" : "free-run",
+                     side(cameras_[0]), side(cameras_[1]), trigger_name(options_.camera.trigger),
                      options_.camera.frame_rate_hz, options_.pair_tolerance_ms,
                      rectifier_.remaps() ? "rectified from" : "already rectified per", options_.calibration);
 }

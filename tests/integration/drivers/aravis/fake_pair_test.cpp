@@ -4,6 +4,8 @@
 // same instant, no slot skipped.
 #include <gtest/gtest.h>
 
+#include <arv.h>
+
 #include "fake_stereo_feed.hpp"
 #include "sitepose/drivers/aravis/aravis_source.hpp"
 #include "sitepose/testing/files.hpp"
@@ -120,6 +122,70 @@ TEST(AravisFakePair, AbsentDeviceIsNotFound) {
   EXPECT_EQ(source.error().code, ErrorCode::kNotFound);
   EXPECT_NE(source.error().message.find("right_id = \"No-Such-Camera-0\""), std::string::npos)
       << source.error().message;
+}
+
+// What a fake camera holds after the source opened it: read in the opener's
+// on_open hook, which runs after the camera is configured.
+struct OpenedFeatures {
+  std::vector<long long> test_register;
+  std::vector<std::string> trigger_mode;
+};
+
+AravisOpenerOptions recording(OpenedFeatures& seen) {
+  AravisOpenerOptions o;
+  o.on_open = [&seen](ArvCamera* camera, const std::string& /*id*/) {
+    ArvDevice* device = arv_camera_get_device(camera);
+    GError* error = nullptr;
+    seen.test_register.push_back(arv_device_get_integer_feature_value(device, "TestRegister", &error));
+    const char* mode = arv_device_get_string_feature_value(device, "TriggerMode", &error);
+    seen.trigger_mode.emplace_back(mode != nullptr ? mode : "?");
+    if (error != nullptr) g_error_free(error);
+  };
+  return o;
+}
+
+TEST(AravisFeatureFile, IsAppliedToBothCamerasBeforeTheSourcesOwnSettings) {
+  fake_interface_only();
+  TempDir dir;
+  AravisSourceOptions o = fake_pair_options(write_calibration(dir, rendered().camera), PixelFormat::kMono8);
+  // A trigger set up in the file: free_run clears it, hardware leaves it.
+  o.feature_file = dir.write("fake.features",
+                             "# the fake camera's own test register, and a trigger line\n"
+                             "TestRegister=1234\n\n"
+                             "TriggerSelector=FrameStart   # the exposure start\n"
+                             "TriggerMode=On\nTriggerSource=Software\nAcquisitionStop\n");
+  for (const TriggerMode trigger : {TriggerMode::kFreeRun, TriggerMode::kHardware}) {
+    o.camera.trigger = trigger;
+    OpenedFeatures seen;
+    auto source = AravisSource::open(o, aravis_camera_opener(recording(seen)));
+    ASSERT_TRUE(source) << source.error().message;
+    EXPECT_EQ(seen.test_register, (std::vector<long long>{1234, 1234}));
+    const std::string mode = trigger == TriggerMode::kHardware ? "On" : "Off";
+    EXPECT_EQ(seen.trigger_mode, (std::vector<std::string>{mode, mode}));
+  }
+}
+
+TEST(AravisFeatureFile, AStepTheCameraRefusesNamesTheFileAndLine) {
+  fake_interface_only();
+  TempDir dir;
+  AravisSourceOptions o = fake_pair_options(write_calibration(dir, rendered().camera), PixelFormat::kMono8);
+  o.feature_file = dir.write("fake.features", "TestRegister=7\nPtpEnable=true\n");
+  auto refused = AravisSource::open(o, aravis_camera_opener());
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().code, ErrorCode::kInvalidArgument);
+  const std::string& m = refused.error().message;
+  EXPECT_NE(m.find("feature_file " + o.feature_file + ":2: PtpEnable=true"), std::string::npos) << m;
+  o.feature_file = dir / "absent.features";
+  auto absent = AravisSource::open(o, aravis_camera_opener());
+  ASSERT_FALSE(absent);
+  EXPECT_EQ(absent.error().code, ErrorCode::kNotFound);
+  EXPECT_EQ(absent.error().message.rfind("feature_file: ", 0), 0u) << absent.error().message;
+  o.feature_file.clear();
+  o.camera.trigger = TriggerMode::kHardware;
+  auto no_file = AravisSource::open(o, aravis_camera_opener());
+  ASSERT_FALSE(no_file);
+  EXPECT_NE(no_file.error().message.find("trigger: hardware needs a feature_file"), std::string::npos)
+      << no_file.error().message;
 }
 
 }  // namespace

@@ -42,6 +42,10 @@ struct AravisSourceOptions {
   std::string right_id;
   CameraSettings camera;    // both cameras
   std::string calibration;  // calib::load_stereo_rectifier: OpenCV stereo calibration YAML or KITTI calib.txt
+  // A GenICam feature file (feature_file.hpp) applied to both cameras at
+  // every open, before `camera`; "" = none. open() reads it into
+  // camera.features.
+  std::string feature_file;
   double pair_tolerance_ms = 5.0;
   PairClock pair_clock = PairClock::kHost;
   int max_pending = 4;  // frames of one side waiting for the other side's
@@ -70,9 +74,10 @@ class AravisSource final : public pipeline::FrameSource {
  public:
   // Opens both cameras (waiting up to wait_for_camera_s for absent ones) and
   // loads the calibration. Errors start with the option they are about
-  // ("right_id = \"X\": ...", "calibration: ..."): kNotFound for an absent
-  // camera, kInvalidArgument for a setting the camera refuses or cameras of
-  // different image sizes, the calibration's errors.
+  // ("right_id = \"X\": ...", "calibration: ...", "feature_file: ..."):
+  // kNotFound for an absent camera or feature file, kInvalidArgument for a
+  // setting the camera refuses (a feature file's step: its file and line) or
+  // cameras of different image sizes, the calibration's errors.
   static Expected<std::unique_ptr<AravisSource>> open(const AravisSourceOptions& options, CameraOpener opener,
                                                       const std::stop_token& stop = {});
   ~AravisSource() override;

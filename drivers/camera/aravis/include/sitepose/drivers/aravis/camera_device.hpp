@@ -14,6 +14,7 @@
 #include <string>
 
 #include "sitepose/core/expected.hpp"
+#include "sitepose/drivers/aravis/feature_file.hpp"
 #include "sitepose/drivers/aravis/pixel_convert.hpp"
 
 namespace sitepose::drivers::aravis {
@@ -28,6 +29,8 @@ struct CameraFrame {
 enum class TriggerMode {
   kFreeRun,   // each camera runs at frame_rate_hz on its own clock
   kSoftware,  // the source triggers both cameras at frame_rate_hz
+  kHardware,  // a trigger line the feature file sets up (TriggerSelector, TriggerMode,
+              // TriggerSource, TriggerActivation) starts each exposure; left as set there
 };
 
 // Region of interest; width/height 0 = the sensor's full size.
@@ -40,6 +43,9 @@ struct Roi {
 
 // What the source asks of each camera of the pair.
 struct CameraSettings {
+  // Applied first, in order; the settings below then win. Null: none.
+  // Shared and never changed after the source read it.
+  std::shared_ptr<const FeatureFile> features;
   PixelFormat pixel_format = PixelFormat::kMono8;
   bool exposure_auto = true;
   double exposure_us = 10000.0;  // when not auto
