@@ -29,19 +29,18 @@ GeoConfig fixed_geo() {
 
 // A live source (one frame every 10 ms) and the pipeline's retry policy of
 // the shipped config (3 attempts, 5 ms apart).
-std::unique_ptr<pipeline::Pipeline> live_pipeline(int frames,
-                                                  std::unique_ptr<pipeline::PoseOutput> output) {
+std::unique_ptr<pipeline::Pipeline> live_pipeline(int frames, std::unique_ptr<pipeline::PoseOutput> output) {
   pipeline::PipelineOptions o;
   o.publish_max_attempts = 3;
   o.publish_retry_delay_s = 0.005;
   std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
   outputs.push_back(std::move(output));
-  auto p = pipeline::Pipeline::create(
-      o,
-      std::make_unique<sitepose::testing::ScriptedSource>(
-          sitepose::testing::ScriptedSource::frames(frames), true, false, 10ms),
-      std::make_unique<pipeline::PassThroughDetect>(), std::make_unique<sitepose::testing::FakeTracker>(),
-      std::move(outputs));
+  auto p =
+      pipeline::Pipeline::create(o,
+                                 std::make_unique<sitepose::testing::ScriptedSource>(
+                                     sitepose::testing::ScriptedSource::frames(frames), true, false, 10ms),
+                                 std::make_unique<pipeline::PassThroughDetect>(),
+                                 std::make_unique<sitepose::testing::FakeTracker>(), std::move(outputs));
   EXPECT_TRUE(p);
   return p ? std::move(*p) : nullptr;
 }
@@ -67,7 +66,8 @@ TEST(DaemonSocketCan, EveryPublishedPoseReachesTheBusOnce) {
   ASSERT_TRUE(sink) << sink.error().message;
   const can::SocketCanSink* view = sink->get();
   ASSERT_TRUE(can::testing::wait_until([&] { return view->stats().state == can::CanLinkState::kUp; }));
-  auto p = live_pipeline(60, std::make_unique<CanOutput>(output::CanOutputOptions{}, std::move(*sink), **anchoring));
+  auto p = live_pipeline(
+      60, std::make_unique<CanOutput>(output::CanOutputOptions{}, std::move(*sink), **anchoring));
   ASSERT_TRUE(p);
   p->start();
   ASSERT_TRUE(p->wait());
@@ -100,7 +100,8 @@ TEST(DaemonSocketCan, BusOffIsCountedAlikeByThePipelineAndTheSink) {
   ASSERT_TRUE(sink) << sink.error().message;
   can::SocketCanSink* view = sink->get();
   ASSERT_TRUE(can::testing::wait_until([&] { return view->stats().state == can::CanLinkState::kUp; }));
-  auto p = live_pipeline(80, std::make_unique<CanOutput>(output::CanOutputOptions{}, std::move(*sink), **anchoring));
+  auto p = live_pipeline(
+      80, std::make_unique<CanOutput>(output::CanOutputOptions{}, std::move(*sink), **anchoring));
   ASSERT_TRUE(p);
   p->start();
   // After 15 poses the controller goes bus-off for 100 ms, then restarts.
@@ -122,8 +123,7 @@ TEST(DaemonSocketCan, BusOffIsCountedAlikeByThePipelineAndTheSink) {
   std::printf("pipeline: published=%llu failed=%llu errors=%llu | sink: %s\n",
               static_cast<unsigned long long>(h.outputs[0].published),
               static_cast<unsigned long long>(h.outputs[0].failed),
-              static_cast<unsigned long long>(h.outputs[0].errors),
-              can::format_stats("test0", s).c_str());
+              static_cast<unsigned long long>(h.outputs[0].errors), can::format_stats("test0", s).c_str());
   EXPECT_EQ(s.bus_off, 1u);
   EXPECT_EQ(s.recoveries, 1u);
   EXPECT_GT(h.outputs[0].failed, 0u);  // bus-off and the address claim after it
