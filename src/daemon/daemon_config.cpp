@@ -319,8 +319,10 @@ Section<output::CovarianceOptions> covariance_section() {
   using C = output::CovarianceOptions;
   Section<C> s;
   s.key("scale", &C::scale, in_range(1e-6, 1e6))
-      .key("floor_position_m", &C::floor_position_m, in_range(0.0, 100.0))
-      .key("floor_attitude_deg", &C::floor_attitude_deg, in_range(0.0, 90.0))
+      // Above 0: the first pose (no tracker covariance yet, geo.mode none)
+      // is never published with a zero covariance.
+      .key("floor_position_m", &C::floor_position_m, in_range(0.0001, 100.0))
+      .key("floor_attitude_deg", &C::floor_attitude_deg, in_range(0.0001, 90.0))
       .key("drift_m_per_sqrt_m", &C::drift_m_per_sqrt_m, in_range(0.0, 1.0))
       .key("drift_deg_per_sqrt_m", &C::drift_deg_per_sqrt_m, in_range(0.0, 10.0));
   return s;

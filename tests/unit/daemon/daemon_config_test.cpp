@@ -146,6 +146,10 @@ TEST(DaemonConfig, BadValuesAreNamedWithFileLineKeyAndRule) {
       << message;
   EXPECT_TRUE(contains(message, "d.yaml:7: dynamic.mode = \"fullest\": unknown masking mode")) << message;
   EXPECT_TRUE(contains(message, "outputs.trajectory.path: missing (required key)")) << message;
+  // A zero floor would let a first pose go out with a zero covariance.
+  const std::string zero_floor = load_error(
+      "source:\n  replay: {sequence: /nonexistent}\noutputs:\n  covariance: {floor_position_m: 0}\n");
+  EXPECT_TRUE(contains(zero_floor, "outputs.covariance.floor_position_m = 0")) << zero_floor;
 }
 
 TEST(DaemonConfig, RequirementsThatDependOnOtherKeys) {
