@@ -17,6 +17,7 @@
 #include "sitepose/mapping/keyframe_culling.hpp"
 #include "sitepose/mapping/local_ba_problem.hpp"
 #include "sitepose/mapping/map_snapshot.hpp"
+#include "sitepose/mapping/site_culling.hpp"
 
 namespace sitepose::mapping {
 namespace {
@@ -210,6 +211,7 @@ Status LocalMapper::process_keyframe(map::KeyFrameId keyframe) {
   if (queue_empty()) {
     ba_status = local_bundle_adjustment(keyframe);
     cull_keyframes(keyframe);
+    if (mapping_.site_culling) cull_site_keyframes(keyframe);
   }
   const std::size_t purged = map_.write([](map::MapData& m) { return m.purge_bad_points(); });
   const double ms = elapsed_ms(start);
@@ -444,21 +446,58 @@ void LocalMapper::cull_keyframes(map::KeyFrameId keyframe) {
   });
   if (candidates.empty()) return;
   // Removing one keyframe lowers the redundancy of the others: test again
-  // on the live map, one at a time.
+  // on the live map, one at a time. With site culling the window obeys the
+  // site rules too (no emptied cell, the tracker's keyframes stay).
+  const SiteNeighbourhood site = site_neighbourhood();
   const std::vector<map::KeyFrameId> culled = map_.write([&](map::MapData& m) {
     std::vector<map::KeyFrameId> removed;
     for (map::KeyFrameId id : candidates) {
-      if (!is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_)) continue;
+      const bool cull =
+          mapping_.site_culling
+              ? may_cull_from_site(m, id, keyframe, site, mapping_.keyframe_redundancy, close_depth_m_)
+              : is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_);
+      if (!cull) continue;
       m.set_keyframe_bad(id);
       removed.push_back(id);
     }
     return removed;
   });
+  report_culled(culled, false);
+}
+
+void LocalMapper::cull_site_keyframes(map::KeyFrameId keyframe) {
+  const SiteNeighbourhood site = site_neighbourhood();
+  const std::vector<map::KeyFrameId> candidates = map_.read([&](const map::MapData& m) {
+    std::vector<map::KeyFrameId> redundant;
+    for (map::KeyFrameId id : site_candidates(m, keyframe, site)) {
+      if (is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_)) redundant.push_back(id);
+    }
+    return redundant;
+  });
+  if (candidates.empty()) return;
+  const std::vector<map::KeyFrameId> culled = map_.write([&](map::MapData& m) {
+    std::vector<map::KeyFrameId> removed;
+    for (map::KeyFrameId id : candidates) {
+      if (!may_cull_from_site(m, id, keyframe, site, mapping_.keyframe_redundancy, close_depth_m_)) continue;
+      m.set_keyframe_bad(id);
+      removed.push_back(id);
+    }
+    return removed;
+  });
+  report_culled(culled, true);
+}
+
+void LocalMapper::report_culled(const std::vector<map::KeyFrameId>& culled, bool by_site) {
   if (listener_.removed) {
     for (map::KeyFrameId id : culled) listener_.removed(id);
   }
   std::lock_guard lock(mutex_);
   stats_.keyframes_culled += static_cast<std::int64_t>(culled.size());
+  if (by_site) stats_.keyframes_culled_by_site += static_cast<std::int64_t>(culled.size());
+}
+
+SiteNeighbourhood LocalMapper::site_neighbourhood() const {
+  return SiteNeighbourhood{mapping_.site_radius_m, mapping_.site_angle_deg};
 }
 
 }  // namespace sitepose::mapping
