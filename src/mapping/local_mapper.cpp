@@ -30,6 +30,7 @@ constexpr int kTriangulationNeighbours = 10;  // CreateNewMapPoints nn (stereo)
 constexpr int kFuseNeighbours = 10;           // SearchInNeighbors nn (stereo)
 constexpr int kFuseSecondNeighbours = 5;      // ... and 5 of each of those
 constexpr int kMaxFixedKeyframes = 20;        // cap of the fixed ring in local BA
+constexpr int kFuseSiteNeighbours = 10;       // nearest keyframes of the site fused with (site culling)
 // Nice value of the mapper thread (0 = the tracking threads'): weight 335
 // against 1024, so a contended core gives tracking ~3/4 of its time.
 constexpr int kMapperThreadNice = 5;
@@ -350,6 +351,14 @@ void LocalMapper::fuse_neighbours(map::KeyFrameId keyframe) {
         if (seen.insert(id).second) target_ids.push_back(id);
       }
     }
+    // A place driven again: its old keyframes need not be covisible with
+    // the new one yet (after a relocalisation they are not); fusing with
+    // them joins the duplicated points, so the site rule can cull.
+    if (mapping_.site_culling) {
+      for (map::KeyFrameId id : site_neighbours(m, keyframe, site_neighbourhood(), kFuseSiteNeighbours)) {
+        if (seen.insert(id).second) target_ids.push_back(id);
+      }
+    }
     std::unordered_set<map::PointId> in_current;
     for (map::PointId pid : c.current.point_of_keypoint) {
       const map::MapPoint* p = m.good_point(pid);
@@ -467,13 +476,18 @@ void LocalMapper::cull_keyframes(map::KeyFrameId keyframe) {
 
 void LocalMapper::cull_site_keyframes(map::KeyFrameId keyframe) {
   const SiteNeighbourhood site = site_neighbourhood();
+  std::size_t near = 0;
   const std::vector<map::KeyFrameId> candidates = map_.read([&](const map::MapData& m) {
     std::vector<map::KeyFrameId> redundant;
-    for (map::KeyFrameId id : site_candidates(m, keyframe, site)) {
+    const std::vector<map::KeyFrameId> all = site_candidates(m, keyframe, site);
+    near = all.size();
+    for (map::KeyFrameId id : all) {
       if (is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_)) redundant.push_back(id);
     }
     return redundant;
   });
+  spdlog::debug("local mapping: keyframe={} site candidates={} redundant={}", keyframe, near,
+                candidates.size());
   if (candidates.empty()) return;
   const std::vector<map::KeyFrameId> culled = map_.write([&](map::MapData& m) {
     std::vector<map::KeyFrameId> removed;

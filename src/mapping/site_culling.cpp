@@ -68,6 +68,24 @@ std::vector<map::KeyFrameId> site_candidates(const map::MapData& map, map::KeyFr
   return result;
 }
 
+std::vector<map::KeyFrameId> site_neighbours(const map::MapData& map, map::KeyFrameId current,
+                                             const SiteNeighbourhood& neighbourhood, int n) {
+  std::vector<std::pair<double, map::KeyFrameId>> near;
+  const map::KeyFrame* kf = map.keyframe(current);
+  if (kf == nullptr) return {};
+  for (const auto& [id, other] : map.keyframes()) {
+    if (id == current || other.bad || !within_neighbourhood(*kf, other, neighbourhood)) continue;
+    near.emplace_back((other.camera_center() - kf->camera_center()).norm(), id);
+  }
+  std::sort(near.begin(), near.end());
+  std::vector<map::KeyFrameId> result;
+  for (const auto& [distance_m, id] : near) {
+    if (static_cast<int>(result.size()) >= n) break;
+    result.push_back(id);
+  }
+  return result;
+}
+
 bool may_cull_from_site(const map::MapData& map, map::KeyFrameId keyframe, map::KeyFrameId current,
                         const SiteNeighbourhood& neighbourhood, double redundancy, double close_depth_m) {
   const map::KeyFrame* kf = map.keyframe(keyframe);

@@ -12,7 +12,8 @@
 //      after the first when another keyframe is waiting) whose centres are
 //      at least one stereo baseline away (new_points.hpp);
 //   4. fuse duplicates with its neighbours (10 best covisible and their 5
-//      best) both ways (fuse.hpp);
+//      best; with mapping.site_culling also its 10 nearest keyframes of the
+//      site, site_culling.hpp) both ways (fuse.hpp);
 //   5. local BA when no other keyframe is waiting (local_ba_problem.hpp):
 //      copied out under read(), solved unlocked, aborted when a keyframe is
 //      enqueued, written back under write();

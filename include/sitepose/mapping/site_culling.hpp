@@ -61,6 +61,11 @@ bool is_protected(const map::MapData& map, map::KeyFrameId keyframe, map::KeyFra
 std::vector<map::KeyFrameId> site_candidates(const map::MapData& map, map::KeyFrameId current,
                                              const SiteNeighbourhood& neighbourhood);
 
+// Up to n keyframes of the whole map in `current`'s neighbourhood other
+// than `current`, nearest centre first (the mapper fuses with them).
+std::vector<map::KeyFrameId> site_neighbours(const map::MapData& map, map::KeyFrameId current,
+                                             const SiteNeighbourhood& neighbourhood, int n);
+
 // Rules 1-3 for one candidate on the live map.
 bool may_cull_from_site(const map::MapData& map, map::KeyFrameId keyframe, map::KeyFrameId current,
                         const SiteNeighbourhood& neighbourhood, double redundancy, double close_depth_m);
