@@ -107,7 +107,10 @@ Section<MappingConfig> mapping_section() {
       .key("local_ba_keyframes", &MappingConfig::local_ba_keyframes, in_range(1, 100))
       .key("local_ba_iterations", &MappingConfig::local_ba_iterations, in_range(1, 200))
       .key("keyframe_redundancy", &MappingConfig::keyframe_redundancy, greater_than(0.0), at_most(1.0))
-      .key("min_point_observations", &MappingConfig::min_point_observations, in_range(1, 20));
+      .key("min_point_observations", &MappingConfig::min_point_observations, in_range(1, 20))
+      .key("site_culling", &MappingConfig::site_culling)
+      .key("site_radius_m", &MappingConfig::site_radius_m, positive(), at_most(100.0))
+      .key("site_angle_deg", &MappingConfig::site_angle_deg, positive(), at_most(180.0));
   return s;
 }
 

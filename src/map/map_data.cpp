@@ -225,6 +225,10 @@ void MapData::replace_point(PointId old_id, PointId new_id) {
   update_point_appearance(new_id);
 }
 
+bool MapData::is_tracker_keyframe(KeyFrameId id) const {
+  return std::find(tracker_keyframes_.begin(), tracker_keyframes_.end(), id) != tracker_keyframes_.end();
+}
+
 void MapData::set_keyframe_bad(KeyFrameId keyframe_id) {
   KeyFrame* kf = keyframe(keyframe_id);
   if (kf == nullptr || kf->bad || keyframe_id == first_keyframe_) return;

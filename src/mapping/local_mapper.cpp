@@ -17,6 +17,7 @@
 #include "sitepose/mapping/keyframe_culling.hpp"
 #include "sitepose/mapping/local_ba_problem.hpp"
 #include "sitepose/mapping/map_snapshot.hpp"
+#include "sitepose/mapping/site_culling.hpp"
 
 namespace sitepose::mapping {
 namespace {
@@ -29,6 +30,7 @@ constexpr int kTriangulationNeighbours = 10;  // CreateNewMapPoints nn (stereo)
 constexpr int kFuseNeighbours = 10;           // SearchInNeighbors nn (stereo)
 constexpr int kFuseSecondNeighbours = 5;      // ... and 5 of each of those
 constexpr int kMaxFixedKeyframes = 20;        // cap of the fixed ring in local BA
+constexpr int kFuseSiteNeighbours = 10;       // nearest keyframes of the site fused with (site culling)
 // Nice value of the mapper thread (0 = the tracking threads'): weight 335
 // against 1024, so a contended core gives tracking ~3/4 of its time.
 constexpr int kMapperThreadNice = 5;
@@ -210,6 +212,7 @@ Status LocalMapper::process_keyframe(map::KeyFrameId keyframe) {
   if (queue_empty()) {
     ba_status = local_bundle_adjustment(keyframe);
     cull_keyframes(keyframe);
+    if (mapping_.site_culling) cull_site_keyframes(keyframe);
   }
   const std::size_t purged = map_.write([](map::MapData& m) { return m.purge_bad_points(); });
   const double ms = elapsed_ms(start);
@@ -348,6 +351,14 @@ void LocalMapper::fuse_neighbours(map::KeyFrameId keyframe) {
         if (seen.insert(id).second) target_ids.push_back(id);
       }
     }
+    // A place driven again: its old keyframes need not be covisible with
+    // the new one yet (after a relocalisation they are not); fusing with
+    // them joins the duplicated points, so the site rule can cull.
+    if (mapping_.site_culling) {
+      for (map::KeyFrameId id : site_neighbours(m, keyframe, site_neighbourhood(), kFuseSiteNeighbours)) {
+        if (seen.insert(id).second) target_ids.push_back(id);
+      }
+    }
     std::unordered_set<map::PointId> in_current;
     for (map::PointId pid : c.current.point_of_keypoint) {
       const map::MapPoint* p = m.good_point(pid);
@@ -444,21 +455,63 @@ void LocalMapper::cull_keyframes(map::KeyFrameId keyframe) {
   });
   if (candidates.empty()) return;
   // Removing one keyframe lowers the redundancy of the others: test again
-  // on the live map, one at a time.
+  // on the live map, one at a time. With site culling the window obeys the
+  // site rules too (no emptied cell, the tracker's keyframes stay).
+  const SiteNeighbourhood site = site_neighbourhood();
   const std::vector<map::KeyFrameId> culled = map_.write([&](map::MapData& m) {
     std::vector<map::KeyFrameId> removed;
     for (map::KeyFrameId id : candidates) {
-      if (!is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_)) continue;
+      const bool cull =
+          mapping_.site_culling
+              ? may_cull_from_site(m, id, keyframe, site, mapping_.keyframe_redundancy, close_depth_m_)
+              : is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_);
+      if (!cull) continue;
       m.set_keyframe_bad(id);
       removed.push_back(id);
     }
     return removed;
   });
+  report_culled(culled, false);
+}
+
+void LocalMapper::cull_site_keyframes(map::KeyFrameId keyframe) {
+  const SiteNeighbourhood site = site_neighbourhood();
+  std::size_t near = 0;
+  const std::vector<map::KeyFrameId> candidates = map_.read([&](const map::MapData& m) {
+    std::vector<map::KeyFrameId> redundant;
+    const std::vector<map::KeyFrameId> all = site_candidates(m, keyframe, site);
+    near = all.size();
+    for (map::KeyFrameId id : all) {
+      if (is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_)) redundant.push_back(id);
+    }
+    return redundant;
+  });
+  spdlog::debug("local mapping: keyframe={} site candidates={} redundant={}", keyframe, near,
+                candidates.size());
+  if (candidates.empty()) return;
+  const std::vector<map::KeyFrameId> culled = map_.write([&](map::MapData& m) {
+    std::vector<map::KeyFrameId> removed;
+    for (map::KeyFrameId id : candidates) {
+      if (!may_cull_from_site(m, id, keyframe, site, mapping_.keyframe_redundancy, close_depth_m_)) continue;
+      m.set_keyframe_bad(id);
+      removed.push_back(id);
+    }
+    return removed;
+  });
+  report_culled(culled, true);
+}
+
+void LocalMapper::report_culled(const std::vector<map::KeyFrameId>& culled, bool by_site) {
   if (listener_.removed) {
     for (map::KeyFrameId id : culled) listener_.removed(id);
   }
   std::lock_guard lock(mutex_);
   stats_.keyframes_culled += static_cast<std::int64_t>(culled.size());
+  if (by_site) stats_.keyframes_culled_by_site += static_cast<std::int64_t>(culled.size());
+}
+
+SiteNeighbourhood LocalMapper::site_neighbourhood() const {
+  return SiteNeighbourhood{mapping_.site_radius_m, mapping_.site_angle_deg};
 }
 
 }  // namespace sitepose::mapping

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <utility>
 
+#include "sitepose/core/log.hpp"
+
 // Tracker, continued: the map's first keyframe and the keyframe decision
 // and insertion (part of commit(); estimation is in tracker.cpp).
 
@@ -81,12 +83,17 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
           ? frame.seq - last_keyframe_seq_ >= config_.tracking.keyframe_max_interval_frames
           : frame.t_ns - last_keyframe_t_ns_ >= interval_ns;
   const double ratio = config_.tracking.keyframe_tracked_ratio;
-  const bool c1 = long_since_keyframe || mapper_idle ||
-                  result.n_inliers < 0.25 * reference_matches || need_close;
+  const bool c1 =
+      long_since_keyframe || mapper_idle || result.n_inliers < 0.25 * reference_matches || need_close;
   const bool background_thinning = background_inliers < ratio * reference_background_matches;
   const bool c2 = (result.n_inliers < ratio * reference_matches || background_thinning || need_close) &&
                   result.n_inliers > 15;
   if (!(c1 && c2)) return false;
+  spdlog::debug(
+      "tracking: keyframe wanted at frame {}: inliers {} of reference {} (background {} of {}), close "
+      "tracked {} untracked {}, mapper idle {}, queued {}",
+      frame.seq, result.n_inliers, reference_matches, background_inliers, reference_background_matches,
+      tracked_close, untracked_close, mapper_idle, queued);
   if (mapper_idle) return true;
   // Stereo: insert while the mapper is busy only if its queue is short.
   if (mapper_.interrupt) mapper_.interrupt();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <iterator>
+#include <map>
 #include <set>
 
 #include "sitepose/core/stopwatch.hpp"
@@ -78,6 +79,18 @@ void tag_keypoints(const cv::Mat& instance_labels, PreparedFrame& out) {
       out.instance[i] = instance_labels.at<std::uint16_t>(y, x);
     }
   }
+}
+
+// What site-map culling must leave (MapData::set_tracker_keyframes): the
+// reference keyframe and the keyframe observing most of the frame's matches.
+std::vector<map::KeyFrameId> tracker_keyframes(map::KeyFrameId reference,
+                                               const std::map<map::KeyFrameId, int>& votes) {
+  std::vector<map::KeyFrameId> keyframes;
+  if (reference != map::kNoKeyFrame) keyframes.push_back(reference);
+  const auto most = std::max_element(votes.begin(), votes.end(),
+                                     [](const auto& a, const auto& b) { return a.second < b.second; });
+  if (most != votes.end() && most->first != reference) keyframes.push_back(most->first);
+  return keyframes;
 }
 
 }  // namespace
@@ -483,9 +496,15 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
     for (map::PointId pid : result.visible_points) {
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
     }
+    std::map<map::KeyFrameId, int> votes;
     for (map::PointId pid : result.point_of_keypoint) {
-      if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_found;
+      map::MapPoint* p = map.point(pid);
+      if (p == nullptr) continue;
+      ++p->n_found;
+      if (p->bad) continue;
+      for (const auto& [kf, index] : p->observations) ++votes[kf];
     }
+    map.set_tracker_keyframes(tracker_keyframes(reference_keyframe_, votes));
   });
   // A pose that has not held yet adds nothing to the map: if it is wrong,
   // its points would be wrong where the map is right.

@@ -5,9 +5,12 @@
 // --sample-every published frames one CSV row: RSS, keyframes, map points,
 // drops, track errors and the frame-to-publish latency p99 of the window,
 // and beside the CSV a PNG of RSS, map size and p99 over the frames.
-// The sequence should end where it starts (the backforth scenario, one
-// pass: `sitepose sim --scenario backforth --frames 216`), or every loop is
-// a jump the tracker must relocalise from.
+// The looped part (--loop-from to the end) should end where it starts, or
+// every loop is a jump the tracker must relocalise from. backforth's first
+// pass starts from standing and does not: its frame 215 is 4.3 m from frame
+// 0 and moving; from frame 216 on it is periodic (frames 216 and 432 within
+// 0.3 mm): `sitepose sim --scenario backforth --frames 432` with
+// --loop-from 216.
 // With --max-rss-growth PCT it is a check: exit 1 when the last RSS exceeds
 // the RSS at the end of the warm-up (--warmup-frames) by more than PCT %.
 // Ctrl-C / SIGTERM ends the source: the pipeline drains, the last row and
@@ -49,19 +52,23 @@ struct BenchSoakArgs {
   int frames = 20000;
   int sample_every = 1000;
   int warmup_frames = 2000;
+  int loop_from = 0;
   double max_rss_growth_pct = -1.0;  // < 0: no check
 };
 
-// The frames again and again; loop k's times are shifted by k periods. The
-// frame numbers (seq) restart with each loop: the labels detector finds a
-// frame's boxes by them.
+// Frames [0, loop_from) once, then frames [loop_from, end) again and again;
+// loop k's times are shifted by k periods of the looped part. The frame
+// numbers (seq) restart with each loop: the labels detector finds a frame's
+// boxes by them.
 class LoopingSource final : public pipeline::FrameSource {
  public:
-  LoopingSource(const std::vector<StereoFrame>& frames, const StereoCamera& camera, std::size_t total)
-      : frames_(frames), camera_(camera), total_(total) {
+  LoopingSource(const std::vector<StereoFrame>& frames, const StereoCamera& camera, std::size_t total,
+                std::size_t loop_from)
+      : frames_(frames), camera_(camera), total_(total), loop_from_(loop_from) {
     const std::int64_t span = frames_.back().t_ns() - frames_.front().t_ns();
-    period_ns_ =
-        span + (frames_.size() > 1 ? span / static_cast<std::int64_t>(frames_.size() - 1) : 100'000'000);
+    const std::int64_t step =
+        frames_.size() > 1 ? span / static_cast<std::int64_t>(frames_.size() - 1) : 100'000'000;
+    period_ns_ = frames_.back().t_ns() - frames_[loop_from_].t_ns() + step;
   }
   const StereoCamera& camera() const override { return camera_; }
   std::string describe() const override { return "memory (looped)"; }
@@ -69,8 +76,14 @@ class LoopingSource final : public pipeline::FrameSource {
   Expected<pipeline::SourceEvent> next(std::stop_token stop, pipeline::SteadyTime) override {
     if (next_ >= total_ || stop.stop_requested() || interrupted())
       return pipeline::SourceEvent{pipeline::SourceEventKind::kEnd, {}};
-    const std::size_t loop = next_ / frames_.size();  // frame.seq stays the recorded index
-    StereoFrame frame = frames_[next_ % frames_.size()];
+    std::size_t index = next_;  // frame.seq stays the recorded index
+    std::size_t loop = 0;
+    if (next_ >= loop_from_) {
+      const std::size_t looped = frames_.size() - loop_from_;
+      loop = (next_ - loop_from_) / looped;
+      index = loop_from_ + (next_ - loop_from_) % looped;
+    }
+    StereoFrame frame = frames_[index];
     const std::int64_t shift = static_cast<std::int64_t>(loop) * period_ns_;
     ++next_;
     frame.t_left_ns += shift;
@@ -82,6 +95,7 @@ class LoopingSource final : public pipeline::FrameSource {
   const std::vector<StereoFrame>& frames_;
   StereoCamera camera_;
   std::size_t total_;
+  std::size_t loop_from_;
   std::size_t next_ = 0;
   std::int64_t period_ns_ = 0;
 };
@@ -145,11 +159,11 @@ Expected<std::vector<Sample>> soak(const BenchSoakArgs& a, const config::Sitepos
   WindowOutput* window = output.get();
   std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
   outputs.push_back(std::move(output));
-  SITEPOSE_TRY(auto p,
-               pipeline::Pipeline::create(
-                   pipeline::PipelineOptions{},
-                   std::make_unique<LoopingSource>(frames, camera, static_cast<std::size_t>(a.frames)),
-                   std::move(detect_hook), std::move(tracker), std::move(outputs)));
+  SITEPOSE_TRY(auto p, pipeline::Pipeline::create(
+                           pipeline::PipelineOptions{},
+                           std::make_unique<LoopingSource>(frames, camera, static_cast<std::size_t>(a.frames),
+                                                           static_cast<std::size_t>(a.loop_from)),
+                           std::move(detect_hook), std::move(tracker), std::move(outputs)));
   std::vector<Sample> samples;
   auto take = [&](std::size_t published) {
     const auto h = p->health();
@@ -254,11 +268,17 @@ int run_bench_soak(const BenchSoakArgs& a) {
   auto frames = load_frames(a.sequence, camera, fps);
   if (!frames) return fail(kCommand, frames.error().message, 2);
   if (config.camera.stereo) camera = *config.camera.stereo;
+  if (static_cast<std::size_t>(a.loop_from) >= frames->size()) {
+    return fail(kCommand,
+                "--loop-from " + std::to_string(a.loop_from) + ": the sequence has " +
+                    std::to_string(frames->size()) + " frames",
+                2);
+  }
   std::FILE* csv = std::fopen(a.csv.c_str(), "w");
   if (csv == nullptr) return fail(kCommand, a.csv + ": cannot write", 2);
   std::fprintf(csv, "frames,rss_mb,keyframes,map_points,drops,track_errors,latency_p99_ms\n");
-  std::printf("soak: %d frames, looping %zu of %s, dynamic.mode %s\n", a.frames, frames->size(),
-              a.sequence.c_str(), config::to_string(config.dynamic.mode));
+  std::printf("soak: %d frames, looping frames %d-%zu of %s, dynamic.mode %s\n", a.frames, a.loop_from,
+              frames->size() - 1, a.sequence.c_str(), config::to_string(config.dynamic.mode));
   auto samples = soak(a, config, *frames, camera, fps, csv);
   const bool written = std::ferror(csv) == 0;
   if (std::fclose(csv) != 0 || !written) return fail(kCommand, a.csv + ": write failed", 1);
@@ -284,9 +304,14 @@ const CommandRegistrar kBenchSoak{
      [](CLI::App& sub) -> CommandAction {
        auto args = std::make_shared<BenchSoakArgs>();
        sub.add_option("--sequence", args->sequence,
-                      "Sequence directory that ends where it starts (e.g. `sitepose sim --scenario backforth "
-                      "--frames 216 --out DIR`)")
+                      "Sequence directory whose frames from --loop-from on end where they start (e.g. "
+                      "`sitepose sim --scenario backforth --frames 432 --out DIR` with --loop-from 216)")
            ->required();
+       sub.add_option("--loop-from", args->loop_from,
+                      "Frames before this one run once, the rest loop (default 0: the whole sequence); "
+                      "backforth is periodic from its second pass (frame 216 at 6 fps) on, its first pass "
+                      "starts from standing")
+           ->check(CLI::Range(0, 100'000'000));
        sub.add_option("--csv", args->csv, "CSV of the samples; the PNG of them goes beside it (.png)")
            ->required();
        sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)");

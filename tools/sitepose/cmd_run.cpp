@@ -183,6 +183,7 @@ int write_outputs(const RunArgs& args, const config::SiteposeConfig& config, boo
                          {"keyframes_in_map", system.keyframe_count()},
                          {"points_in_map", system.point_count()},
                          {"keyframes_culled", mapping.keyframes_culled},
+                         {"keyframes_culled_by_site", mapping.keyframes_culled_by_site},
                          {"partial", partial}};
     if (auto st = recorder.write_stats_json(args.stats_out, extra); !st)
       return fail(kCommand, st.error().message, 1);

@@ -76,6 +76,11 @@ struct MappingConfig {
   int local_ba_iterations = 10;
   double keyframe_redundancy = 0.9;  // cull a keyframe when >= 90 % of its points are seen by 3 others
   int min_point_observations = 3;    // a new point seen by fewer keyframes after 3 KFs is culled
+  // Site-map culling (mapping/site_culling.hpp): redundant keyframes within
+  // site_radius_m and site_angle_deg of a new keyframe, over the whole map.
+  bool site_culling = false;
+  double site_radius_m = 1.0;
+  double site_angle_deg = 15.0;
 
   bool operator==(const MappingConfig&) const = default;
 };

@@ -10,6 +10,7 @@
 #include <functional>
 #include <optional>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "sitepose/core/expected.hpp"
@@ -99,6 +100,14 @@ class MapData {
   const std::unordered_map<KeyFrameId, KeyFrame>& keyframes() const { return keyframes_; }
   const std::unordered_map<PointId, MapPoint>& points() const { return points_; }
 
+  // The keyframes the tracker works from (its reference keyframe and the
+  // one sharing most of its last frame's matches), set by the tracker with
+  // each committed frame; site-map culling leaves them (site_culling.hpp).
+  // Not part of a saved map.
+  void set_tracker_keyframes(std::vector<KeyFrameId> keyframes) { tracker_keyframes_ = std::move(keyframes); }
+  const std::vector<KeyFrameId>& tracker_keyframes() const { return tracker_keyframes_; }
+  bool is_tracker_keyframe(KeyFrameId id) const;
+
   // Bad points are kept until no tracker snapshot can refer to them; the
   // mapper calls this once per keyframe to reclaim the memory.
   std::size_t purge_bad_points();
@@ -111,6 +120,7 @@ class MapData {
   PointId next_point_id_ = 0;
   KeyFrameId first_keyframe_ = kNoKeyFrame;
   KeyFrameId last_keyframe_ = kNoKeyFrame;
+  std::vector<KeyFrameId> tracker_keyframes_;
 };
 
 }  // namespace sitepose::map

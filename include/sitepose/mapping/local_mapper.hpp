@@ -12,19 +12,22 @@
 //      after the first when another keyframe is waiting) whose centres are
 //      at least one stereo baseline away (new_points.hpp);
 //   4. fuse duplicates with its neighbours (10 best covisible and their 5
-//      best) both ways (fuse.hpp);
+//      best; with mapping.site_culling also its 10 nearest keyframes of the
+//      site, site_culling.hpp) both ways (fuse.hpp);
 //   5. local BA when no other keyframe is waiting (local_ba_problem.hpp):
 //      copied out under read(), solved unlocked, aborted when a keyframe is
 //      enqueued, written back under write();
-//   6. cull redundant keyframes of the BA window (keyframe_culling.hpp), also only
-//      when no other keyframe is waiting; then, always, purge bad points so
-//      memory stays bounded.
+//   6. cull redundant keyframes of the BA window (keyframe_culling.hpp), and
+//      with mapping.site_culling those of the whole map near the keyframe
+//      (site_culling.hpp), also only when no other keyframe is waiting; then,
+//      always, purge bad points so memory stays bounded.
 //
 // Contract with the tracker: it inserts the keyframe and its new stereo
 // points with MapData::add_keyframe / add_point under SharedMap::write(),
 // then calls enqueue(id). Keyframes covisible with the one being processed
-// may be removed (step 6), never the map's first keyframe nor one still
-// waiting in the queue; bad points are purged at the end of each keyframe,
+// (with site culling: any near it) may be removed (step 6), never the map's
+// first keyframe nor one still waiting in the queue (with site culling nor
+// the tracker's, MapData::tracker_keyframes); bad points are purged at the end of each keyframe,
 // so the tracker must look its points up again (MapData::good_point) after
 // every frame rather than keep pointers.
 //
@@ -59,6 +62,7 @@
 #include "sitepose/map/shared_map.hpp"
 #include "sitepose/mapping/fuse.hpp"
 #include "sitepose/mapping/new_points.hpp"
+#include "sitepose/mapping/site_culling.hpp"
 #include "sitepose/optim/local_ba.hpp"
 
 namespace sitepose::mapping {
@@ -74,13 +78,14 @@ struct MappingStats {
   std::int64_t ba_aborted = 0;   // stopped early by an enqueue or stop()
   std::int64_t ba_failures = 0;  // optim::LocalBa returned an error (logged)
   std::int64_t ba_outliers_erased = 0;
-  std::int64_t keyframes_culled = 0;  // step 6
-  std::int64_t points_purged = 0;     // bad points reclaimed
-  int last_ba_keyframes = 0;          // size of the last solved window: free + fixed keyframes,
-  int last_ba_points = 0;             // points
-  int last_ba_observations = 0;       // and observations
-  double last_ba_ms = 0.0;            // wall time of the last solve (unlocked part)
-  double last_ba_cpu_ms = 0.0;        // CPU time of the mapping thread in that solve
+  std::int64_t keyframes_culled = 0;          // step 6, both rules
+  std::int64_t keyframes_culled_by_site = 0;  // step 6, of those by the site rule
+  std::int64_t points_purged = 0;             // bad points reclaimed
+  int last_ba_keyframes = 0;                  // size of the last solved window: free + fixed keyframes,
+  int last_ba_points = 0;                     // points
+  int last_ba_observations = 0;               // and observations
+  double last_ba_ms = 0.0;                    // wall time of the last solve (unlocked part)
+  double last_ba_cpu_ms = 0.0;                // CPU time of the mapping thread in that solve
   double total_ba_ms = 0.0;
   double last_keyframe_ms = 0.0;  // wall time of all steps for the last keyframe
   double total_keyframe_ms = 0.0;
@@ -98,7 +103,8 @@ struct KeyFrameListener {
 class LocalMapper {
  public:
   // Reads mapping.{local_ba_keyframes, local_ba_iterations,
-  // keyframe_redundancy, min_point_observations} and
+  // keyframe_redundancy, min_point_observations, site_culling,
+  // site_radius_m, site_angle_deg} and
   // tracking.{chi2_mono, chi2_stereo, close_depth_baselines}.
   LocalMapper(const StereoCamera& camera, const config::MappingConfig& mapping,
               const config::TrackingConfig& tracking, map::SharedMap& map);
@@ -143,6 +149,10 @@ class LocalMapper {
   void fuse_neighbours(map::KeyFrameId keyframe);
   Status local_bundle_adjustment(map::KeyFrameId keyframe);
   void cull_keyframes(map::KeyFrameId keyframe);
+  void cull_site_keyframes(map::KeyFrameId keyframe);
+  // Tells the listener and counts (by_site: removed by the site rule).
+  void report_culled(const std::vector<map::KeyFrameId>& culled, bool by_site);
+  SiteNeighbourhood site_neighbourhood() const;
   bool queue_empty() const;
 
   StereoCamera camera_;

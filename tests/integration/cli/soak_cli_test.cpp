@@ -1,6 +1,7 @@
-// `sitepose bench soak` as the short memory regression (issue 20): the
-// backforth pass looped twice, RSS after the first loop as the reference
-// (soak_check.hpp). 2000 frames: soak_sweep_test.
+// `sitepose bench soak` as the short memory and map-size regression (issues
+// 20, 19): backforth's first pass, then its periodic second pass once, RSS
+// and keyframes after the first pass as the reference (soak_check.hpp).
+// 2000 frames: soak_sweep_test.
 
 #include "soak_check.hpp"
 

@@ -1,5 +1,5 @@
-// The soak regression of soak_cli_test over 2000 frames (issue 20), the
-// first two loops of the backforth pass as the warm-up: minutes, so label
+// The soak regression of soak_cli_test over 2000 frames (issues 20, 19),
+// the first two passes of backforth as the warm-up: minutes, so label
 // sweep, outside the default set (ctest -L sweep).
 
 #include "soak_check.hpp"

@@ -7,6 +7,7 @@
 #include <random>
 #include <set>
 
+#include "sitepose/mapping/site_culling.hpp"
 #include "sitepose/testing/map_world.hpp"
 
 namespace sitepose::mapping {
@@ -310,35 +311,74 @@ TEST(LocalMapper, LocalBaRemovesWrongAssociations) {
   map.read([](const map::MapData& m) { EXPECT_EQ(check_consistency(m), ""); });
 }
 
-TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
-  const StereoCamera camera = test_camera();
-  const testing::World world = make_world(200, 7);
-  map::SharedMap map;
-  SimTracker tracker(world, camera, map, SimTrackerOptions{});
-  LocalMapper mapper(camera, config::MappingConfig{}, config::TrackingConfig{}, map);
+// Drives back and forth over [0, 10] m in 0.5 m steps (one pass: 40
+// keyframes there and back) with true poses; per pass the keyframes and
+// points in the map at its end.
+struct BackAndForthDrive {
+  std::vector<std::size_t> keyframes_after_pass;
+  std::vector<std::size_t> points_after_pass;
   std::size_t max_keyframes = 0;
   std::size_t max_points = 0;
-  for (int k = 0; k < 200; ++k) {
+  MappingStats stats;
+};
+
+constexpr int kKeyframesPerPass = 40;
+
+BackAndForthDrive drive_back_and_forth(const config::MappingConfig& mapping, const testing::World& world,
+                                       map::SharedMap& map, SimTracker& tracker, int passes) {
+  LocalMapper mapper(test_camera(), mapping, config::TrackingConfig{}, map);
+  BackAndForthDrive drive;
+  for (int k = 0; k < passes * kKeyframesPerPass; ++k) {
     const SE3 T = pose_at_x(back_and_forth_x(k, 10.0, 0.5));
     // A real tracker misses some of the map points it sees.
-    mapper.enqueue(tracker.insert_keyframe(T, T, 0.85));
-    ASSERT_TRUE(mapper.process_pending().has_value());
+    const map::KeyFrameId id = tracker.insert_keyframe(T, T, 0.85);
+    // The real tracker protects its reference keyframe, the newest one.
+    map.write([&](map::MapData& m) { m.set_tracker_keyframes({id}); });
+    mapper.enqueue(id);
+    EXPECT_TRUE(mapper.process_pending().has_value());
     map.read([&](const map::MapData& m) {
-      max_keyframes = std::max(max_keyframes, m.keyframe_count());
-      max_points = std::max(max_points, m.point_count());
+      drive.max_keyframes = std::max(drive.max_keyframes, m.keyframe_count());
+      drive.max_points = std::max(drive.max_points, m.point_count());
+      if ((k + 1) % kKeyframesPerPass == 0) {
+        drive.keyframes_after_pass.push_back(m.keyframe_count());
+        drive.points_after_pass.push_back(m.point_count());
+      }
     });
   }
-  const MappingStats stats = mapper.stats();
+  drive.stats = mapper.stats();
+  std::printf("site_culling %d, %d passes of %d keyframes: keyframes after each pass", mapping.site_culling,
+              passes, kKeyframesPerPass);
+  for (std::size_t n : drive.keyframes_after_pass) std::printf(" %zu", n);
+  std::printf("; points");
+  for (std::size_t n : drive.points_after_pass) std::printf(" %zu", n);
   std::printf(
-      "200 keyframes: at most %zu keyframes and %zu points kept (world %zu points); "
-      "%lld keyframes culled; %.1f ms per keyframe, of which BA %.1f ms\n",
-      max_keyframes, max_points, world.points.size(), static_cast<long long>(stats.keyframes_culled),
-      stats.total_keyframe_ms / 200.0, stats.total_ba_ms / 200.0);
-  EXPECT_LT(max_keyframes, 40u);
+      "\nat most %zu keyframes and %zu points kept (world %zu points); %lld culled (%lld by site); "
+      "%.1f ms per keyframe, of which BA %.1f ms\n",
+      drive.max_keyframes, drive.max_points, world.points.size(),
+      static_cast<long long>(drive.stats.keyframes_culled),
+      static_cast<long long>(drive.stats.keyframes_culled_by_site),
+      drive.stats.total_keyframe_ms / (passes * kKeyframesPerPass),
+      drive.stats.total_ba_ms / (passes * kKeyframesPerPass));
+  return drive;
+}
+
+// The map of a strip driven again and again grows with the strip, not with
+// the passes: after the second pass neither keyframes nor points grow.
+void expect_bounded_by_the_strip(const BackAndForthDrive& drive, const testing::World& world) {
+  ASSERT_GE(drive.keyframes_after_pass.size(), 3u);
+  const std::size_t second = drive.keyframes_after_pass[1];
+  for (std::size_t pass = 2; pass < drive.keyframes_after_pass.size(); ++pass) {
+    EXPECT_LE(drive.keyframes_after_pass[pass], second + 2) << "keyframes grow at pass " << pass + 1;
+    EXPECT_LE(drive.points_after_pass[pass], drive.points_after_pass[1] * 11 / 10)
+        << "points grow at pass " << pass + 1;
+  }
+  EXPECT_LT(drive.max_keyframes, 40u);
   // Points stay bounded by the world (duplicates fused, weak ones culled).
-  EXPECT_LT(max_points, world.points.size() * 12 / 10);
-  EXPECT_GT(stats.keyframes_culled, 160);
-  EXPECT_GT(stats.fuse_points_merged, 0);
+  EXPECT_LT(drive.max_points, world.points.size() * 12 / 10);
+  EXPECT_GT(drive.stats.fuse_points_merged, 0);
+}
+
+void expect_true_map(const map::SharedMap& map, const SimTracker& tracker) {
   // Stereo disparity noise 0.3 px gives ~0.2 m depth error at 22 m; the
   // far plane (29 m) is triangulated over a few metres.
   const PointErrors errors = point_errors(map, tracker);
@@ -356,6 +396,43 @@ TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
     for (const auto& [pid, p] : m.points()) EXPECT_FALSE(p.bad);
     EXPECT_NE(m.keyframe(m.first_keyframe()), nullptr);
     EXPECT_EQ(check_consistency(m), "");
+  });
+}
+
+TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
+  const testing::World world = make_world(200, 7);
+  map::SharedMap map;
+  SimTracker tracker(world, test_camera(), map, SimTrackerOptions{});
+  const BackAndForthDrive drive = drive_back_and_forth(config::MappingConfig{}, world, map, tracker, 5);
+  expect_bounded_by_the_strip(drive, world);
+  EXPECT_GT(drive.stats.keyframes_culled, 160);
+  expect_true_map(map, tracker);
+}
+
+// The same drive with site culling: as bounded, and every site cell of the
+// strip keeps a keyframe (the window rule alone erodes the map to a few).
+TEST(LocalMapper, SiteCullingBoundsTheMapAndKeepsEveryCellOfTheStrip) {
+  const testing::World world = make_world(200, 7);
+  map::SharedMap map;
+  SimTracker tracker(world, test_camera(), map, SimTrackerOptions{});
+  config::MappingConfig mapping;
+  mapping.site_culling = true;
+  // Cells of 0.7 m: the drive's 0.5 m steps then keep off the cell borders,
+  // where a millimetre of local BA would move a keyframe into the next cell.
+  mapping.site_radius_m = 0.7;
+  const BackAndForthDrive drive = drive_back_and_forth(mapping, world, map, tracker, 5);
+  expect_bounded_by_the_strip(drive, world);
+  expect_true_map(map, tracker);
+  const SiteNeighbourhood site{mapping.site_radius_m, mapping.site_angle_deg};
+  map.read([&](const map::MapData& m) {
+    for (int k = 0; k <= kKeyframesPerPass / 2; ++k) {
+      map::KeyFrame at;
+      at.T_world_cam = pose_at_x(back_and_forth_x(k, 10.0, 0.5));
+      const bool covered = std::any_of(m.keyframes().begin(), m.keyframes().end(), [&](const auto& entry) {
+        return site_cell_of(entry.second, site) == site_cell_of(at, site);
+      });
+      EXPECT_TRUE(covered) << "no keyframe in the cell of x " << at.camera_center().x();
+    }
   });
 }
 
