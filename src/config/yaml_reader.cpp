@@ -3,15 +3,12 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <limits>
 #include <optional>
 #include <type_traits>
 #include <unordered_map>
 
+#include "detail/file_head.hpp"
 #include "sitepose/core/echo.hpp"
 
 namespace sitepose::config {
@@ -450,21 +447,8 @@ std::vector<YamlMap> YamlMap::maps(std::string_view key) const {
 YamlReader::YamlReader(std::shared_ptr<detail::ReaderState> state) : state_(std::move(state)) {}
 
 Expected<std::string> read_yaml_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "cannot read config file " + path + ": is a directory, expected a YAML file");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return make_error(ErrorCode::kNotFound, "cannot open config file " + path + ": " + std::strerror(errno));
-  }
-  // One byte past the limit tells a file at the limit from a larger one
-  // without reading all of a huge file.
-  std::string text(kMaxYamlBytes + 1, '\0');
-  in.read(text.data(), static_cast<std::streamsize>(text.size()));
-  if (in.bad()) return make_error(ErrorCode::kIoError, "cannot read config file " + path);
-  text.resize(static_cast<std::size_t>(in.gcount()));
+  SITEPOSE_TRY(std::string text,
+               detail::read_file_head(path, kMaxYamlBytes, "config file", ", expected a YAML file"));
   if (text.size() > kMaxYamlBytes) return too_large(path, "more than " + std::to_string(kMaxYamlBytes));
   return text;
 }
