@@ -230,6 +230,17 @@ int paint_or_default(const std::string& name) {
   return level >= 0 ? level : paint_level("yellow");
 }
 
+// What a machine is painted with and says on its side: the scenario's
+// choice, or yellow and the model's own label when it makes none.
+struct Livery {
+  int paint;
+  std::string label;
+};
+
+Livery livery_of(const MachineLook& look, const char* model_label) {
+  return {paint_or_default(look.paint), look.label.empty() ? model_label : look.label};
+}
+
 Eigen::Matrix3d pitch_up(double angle_rad) {
   // Rotation about y that turns +x towards +z.
   return Eigen::AngleAxisd(-angle_rad, Vector3d::UnitY()).toRotationMatrix();
@@ -239,8 +250,7 @@ Eigen::Matrix3d pitch_up(double angle_rad) {
 
 Mesh make_roller(Rng& rng, const MachineLook& look) {
   Mesh m;
-  const int paint = paint_or_default(look.paint);
-  const std::string label = look.label.empty() ? "ROLLMAX" : look.label;
+  const auto [paint, label] = livery_of(look, "ROLLMAX");
   // Front drum and its frame.
   add_cylinder(m, {1.9, 0.0, 0.75}, 0.75, 2.1, 16, steel_drum(rng, 2 * std::numbers::pi * 0.75, 2.1),
                hub(rng, 0.75, paint, false));
@@ -268,8 +278,7 @@ Mesh make_roller(Rng& rng, const MachineLook& look) {
 
 Mesh make_truck(Rng& rng, const MachineLook& look) {
   Mesh m;
-  const int paint = paint_or_default(look.paint);
-  const std::string label = look.label.empty() ? "HAULCO" : look.label;
+  const auto [paint, label] = livery_of(look, "HAULCO");
   add_box(m, {-4.2, -0.9, 0.55}, {4.2, 0.9, 1.05}, painted_panel(rng, 8.4, 0.5, 50, 0.8, "", false, false));
   // Cab: windows, door, grille and lights at the front.
   BoxTextures cab;
@@ -306,8 +315,7 @@ Mesh make_truck(Rng& rng, const MachineLook& look) {
 }
 
 std::vector<JointPart> make_excavator_parts(Rng& rng, const MachineLook& look) {
-  const int paint = paint_or_default(look.paint);
-  const std::string label = look.label.empty() ? "EX 320" : look.label;
+  const auto [paint, label] = livery_of(look, "EX 320");
   std::vector<JointPart> parts(5);
   JointPart& under = parts[0];
   under.name = "undercarriage";
@@ -366,8 +374,7 @@ Mesh make_excavator(Rng& rng, const MachineLook& look) {
 }
 
 std::vector<JointPart> make_loader_parts(Rng& rng, const MachineLook& look) {
-  const int paint = paint_or_default(look.paint);
-  const std::string label = look.label.empty() ? "WL 150" : look.label;
+  const auto [paint, label] = livery_of(look, "WL 150");
   std::vector<JointPart> parts(3);
   JointPart& body = parts[0];
   body.name = "body";
