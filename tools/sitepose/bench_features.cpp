@@ -108,21 +108,19 @@ int run(const Args& args) {
   return partial ? report_interrupted(kCommand, "printed the figures of the frames done") : 0;
 }
 
-const CommandRegistrar kBenchFeatures{
-    {"bench", "features",
-     "ORB extraction time of the masked grid extractor vs cv::ORB with the same feature count, one run",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<Args>();
-       add_frame_source_options(sub, args->scenario, args->sequence, args->config_path,
-                                "sitepose YAML config (its orb section is used)");
-       sub.add_option("--frames", args->frames, "Frames (0 = all)")->capture_default_str();
-       sub.add_option("--repeats", args->repeats, "Extractions per frame and extractor")
-           ->capture_default_str();
-       sub.add_option("--pool-workers", args->pool_workers,
-                      "Worker threads of the pool the pooled extractor's levels run on (plus the caller)")
-           ->capture_default_str();
-       return [args] { return run(*args); };
-     }}};
+void add_options(CLI::App& sub, Args& args) {
+  add_frame_source_options(sub, args.scenario, args.sequence, args.config_path,
+                           "sitepose YAML config (its orb section is used)");
+  sub.add_option("--frames", args.frames, "Frames (0 = all)")->capture_default_str();
+  sub.add_option("--repeats", args.repeats, "Extractions per frame and extractor")->capture_default_str();
+  sub.add_option("--pool-workers", args.pool_workers,
+                 "Worker threads of the pool the pooled extractor's levels run on (plus the caller)")
+      ->capture_default_str();
+}
+
+const CommandRegistrar kBenchFeatures{make_command<Args>(
+    "bench", "features", add_options, run,
+    "ORB extraction time of the masked grid extractor vs cv::ORB with the same feature count, one run")};
 
 }  // namespace
 }  // namespace sitepose::cli

@@ -277,32 +277,29 @@ int run_bench_soak(const BenchSoakArgs& a) {
   return check_rss_growth(a, *samples);
 }
 
-const CommandRegistrar kBenchSoak{
-    {"bench", "soak",
-     "Daemon pipeline on a looped sequence for many frames: RSS, map size, drops and latency p99 every "
-     "--sample-every frames to a CSV; with --max-rss-growth a check on memory growth after the warm-up",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<BenchSoakArgs>();
-       sub.add_option("--sequence", args->sequence,
-                      "Sequence directory that ends where it starts (e.g. `sitepose sim --scenario backforth "
-                      "--frames 216 --out DIR`)")
-           ->required();
-       sub.add_option("--csv", args->csv, "CSV of the samples; the PNG of them goes beside it (.png)")
-           ->required();
-       sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)");
-       sub.add_option("--mode", args->mode, "Masking mode none|bbox|pixel|hierarchical|full (default full)");
-       sub.add_option("--frames", args->frames, "Frames to run (default 20000)")
-           ->check(CLI::Range(1, 100'000'000));
-       sub.add_option("--sample-every", args->sample_every, "Frames between samples (default 1000)")
-           ->check(CLI::Range(1, 100'000'000));
-       sub.add_option("--warmup-frames", args->warmup_frames,
-                      "Frames before the RSS reference of --max-rss-growth (default 2000)")
-           ->check(CLI::Range(0, 100'000'000));
-       sub.add_option("--max-rss-growth", args->max_rss_growth_pct,
-                      "Exit 1 when RSS grows by more than this many percent after the warm-up")
-           ->check(CLI::Range(0.0, 1000.0));
-       return [args] { return run_bench_soak(*args); };
-     }}};
+void add_options(CLI::App& sub, BenchSoakArgs& args) {
+  sub.add_option("--sequence", args.sequence,
+                 "Sequence directory that ends where it starts (e.g. `sitepose sim --scenario backforth "
+                 "--frames 216 --out DIR`)")
+      ->required();
+  sub.add_option("--csv", args.csv, "CSV of the samples; the PNG of them goes beside it (.png)")->required();
+  sub.add_option("--config", args.config_path, "sitepose YAML config (default: built-in defaults)");
+  sub.add_option("--mode", args.mode, "Masking mode none|bbox|pixel|hierarchical|full (default full)");
+  sub.add_option("--frames", args.frames, "Frames to run (default 20000)")->check(CLI::Range(1, 100'000'000));
+  sub.add_option("--sample-every", args.sample_every, "Frames between samples (default 1000)")
+      ->check(CLI::Range(1, 100'000'000));
+  sub.add_option("--warmup-frames", args.warmup_frames,
+                 "Frames before the RSS reference of --max-rss-growth (default 2000)")
+      ->check(CLI::Range(0, 100'000'000));
+  sub.add_option("--max-rss-growth", args.max_rss_growth_pct,
+                 "Exit 1 when RSS grows by more than this many percent after the warm-up")
+      ->check(CLI::Range(0.0, 1000.0));
+}
+
+const CommandRegistrar kBenchSoak{make_command<BenchSoakArgs>(
+    "bench", "soak", add_options, run_bench_soak,
+    "Daemon pipeline on a looped sequence for many frames: RSS, map size, drops and latency p99 every "
+    "--sample-every frames to a CSV; with --max-rss-growth a check on memory growth after the warm-up")};
 
 }  // namespace
 }  // namespace sitepose::cli

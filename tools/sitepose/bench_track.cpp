@@ -78,22 +78,21 @@ int bench_track(const BenchTrackArgs& args) {
   return 0;
 }
 
-const CommandRegistrar kBenchTrack{
-    {"bench", "track",
-     "Tracking time per stage (p50/p99), frames/s and memory on a simulated scenario or a sequence",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<BenchTrackArgs>();
-       add_frame_source_options(sub, args->scenario, args->sequence, args->config_path,
-                                "sitepose YAML config (mode is forced to none)");
-       sub.add_option("--frames", args->frames, "Frames to track (0 = all)")
-           ->capture_default_str()
-           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
-       sub.add_flag("!--inline-mapper", args->mapper_thread,
-                    "Run local mapping inline on the tracking thread instead of its own thread");
-       sub.add_option("--rss-at", args->rss_at_frames, "Frame counts at which to report the resident set")
-           ->capture_default_str();
-       return [args] { return bench_track(*args); };
-     }}};
+void add_options(CLI::App& sub, BenchTrackArgs& args) {
+  add_frame_source_options(sub, args.scenario, args.sequence, args.config_path,
+                           "sitepose YAML config (mode is forced to none)");
+  sub.add_option("--frames", args.frames, "Frames to track (0 = all)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+  sub.add_flag("!--inline-mapper", args.mapper_thread,
+               "Run local mapping inline on the tracking thread instead of its own thread");
+  sub.add_option("--rss-at", args.rss_at_frames, "Frame counts at which to report the resident set")
+      ->capture_default_str();
+}
+
+const CommandRegistrar kBenchTrack{make_command<BenchTrackArgs>(
+    "bench", "track", add_options, bench_track,
+    "Tracking time per stage (p50/p99), frames/s and memory on a simulated scenario or a sequence")};
 
 }  // namespace
 }  // namespace sitepose::cli

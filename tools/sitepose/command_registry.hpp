@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,20 @@ struct CommandSpec {
   // returns the action to run once parsing succeeded.
   std::function<CommandAction(CLI::App& sub)> setup;
 };
+
+// The spec of a command whose options fill an Args: `add_options(sub, args)`
+// binds them to the fields of an Args that lives as long as the action, and
+// `run(args)` is the action, run once parsing succeeded.
+template <typename Args, typename AddOptions, typename Run>
+CommandSpec make_command(std::string group, std::string name, AddOptions add_options, Run run,
+                         std::string description) {
+  return {std::move(group), std::move(name), std::move(description),
+          [add_options, run](CLI::App& sub) -> CommandAction {
+            auto args = std::make_shared<Args>();
+            add_options(sub, *args);
+            return [args, run] { return run(*args); };
+          }};
+}
 
 void register_command(CommandSpec spec);
 const std::vector<CommandSpec>& registered_commands();
