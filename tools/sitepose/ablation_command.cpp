@@ -1,9 +1,11 @@
 #include "ablation_command.hpp"
 
+#include <cstdio>
 #include <filesystem>
 #include <limits>
 
 #include "command_config.hpp"
+#include "sitepose/experiments/charts.hpp"
 
 namespace sitepose::cli {
 
@@ -30,6 +32,16 @@ Expected<AblationInputs> open_ablation_inputs(const AblationArgs& args) {
   if (request.temp_dir.empty()) request.temp_dir = args.out_dir + "/sequence";
   SITEPOSE_TRY(inputs.source, experiments::open_ablation_source(request));
   return inputs;
+}
+
+int write_csv_and_png(const std::string& command, const std::string& out_dir, const std::string& name,
+                      const std::string& csv, const cv::Mat& png) {
+  const std::string csv_path = out_dir + "/" + name + ".csv";
+  const std::string png_path = out_dir + "/" + name + ".png";
+  if (auto st = experiments::write_text(csv_path, csv); !st) return fail(command, st.error().message, 1);
+  if (auto st = experiments::write_png(png_path, png); !st) return fail(command, st.error().message, 1);
+  std::printf("wrote %s, %s\n", csv_path.c_str(), png_path.c_str());
+  return 0;
 }
 
 CommandSpec ablation_command(const std::string& name, const std::string& description,
