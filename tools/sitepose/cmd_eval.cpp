@@ -70,19 +70,15 @@ int run_eval(const EvalArgs& args) {
 }
 
 void add_options(CLI::App& sub, EvalArgs& args) {
-  sub.add_option("--gt", args.gt_path,
-                 "Ground-truth poses, T_world_cam: TUM (t x y z qx qy qz qw), KITTI (12 numbers a "
-                 "line, with --times) or EuRoC CSV (e.g. the sequence's poses_tum.txt, or poses.txt)")
-      ->type_name("POSES")
-      ->required();
+  add_required(sub, "--gt", args.gt_path, "POSES",
+               "Ground-truth poses, T_world_cam: TUM (t x y z qx qy qz qw), KITTI (12 numbers a "
+               "line, with --times) or EuRoC CSV (e.g. the sequence's poses_tum.txt, or poses.txt)");
   sub.add_option("--times", args.times_path,
                  "Timestamps of KITTI ground-truth poses (s), one a line (times.txt)")
       ->type_name("TIMES");
-  sub.add_option("--est", args.est_path,
-                 "Estimated trajectory: TUM, KITTI (times from --est-times, default TRAJ.times.txt "
-                 "as `run --format kitti` writes it) or EuRoC CSV")
-      ->type_name("TRAJ")
-      ->required();
+  add_required(sub, "--est", args.est_path, "TRAJ",
+               "Estimated trajectory: TUM, KITTI (times from --est-times, default TRAJ.times.txt "
+               "as `run --format kitti` writes it) or EuRoC CSV");
   sub.add_option("--est-times", args.est_times_path,
                  "Timestamps of a KITTI estimate (s), one a line (default: TRAJ.times.txt)")
       ->type_name("TIMES");

@@ -47,6 +47,14 @@ struct CommandRegistrar {
   explicit CommandRegistrar(CommandSpec spec) { register_command(std::move(spec)); }
 };
 
+// A required option shown in the help as `flag TYPE_NAME`, the name of what
+// it takes rather than its C++ type.
+template <typename T>
+CLI::Option* add_required(CLI::App& sub, const std::string& flag, T& value, const std::string& type_name,
+                          const std::string& help) {
+  return sub.add_option(flag, value, help)->type_name(type_name)->required();
+}
+
 // Prints "sitepose <command>: <message>" to stderr and returns `status`.
 int fail(const std::string& command, const std::string& message, int status);
 
