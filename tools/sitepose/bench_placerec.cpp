@@ -33,9 +33,7 @@ namespace {
 constexpr const char* kCommand = "bench placerec";
 
 struct Args {
-  std::string scenario = "backforth";
-  std::string sequence;
-  std::string config_path;
+  FrameSourceArgs input{.scenario = "backforth"};
   std::string vocabulary;
   int frames = 240;
   int keyframe_every = 6;
@@ -115,10 +113,9 @@ Measured measure(const std::vector<Frame>& frames, const std::vector<int>& keyfr
 
 int run(const Args& args) {
   install_interrupt_handlers();
-  auto config = load_command_config(args.config_path);
+  auto config = load_command_config(args.input.config_path);
   if (!config) return fail(kCommand, config.error().message, 2);
-  auto source = args.sequence.empty() ? experiments::open_simulated(args.scenario, args.frames)
-                                      : experiments::open_labelled_sequence(args.sequence, false);
+  auto source = open_frame_source(args.input, args.frames);
   if (!source) return fail(kCommand, source.error().message, 2);
   auto extractor = features::OrbExtractor::create(config->orb);
   if (!extractor) return fail(kCommand, extractor.error().message, 2);
@@ -182,8 +179,7 @@ int run(const Args& args) {
 }
 
 void add_options(CLI::App& sub, Args& args) {
-  add_frame_source_options(sub, args.scenario, args.sequence, args.config_path,
-                           "sitepose YAML config (its orb section is used)");
+  add_frame_source_options(sub, args.input, "sitepose YAML config (its orb section is used)");
   sub.add_option("--vocabulary", args.vocabulary,
                  "Vocabulary file (sitepose vocab train); default: one trained on the keyframes")
       ->check(CLI::ExistingFile);

@@ -27,7 +27,6 @@
 #include "command_registry.hpp"
 #include "interrupt.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/detect/create_detector.hpp"
 #include "sitepose/experiments/charts.hpp"
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
@@ -43,8 +42,7 @@ using pipeline::SteadyClock;
 
 struct BenchSoakArgs {
   std::string sequence;
-  std::string config_path;
-  std::string mode = "full";
+  PipelineConfigArgs settings{.mode = "full"};
   std::string csv;
   int frames = 20000;
   int sample_every = 1000;
@@ -245,10 +243,9 @@ int check_rss_growth(const BenchSoakArgs& a, const std::vector<Sample>& samples)
 
 int run_bench_soak(const BenchSoakArgs& a) {
   install_interrupt_handlers();
-  auto loaded = load_command_config(a.config_path, a.mode);
+  auto loaded = load_pipeline_config(a.settings);
   if (!loaded) return fail(kCommand, loaded.error().message, 2);
   config::SiteposeConfig& config = *loaded;
-  detect::add_inherent_dynamic_classes(config.detector, config.dynamic);
   StereoCamera camera;
   double fps = 0.0;
   auto frames = load_frames(a.sequence, camera, fps);
@@ -283,8 +280,9 @@ void add_options(CLI::App& sub, BenchSoakArgs& args) {
                  "--frames 216 --out DIR`)")
       ->required();
   sub.add_option("--csv", args.csv, "CSV of the samples; the PNG of them goes beside it (.png)")->required();
-  sub.add_option("--config", args.config_path, "sitepose YAML config (default: built-in defaults)");
-  sub.add_option("--mode", args.mode, "Masking mode none|bbox|pixel|hierarchical|full (default full)");
+  sub.add_option("--config", args.settings.config_path, "sitepose YAML config (default: built-in defaults)");
+  sub.add_option("--mode", args.settings.mode,
+                 "Masking mode none|bbox|pixel|hierarchical|full (default full)");
   sub.add_option("--frames", args.frames, "Frames to run (default 20000)")->check(CLI::Range(1, 100'000'000));
   sub.add_option("--sample-every", args.sample_every, "Frames between samples (default 1000)")
       ->check(CLI::Range(1, 100'000'000));
