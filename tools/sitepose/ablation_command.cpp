@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <utility>
 
 #include "command_config.hpp"
 #include "sitepose/experiments/charts.hpp"
@@ -48,7 +49,7 @@ CommandSpec ablation_command(const std::string& name, const std::string& descrip
                              const AblationHelp& help, AblationRun run) {
   return make_command<AblationArgs>(
       "ablate", name, [help](CLI::App& sub, AblationArgs& args) { add_ablation_options(sub, args, help); },
-      [name, run](const AblationArgs& args) {
+      [name, run = std::move(run)](const AblationArgs& args) {
         auto inputs = open_ablation_inputs(args);
         if (!inputs) return fail("ablate " + name, inputs.error().message, 2);
         return run(args, inputs->config, *inputs->source);
