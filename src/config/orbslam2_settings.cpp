@@ -7,15 +7,12 @@
 #include <opencv2/core.hpp>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "detail/file_head.hpp"
 #include "detail/orb_limits.hpp"
 #include "sitepose/config/yaml_reader.hpp"
 
@@ -309,20 +306,8 @@ Expected<OrbSlam2Settings> load_orbslam2_settings(const std::string& path) {
   // Read the text here so a missing file is kNotFound, not an OpenCV error;
   // a path that siteposed's settings name may be anything (a folder,
   // /dev/zero): read at most the config files' limit.
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "cannot read ORB-SLAM2 settings file " + path + ": is a directory");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return make_error(ErrorCode::kNotFound,
-                      "cannot open ORB-SLAM2 settings file " + path + ": " + std::strerror(errno));
-  }
-  std::string text(kMaxYamlBytes + 1, '\0');
-  in.read(text.data(), static_cast<std::streamsize>(text.size()));
-  if (in.bad()) return make_error(ErrorCode::kIoError, "cannot read ORB-SLAM2 settings file " + path);
-  text.resize(static_cast<std::size_t>(in.gcount()));
+  SITEPOSE_TRY(const std::string text,
+               detail::read_file_head(path, kMaxYamlBytes, "ORB-SLAM2 settings file", ""));
   if (text.size() > kMaxYamlBytes) {
     return make_error(ErrorCode::kInvalidArgument, "ORB-SLAM2 settings file " + path + ": larger than " +
                                                        std::to_string(kMaxYamlBytes) + " bytes");

@@ -3,15 +3,12 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <limits>
 #include <optional>
 #include <type_traits>
 #include <unordered_map>
 
+#include "detail/file_head.hpp"
 #include "sitepose/core/echo.hpp"
 
 namespace sitepose::config {
@@ -168,22 +165,38 @@ const char* type_name() {
 }
 
 template <typename T>
+struct ParsedNumber {
+  T value{};
+  std::errc error{};
+  bool whole_scalar = false;  // the number is all of the scalar, and it is not empty
+};
+
+// std::from_chars over a scalar. YAML allows a leading '+', from_chars does
+// not: it is skipped here.
+template <typename T>
+ParsedNumber<T> parse_number(const std::string& scalar) {
+  const char* begin = scalar.data() + (!scalar.empty() && scalar[0] == '+' ? 1 : 0);
+  const char* end = scalar.data() + scalar.size();
+  ParsedNumber<T> parsed;
+  const auto result = std::from_chars(begin, end, parsed.value);
+  parsed.error = result.ec;
+  parsed.whole_scalar = result.ptr == end && begin != end;
+  return parsed;
+}
+
+template <typename T>
 std::optional<Failure> decode_integer(const YAML::Node& node, T& out) {
   const Failure fail{node, "", std::string("expected ") + type_name<T>()};
   if (!node.IsScalar()) return fail;
-  const std::string& s = node.Scalar();
-  const char* begin = s.data() + (!s.empty() && s[0] == '+' ? 1 : 0);
-  const char* end = s.data() + s.size();
-  T value{};
-  const auto result = std::from_chars(begin, end, value);
-  if (result.ec == std::errc::result_out_of_range) {
+  const ParsedNumber<T> parsed = parse_number<T>(node.Scalar());
+  if (parsed.error == std::errc::result_out_of_range) {
     return Failure{node, "",
                    "out of range for an integer (limits " +
                        detail::number_text(std::numeric_limits<T>::min()) + ", " +
                        detail::number_text(std::numeric_limits<T>::max()) + ")"};
   }
-  if (result.ec != std::errc() || result.ptr != end || begin == end) return fail;
-  out = value;
+  if (parsed.error != std::errc() || !parsed.whole_scalar) return fail;
+  out = parsed.value;
   return std::nullopt;
 }
 
@@ -193,15 +206,9 @@ std::optional<Failure> decode(const YAML::Node& node, std::int64_t& out) { retur
 std::optional<Failure> decode(const YAML::Node& node, double& out) {
   const Failure fail{node, "", std::string("expected ") + type_name<double>()};
   if (!node.IsScalar()) return fail;
-  const std::string& s = node.Scalar();
-  const char* begin = s.data() + (!s.empty() && s[0] == '+' ? 1 : 0);
-  const char* end = s.data() + s.size();
-  double value = 0.0;
-  const auto result = std::from_chars(begin, end, value);
-  if (result.ec != std::errc() || result.ptr != end || begin == end || !std::isfinite(value)) {
-    return fail;
-  }
-  out = value;
+  const ParsedNumber<double> parsed = parse_number<double>(node.Scalar());
+  if (parsed.error != std::errc() || !parsed.whole_scalar || !std::isfinite(parsed.value)) return fail;
+  out = parsed.value;
   return std::nullopt;
 }
 
@@ -450,21 +457,8 @@ std::vector<YamlMap> YamlMap::maps(std::string_view key) const {
 YamlReader::YamlReader(std::shared_ptr<detail::ReaderState> state) : state_(std::move(state)) {}
 
 Expected<std::string> read_yaml_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      "cannot read config file " + path + ": is a directory, expected a YAML file");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return make_error(ErrorCode::kNotFound, "cannot open config file " + path + ": " + std::strerror(errno));
-  }
-  // One byte past the limit tells a file at the limit from a larger one
-  // without reading all of a huge file.
-  std::string text(kMaxYamlBytes + 1, '\0');
-  in.read(text.data(), static_cast<std::streamsize>(text.size()));
-  if (in.bad()) return make_error(ErrorCode::kIoError, "cannot read config file " + path);
-  text.resize(static_cast<std::size_t>(in.gcount()));
+  SITEPOSE_TRY(std::string text,
+               detail::read_file_head(path, kMaxYamlBytes, "config file", ", expected a YAML file"));
   if (text.size() > kMaxYamlBytes) return too_large(path, "more than " + std::to_string(kMaxYamlBytes));
   return text;
 }

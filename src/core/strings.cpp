@@ -2,6 +2,7 @@
 
 #include "sitepose/core/echo.hpp"
 #include "sitepose/core/expected.hpp"
+#include "sitepose/core/hex.hpp"
 #include "sitepose/core/pose_estimate.hpp"
 
 namespace sitepose {
@@ -25,6 +26,12 @@ const char* to_string(TrackingState state) {
     case TrackingState::kLost: return "LOST";
   }
   return "UNKNOWN";
+}
+
+std::string hex(std::uint32_t value, HexStyle style) {
+  char text[16];
+  std::snprintf(text, sizeof(text), style == HexStyle::kLiteral ? "0x%X" : "%08x", value);
+  return text;
 }
 
 std::string echo_value(std::string_view text, std::size_t max_chars) {

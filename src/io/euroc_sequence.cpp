@@ -57,9 +57,6 @@ class EurocSequence final : public Sequence {
   }
 
   const std::vector<std::optional<SE3>>& gt_poses() const override { return gt_; }
-  bool has_labels() const override { return false; }
-  const std::vector<LabelBox>& boxes() const override { return no_boxes_; }
-  bool has_masks() const override { return false; }
   Expected<cv::Mat> read_instance_mask(std::size_t) const override {
     return make_error(ErrorCode::kUnsupported, dir_ + ": EuRoC sequences carry no instance masks");
   }
@@ -73,7 +70,6 @@ class EurocSequence final : public Sequence {
   EurocRectification rect_;
   std::vector<StereoEntry> entries_;
   std::vector<std::optional<SE3>> gt_;
-  std::vector<LabelBox> no_boxes_;
   std::size_t unpaired_ = 0;
   ChannelOrder channel_order_ = ChannelOrder::kBgr;
 };

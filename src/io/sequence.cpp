@@ -27,18 +27,22 @@ bool Sequence::has_gt() const {
   return std::any_of(gt.begin(), gt.end(), [](const std::optional<SE3>& p) { return p.has_value(); });
 }
 
+const std::vector<LabelBox>& Sequence::boxes() const {
+  static const std::vector<LabelBox> kNoBoxes;
+  return kNoBoxes;
+}
+
 std::vector<LabelBox> Sequence::boxes_for_frame(std::size_t i) const {
   const std::vector<LabelBox>& all = boxes();
   const int frame = static_cast<int>(i);
-  const auto first = std::lower_bound(all.begin(), all.end(), frame,
-                                      [](const LabelBox& b, int f) { return b.frame < f; });
-  const auto last = std::upper_bound(first, all.end(), frame,
-                                     [](int f, const LabelBox& b) { return f < b.frame; });
+  const auto first =
+      std::lower_bound(all.begin(), all.end(), frame, [](const LabelBox& b, int f) { return b.frame < f; });
+  const auto last =
+      std::upper_bound(first, all.end(), frame, [](int f, const LabelBox& b) { return f < b.frame; });
   return {first, last};
 }
 
-Expected<std::unique_ptr<Sequence>> open_sequence(const std::string& dir,
-                                                  const SequenceOptions& options) {
+Expected<std::unique_ptr<Sequence>> open_sequence(const std::string& dir, const SequenceOptions& options) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) {
@@ -53,8 +57,9 @@ Expected<std::unique_ptr<Sequence>> open_sequence(const std::string& dir,
     return detail::open_euroc_sequence(dir, dir, options);
   }
   return make_error(ErrorCode::kInvalidArgument,
-                    dir + ": not a sequence: expected image_0/ (sitepose or KITTI odometry layout) "
-                          "or mav0/cam0/ (EuRoC layout)");
+                    dir +
+                        ": not a sequence: expected image_0/ (sitepose or KITTI odometry layout) "
+                        "or mav0/cam0/ (EuRoC layout)");
 }
 
 }  // namespace sitepose::io

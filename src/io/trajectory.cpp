@@ -41,6 +41,17 @@ bool pose_is_finite(const SE3& pose) {
   return pose.translation().allFinite() && pose.rotation().coeffs().allFinite();
 }
 
+// Checked before the file is opened, so a refused trajectory leaves no partial file behind.
+Status check_all_finite(const std::string& path, const Trajectory& trajectory) {
+  for (std::size_t i = 0; i < trajectory.size(); ++i) {
+    if (!std::isfinite(trajectory[i].t_s) || !pose_is_finite(trajectory[i].T_world_cam)) {
+      return make_error(ErrorCode::kInvalidArgument,
+                        path + ": refusing to write pose " + std::to_string(i) + ": non-finite time or pose");
+    }
+  }
+  return ok_status();
+}
+
 // fclose-checked FILE handle so a full disk is reported, not ignored.
 struct FileCloser {
   void operator()(std::FILE* f) const {
@@ -95,12 +106,7 @@ Expected<Trajectory> read_tum_trajectory(const std::string& path) {
 }
 
 Status write_tum_trajectory(const std::string& path, const Trajectory& trajectory) {
-  for (std::size_t i = 0; i < trajectory.size(); ++i) {
-    if (!std::isfinite(trajectory[i].t_s) || !pose_is_finite(trajectory[i].T_world_cam)) {
-      return make_error(ErrorCode::kInvalidArgument,
-                        path + ": refusing to write pose " + std::to_string(i) + ": non-finite time or pose");
-    }
-  }
+  SITEPOSE_TRY_STATUS(check_all_finite(path, trajectory));
   SITEPOSE_TRY(FilePtr file, open_for_writing(path));
   std::fprintf(file.get(), "# t x y z qx qy qz qw (T_world_cam of the left camera)\n");
   for (const StampedPose& p : trajectory) {
@@ -219,12 +225,7 @@ Status write_times(const std::string& path, const Trajectory& trajectory) {
 }
 
 Status write_euroc_trajectory(const std::string& path, const Trajectory& trajectory) {
-  for (std::size_t i = 0; i < trajectory.size(); ++i) {
-    if (!std::isfinite(trajectory[i].t_s) || !pose_is_finite(trajectory[i].T_world_cam)) {
-      return make_error(ErrorCode::kInvalidArgument,
-                        path + ": refusing to write pose " + std::to_string(i) + ": non-finite time or pose");
-    }
-  }
+  SITEPOSE_TRY_STATUS(check_all_finite(path, trajectory));
   SITEPOSE_TRY(FilePtr file, open_for_writing(path));
   std::fprintf(
       file.get(),

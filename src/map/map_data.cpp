@@ -8,6 +8,17 @@
 #include "sitepose/features/hamming.hpp"
 
 namespace sitepose::map {
+namespace {
+
+// The mapped value for key, or null; const when the map is, so one body
+// serves the const and the mutable accessors.
+template <typename Map>
+auto* find_or_null(Map& map, const typename Map::key_type& key) {
+  auto it = map.find(key);
+  return it == map.end() ? nullptr : &it->second;
+}
+
+}  // namespace
 
 Descriptor descriptor_from_row(const cv::Mat& descriptors, int row) {
   SITEPOSE_CHECK(descriptors.cols == 32 && descriptors.type() == CV_8UC1);
@@ -395,22 +406,10 @@ int MapData::observation_weight(PointId point_id) const {
   return weight;
 }
 
-const KeyFrame* MapData::keyframe(KeyFrameId id) const {
-  auto it = keyframes_.find(id);
-  return it == keyframes_.end() ? nullptr : &it->second;
-}
-KeyFrame* MapData::keyframe(KeyFrameId id) {
-  auto it = keyframes_.find(id);
-  return it == keyframes_.end() ? nullptr : &it->second;
-}
-const MapPoint* MapData::point(PointId id) const {
-  auto it = points_.find(id);
-  return it == points_.end() ? nullptr : &it->second;
-}
-MapPoint* MapData::point(PointId id) {
-  auto it = points_.find(id);
-  return it == points_.end() ? nullptr : &it->second;
-}
+const KeyFrame* MapData::keyframe(KeyFrameId id) const { return find_or_null(keyframes_, id); }
+KeyFrame* MapData::keyframe(KeyFrameId id) { return find_or_null(keyframes_, id); }
+const MapPoint* MapData::point(PointId id) const { return find_or_null(points_, id); }
+MapPoint* MapData::point(PointId id) { return find_or_null(points_, id); }
 const MapPoint* MapData::good_point(PointId id) const {
   const MapPoint* p = point(id);
   return (p == nullptr || p->bad) ? nullptr : p;

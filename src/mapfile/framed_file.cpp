@@ -1,24 +1,14 @@
 #include "sitepose/mapfile/framed_file.hpp"
 
 #include <algorithm>
-#include <cstdio>
 #include <fstream>
 #include <iterator>
 
+#include "sitepose/core/hex.hpp"
 #include "sitepose/mapfile/byte_io.hpp"
 #include "sitepose/mapfile/crc32.hpp"
 
 namespace sitepose::mapfile {
-namespace {
-
-std::string hex(std::uint32_t v) {
-  char text[16];
-  std::snprintf(text, sizeof(text), "%08x", v);
-  return text;
-}
-
-}  // namespace
-
 Unexpected refuse_file(const FileKind& kind, const std::string& why) {
   return make_error(ErrorCode::kParseError, kind.noun + " refused: " + why);
 }
@@ -67,8 +57,8 @@ Expected<std::span<const std::uint8_t>> check_frame(const FileKind& kind, std::s
   }
   const auto payload = bytes.subspan(kFrameHeaderBytes);
   if (const std::uint32_t crc = crc32(payload); crc != payload_crc) {
-    return refuse_file(kind, "payload checksum mismatch (stored " + hex(payload_crc) + ", computed " +
-                                 hex(crc) + "): the file is corrupted");
+    return refuse_file(kind, "payload checksum mismatch (stored " + hex(payload_crc, HexStyle::kChecksum) +
+                                 ", computed " + hex(crc, HexStyle::kChecksum) + "): the file is corrupted");
   }
   return payload;
 }

@@ -1,17 +1,10 @@
 #include "sitepose/output/can_frame.hpp"
 
-#include <cstdio>
 #include <string>
 
-namespace sitepose::output {
+#include "sitepose/core/hex.hpp"
 
-namespace {
-std::string hex(std::uint32_t v) {
-  char buf[16];
-  std::snprintf(buf, sizeof(buf), "0x%X", v);
-  return buf;
-}
-}  // namespace
+namespace sitepose::output {
 
 Expected<std::uint32_t> make_j1939_id(const J1939Id& parts) {
   if (parts.priority > 7) {
@@ -20,15 +13,14 @@ Expected<std::uint32_t> make_j1939_id(const J1939Id& parts) {
   }
   if (parts.pgn > 0x3FFFF) {
     return make_error(ErrorCode::kInvalidArgument,
-                      "PGN = " + hex(parts.pgn) + ": must be at most 0x3FFFF (18 bits)");
+                      "PGN = " + hex(parts.pgn, HexStyle::kLiteral) + ": must be at most 0x3FFFF (18 bits)");
   }
   const std::uint32_t pdu_format = (parts.pgn >> 8) & 0xFF;
   std::uint32_t pgn_field = parts.pgn;
   if (pdu_format < 240) {  // PDU1: the PS byte is the destination address
     if ((parts.pgn & 0xFF) != 0) {
-      return make_error(
-          ErrorCode::kInvalidArgument,
-          "PGN = " + hex(parts.pgn) + ": a PDU1 PGN (PF < 240) must have a zero low byte");
+      return make_error(ErrorCode::kInvalidArgument, "PGN = " + hex(parts.pgn, HexStyle::kLiteral) +
+                                                         ": a PDU1 PGN (PF < 240) must have a zero low byte");
     }
     pgn_field |= parts.destination_address;
   }

@@ -1,5 +1,7 @@
 #include "sitepose/views/frame_view.hpp"
 
+#include "sitepose/dynamic/object_types.hpp"
+
 #include <algorithm>
 #include <cstdio>
 #include <map>
@@ -18,15 +20,6 @@ cv::Scalar state_colour(MotionState state) {
     case MotionState::kUnknown: break;
   }
   return Palette::unknown_object();
-}
-
-const char* state_word(MotionState state) {
-  switch (state) {
-    case MotionState::kStatic: return "static";
-    case MotionState::kMoving: return "moving";
-    case MotionState::kUnknown: break;
-  }
-  return "unknown";
 }
 
 cv::Scalar keypoint_colour(const slam::KeypointTrace& k, const std::map<std::uint16_t, MotionState>& states,
@@ -70,7 +63,7 @@ void draw_objects(cv::Mat& image, const FrameRecord& f, const std::map<std::uint
     char label[160];
     if (it != f.objects.end()) {
       std::snprintf(label, sizeof label, "#%u %s %s s=%.3g n=%d", unsigned{b.instance}, b.class_name.c_str(),
-                    state_word(state), it->score, it->points);
+                    dynamic::to_string(state), it->score, it->points);
     } else {
       std::snprintf(label, sizeof label, "#%u %s", unsigned{b.instance}, b.class_name.c_str());
     }

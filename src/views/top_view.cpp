@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <sstream>
 #include <string_view>
 
@@ -16,6 +17,20 @@ std::string literal_pattern(const std::string& channel) {
     pattern += c;
   }
   return pattern;
+}
+
+// The message, or nothing when it does not decode as a Message: a message
+// on our channel from something else is counted and shown, not fatal.
+template <typename Message>
+std::optional<Message> decode_or_count(const lcm::ReceiveBuffer& buffer, const std::string& channel,
+                                       TopState& state) {
+  Message message;
+  if (message.decode(buffer.data, 0, static_cast<int>(buffer.data_size)) < 0) {
+    ++state.undecodable;
+    state.last_error = channel + ": a message that is not a " + Message::getTypeName();
+    return std::nullopt;
+  }
+  return message;
 }
 
 const char* state_name(std::int8_t state) {
@@ -131,12 +146,9 @@ TopMonitor::~TopMonitor() {
 bool TopMonitor::handle(int timeout_ms) { return lcm_->handleTimeout(timeout_ms) >= 0; }
 
 void TopMonitor::on_pose(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  sitepose::pose_t pose;
-  if (pose.decode(buffer->data, 0, static_cast<int>(buffer->data_size)) < 0) {
-    ++state_.undecodable;
-    state_.last_error = channel + ": a message that is not a pose_t";
-    return;
-  }
+  std::optional<sitepose::pose_t> decoded = decode_or_count<sitepose::pose_t>(*buffer, channel, state_);
+  if (!decoded) return;
+  sitepose::pose_t& pose = *decoded;
   const auto now = TopClock::now();
   pose_times_.push_back(now);
   while (pose_times_.size() > 1 && now - pose_times_.front() > std::chrono::seconds(2))
@@ -150,12 +162,9 @@ void TopMonitor::on_pose(const lcm::ReceiveBuffer* buffer, const std::string& ch
 }
 
 void TopMonitor::on_health(const lcm::ReceiveBuffer* buffer, const std::string& channel) {
-  sitepose::health_t health;
-  if (health.decode(buffer->data, 0, static_cast<int>(buffer->data_size)) < 0) {
-    ++state_.undecodable;
-    state_.last_error = channel + ": a message that is not a health_t";
-    return;
-  }
+  std::optional<sitepose::health_t> decoded = decode_or_count<sitepose::health_t>(*buffer, channel, state_);
+  if (!decoded) return;
+  sitepose::health_t& health = *decoded;
   if (!health.state_reason.empty()) state_.last_error = "health: " + health.state_reason;
   state_.health = std::move(health);
   state_.health_at = TopClock::now();

@@ -20,7 +20,6 @@ namespace {
 constexpr const char* kCommand = "ablate masks";
 
 int run(const AblationArgs& args, config::SiteposeConfig& config, const experiments::LabelledSource& source) {
-
   std::ostringstream csv;
   csv << "mode,ate_rmse_m,ate_max_m,coverage,max_masked_ratio,max_mar,pixel_mask_calls,frames,"
          "mask_ms_mean,frame_ms_mean\n";
@@ -35,22 +34,21 @@ int run(const AblationArgs& args, config::SiteposeConfig& config, const experime
     const double mask_ms = stages.count("mask") ? stages.at("mask").mean_ms : 0.0;
     const double whole_ms = stages.count("whole_frame") ? stages.at("whole_frame").mean_ms : 0.0;
     const double max_m = result->evaluation ? result->evaluation->ate_m.max : NAN;
-    csv << config::to_string(mode) << ',' << result->ate_m() << ',' << max_m << ',' << result->coverage_ok() << ','
-        << result->max_masked_ratio << ',' << result->max_mar << ',' << result->recorder.pixel_mask_calls() << ','
-        << result->frames << ',' << mask_ms << ',' << whole_ms << '\n';
-    std::printf("%-12s ATE %.4f m (max %.4f)  coverage %.1f %%  max masked ratio %.3f  pixel masks %d/%d  "
-                "mask %.2f ms  frame %.1f ms\n",
-                config::to_string(mode), result->ate_m(), max_m, 100.0 * result->coverage_ok(),
-                result->max_masked_ratio, result->recorder.pixel_mask_calls(), result->frames, mask_ms, whole_ms);
+    csv << config::to_string(mode) << ',' << result->ate_m() << ',' << max_m << ',' << result->coverage_ok()
+        << ',' << result->max_masked_ratio << ',' << result->max_mar << ','
+        << result->recorder.pixel_mask_calls() << ',' << result->frames << ',' << mask_ms << ',' << whole_ms
+        << '\n';
+    std::printf(
+        "%-12s ATE %.4f m (max %.4f)  coverage %.1f %%  max masked ratio %.3f  pixel masks %d/%d  "
+        "mask %.2f ms  frame %.1f ms\n",
+        config::to_string(mode), result->ate_m(), max_m, 100.0 * result->coverage_ok(),
+        result->max_masked_ratio, result->recorder.pixel_mask_calls(), result->frames, mask_ms, whole_ms);
     std::fflush(stdout);
     labels.push_back(config::to_string(mode));
     ates.push_back(result->ate_m());
     masked.push_back(result->max_masked_ratio);
     frame_ms.push_back(whole_ms);
   }
-  const std::string csv_path = args.out_dir + "/masks.csv";
-  const std::string png_path = args.out_dir + "/masks.png";
-  if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   experiments::ChartOptions chart;
   chart.height_px = 400;
   chart.title = "Masking on " + std::filesystem::path(source.name()).filename().string() + ": ATE RMSE (m)";
@@ -61,16 +59,14 @@ int run(const AblationArgs& args, config::SiteposeConfig& config, const experime
   cv::Mat c = experiments::render_bar_chart(labels, frame_ms, chart);
   cv::Mat all;
   cv::vconcat(std::vector<cv::Mat>{a, b, c}, all);
-  if (auto st = experiments::write_png(png_path, all); !st) return fail(kCommand, st.error().message, 1);
-  std::printf("wrote %s, %s\n", csv_path.c_str(), png_path.c_str());
-  return 0;
+  return write_csv_and_png(kCommand, args.out_dir, "masks", csv.str(), all);
 }
 
-const CommandRegistrar kMasks{
-    ablation_command("masks", "bbox vs hierarchical vs pixel masks: ATE, largest masked ratio, time (CSV + PNG)",
-                     {"crowded", "Sequence directory with labels (boxes and masks)",
-                      "sitepose YAML config (the mode is set here)", "masks.csv, masks.png"},
-                     run)};
+const CommandRegistrar kMasks{ablation_command(
+    "masks", "bbox vs hierarchical vs pixel masks: ATE, largest masked ratio, time (CSV + PNG)",
+    {"crowded", "Sequence directory with labels (boxes and masks)",
+     "sitepose YAML config (the mode is set here)", "masks.csv, masks.png"},
+    run)};
 
 }  // namespace
 }  // namespace sitepose::cli

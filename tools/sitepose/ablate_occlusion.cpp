@@ -29,7 +29,8 @@ struct Args {
 
 int run(const Args& args) {
   for (double r : args.ratios) {
-    if (!(r >= 0.0 && r < 1.0)) return fail(kCommand, "--ratios: " + std::to_string(r) + " is not in [0, 1)", 2);
+    if (!(r >= 0.0 && r < 1.0))
+      return fail(kCommand, "--ratios: " + std::to_string(r) + " is not in [0, 1)", 2);
   }
   auto inputs = open_ablation_inputs(args.common);
   if (!inputs) return fail(kCommand, inputs.error().message, 2);
@@ -57,9 +58,9 @@ int run(const Args& args) {
     auto result = experiments::run_dynamic(*source, config, options);
     if (!result) return fail(kCommand, result.error().message, 1);
     const int ok = result->recorder.frames_ok();
-    const int lost_frames = static_cast<int>(std::count_if(
-        result->recorder.poses().begin(), result->recorder.poses().end(),
-        [](const PoseEstimate& p) { return p.state == TrackingState::kLost; }));
+    const int lost_frames = static_cast<int>(
+        std::count_if(result->recorder.poses().begin(), result->recorder.poses().end(),
+                      [](const PoseEstimate& p) { return p.state == TrackingState::kLost; }));
     const double max_m = result->evaluation ? result->evaluation->ate_m.max : NAN;
     csv << ratio << ',' << result->ate_m() << ',' << max_m << ',' << result->frames << ',' << ok << ','
         << lost_frames << ',' << result->coverage_ok() << '\n';
@@ -74,15 +75,18 @@ int run(const Args& args) {
   const std::string csv_path = args.common.out_dir + "/occlusion_sweep.csv";
   const std::string png_ate = args.common.out_dir + "/occlusion_sweep_ate.png";
   const std::string png_lost = args.common.out_dir + "/occlusion_sweep_lost.png";
-  if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
+  if (auto st = experiments::write_text(csv_path, csv.str()); !st)
+    return fail(kCommand, st.error().message, 1);
   experiments::ChartOptions chart;
-  chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() + ": ATE vs centred masked ratio";
+  chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() +
+                ": ATE vs centred masked ratio";
   chart.x_label = "occlusion ratio";
   chart.y_label = "ATE RMSE (m)";
   if (auto st = experiments::write_png(png_ate, experiments::render_line_chart({ate}, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }
-  chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() + ": lost frames vs centred masked ratio";
+  chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() +
+                ": lost frames vs centred masked ratio";
   chart.y_label = "share of frames LOST";
   if (auto st = experiments::write_png(png_lost, experiments::render_line_chart({lost}, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
@@ -91,18 +95,17 @@ int run(const Args& args) {
   return 0;
 }
 
-const CommandRegistrar kOcclusion{
-    {"ablate", "occlusion-sweep",
-     "Fake centred occlusion 0..0.8 masked on a static sequence: ATE and lost frames (CSV + PNG)",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<Args>();
-       add_ablation_options(sub, args->common,
-                            {"static", "Sequence directory with labels",
-                             "sitepose YAML config (mode and classes are set here)",
-                             "occlusion_sweep.csv and two PNGs"});
-       sub.add_option("--ratios", args->ratios, "Occlusion area ratios (default 0 0.1 ... 0.8)");
-       return [args] { return run(*args); };
-     }}};
+void add_options(CLI::App& sub, Args& args) {
+  add_ablation_options(
+      sub, args.common,
+      {"static", "Sequence directory with labels", "sitepose YAML config (mode and classes are set here)",
+       "occlusion_sweep.csv and two PNGs"});
+  sub.add_option("--ratios", args.ratios, "Occlusion area ratios (default 0 0.1 ... 0.8)");
+}
+
+const CommandRegistrar kOcclusion{make_command<Args>(
+    "ablate", "occlusion-sweep", add_options, run,
+    "Fake centred occlusion 0..0.8 masked on a static sequence: ATE and lost frames (CSV + PNG)")};
 
 }  // namespace
 }  // namespace sitepose::cli

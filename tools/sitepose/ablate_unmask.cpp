@@ -20,7 +20,6 @@ namespace {
 constexpr const char* kCommand = "ablate unmask";
 
 int run(const AblationArgs& args, config::SiteposeConfig& config, const experiments::LabelledSource& source) {
-
   std::ostringstream csv;
   csv << "variant,mode,ate_rmse_m,ate_max_m,coverage,mean_static_objects_unmasked,mean_features_pass1,"
          "mean_features_final\n";
@@ -44,31 +43,26 @@ int run(const AblationArgs& args, config::SiteposeConfig& config, const experime
     const double max_m = result->evaluation ? result->evaluation->ate_m.max : NAN;
     csv << name << ',' << config::to_string(mode) << ',' << result->ate_m() << ',' << max_m << ','
         << result->coverage_ok() << ',' << unmasked / n << ',' << f1 / n << ',' << f2 / n << '\n';
-    std::printf("%-16s ATE %.4f m (max %.4f)  coverage %.1f %%  static objects unmasked %.2f/frame  "
-                "features pass 1 %.0f, final %.0f\n",
-                name, result->ate_m(), max_m, 100.0 * result->coverage_ok(), unmasked / n, f1 / n, f2 / n);
+    std::printf(
+        "%-16s ATE %.4f m (max %.4f)  coverage %.1f %%  static objects unmasked %.2f/frame  "
+        "features pass 1 %.0f, final %.0f\n",
+        name, result->ate_m(), max_m, 100.0 * result->coverage_ok(), unmasked / n, f1 / n, f2 / n);
     std::fflush(stdout);
     labels.push_back(name);
     ates.push_back(result->ate_m());
   }
-  const std::string csv_path = args.out_dir + "/unmask.csv";
-  const std::string png_path = args.out_dir + "/unmask.png";
-  if (auto st = experiments::write_text(csv_path, csv.str()); !st) return fail(kCommand, st.error().message, 1);
   experiments::ChartOptions chart;
-  chart.title = "Unmasking static objects on " + std::filesystem::path(source.name()).filename().string() + ": ATE RMSE (m)";
-  if (auto st = experiments::write_png(png_path, experiments::render_bar_chart(labels, ates, chart)); !st) {
-    return fail(kCommand, st.error().message, 1);
-  }
-  std::printf("wrote %s, %s\n", csv_path.c_str(), png_path.c_str());
-  return 0;
+  chart.title = "Unmasking static objects on " + std::filesystem::path(source.name()).filename().string() +
+                ": ATE RMSE (m)";
+  return write_csv_and_png(kCommand, args.out_dir, "unmask", csv.str(),
+                           experiments::render_bar_chart(labels, ates, chart));
 }
 
-const CommandRegistrar kUnmask{
-    ablation_command("unmask",
-                     "All dynamic-class objects masked vs static ones unmasked (two passes): ATE (CSV + PNG)",
-                     {"parked", "Sequence directory with labels (boxes and masks)",
-                      "sitepose YAML config (the mode is set here)", "unmask.csv, unmask.png"},
-                     run)};
+const CommandRegistrar kUnmask{ablation_command(
+    "unmask", "All dynamic-class objects masked vs static ones unmasked (two passes): ATE (CSV + PNG)",
+    {"parked", "Sequence directory with labels (boxes and masks)",
+     "sitepose YAML config (the mode is set here)", "unmask.csv, unmask.png"},
+    run)};
 
 }  // namespace
 }  // namespace sitepose::cli

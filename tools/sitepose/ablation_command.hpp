@@ -9,6 +9,8 @@
 #include <memory>
 #include <string>
 
+#include <opencv2/core.hpp>
+
 #include "command_registry.hpp"
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
@@ -47,9 +49,15 @@ Expected<AblationInputs> open_ablation_inputs(const AblationArgs& args);
 using AblationRun = std::function<int(const AblationArgs& args, config::SiteposeConfig& config,
                                       const experiments::LabelledSource& source)>;
 
+// Writes <out_dir>/<name>.csv and <out_dir>/<name>.png and prints their
+// paths; exit status 0, or 1 with the message naming `command` when a write
+// fails.
+int write_csv_and_png(const std::string& command, const std::string& out_dir, const std::string& name,
+                      const std::string& csv, const cv::Mat& png);
+
 // `sitepose ablate <name>` with the options above; the inputs are opened
 // (failure: exit status 2, the message naming the option) before `run`.
-CommandSpec ablation_command(const std::string& name, const std::string& description, const AblationHelp& help,
-                             AblationRun run);
+CommandSpec ablation_command(const std::string& name, const std::string& description,
+                             const AblationHelp& help, AblationRun run);
 
 }  // namespace sitepose::cli

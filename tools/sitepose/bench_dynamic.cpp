@@ -166,23 +166,23 @@ int run(Args args) {
   return interrupted() ? report_interrupted(kCommand, "printed the figures of the frames done") : 0;
 }
 
+void add_options(CLI::App& sub, Args& args) {
+  sub.add_option("--sequence", args.source.sequence, "Sequence directory with labels");
+  sub.add_option("--scenario", args.source.scenario,
+                 "Scenario simulated into a temporary folder instead (default: crowded)");
+  sub.add_option("--frames", args.source.frames, "Frames (0 = all)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+  sub.add_option("--detector", args.detector, "Detector (default labels)");
+  sub.add_option("--mode", args.mode, "Masking mode (default full)");
+  sub.add_option("--config", args.config_path, "sitepose YAML config");
+  sub.add_option("--debug-out", args.debug_out,
+                 "Also write the debug record (as `run --debug-out`) and report its cost");
+}
+
 const CommandRegistrar kBenchDynamic{
-    {"bench", "dynamic",
-     "Share of frame time in the dynamic layer (detect + mask + classify + pass 2), labels detector, one run",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<Args>();
-       sub.add_option("--sequence", args->source.sequence, "Sequence directory with labels");
-       sub.add_option("--scenario", args->source.scenario,
-                      "Scenario simulated into a temporary folder instead (default: crowded)");
-       sub.add_option("--frames", args->source.frames, "Frames (0 = all)")
-           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
-       sub.add_option("--detector", args->detector, "Detector (default labels)");
-       sub.add_option("--mode", args->mode, "Masking mode (default full)");
-       sub.add_option("--config", args->config_path, "sitepose YAML config");
-       sub.add_option("--debug-out", args->debug_out,
-                      "Also write the debug record (as `run --debug-out`) and report its cost");
-       return [args] { return run(*args); };
-     }}};
+    make_command<Args>("bench", "dynamic", add_options, run,
+                       "Share of frame time in the dynamic layer (detect + mask + classify + pass 2), labels "
+                       "detector, one run")};
 
 }  // namespace
 }  // namespace sitepose::cli

@@ -24,9 +24,7 @@ namespace {
 constexpr const char* kCommand = "bench features";
 
 struct Args {
-  std::string scenario = "static";
-  std::string sequence;
-  std::string config_path;
+  FrameSourceArgs input{.scenario = "static"};
   int frames = 30;
   int repeats = 3;
   int pool_workers = 1;
@@ -38,11 +36,10 @@ double ms_between(std::chrono::steady_clock::time_point a, std::chrono::steady_c
 
 int run(const Args& args) {
   install_interrupt_handlers();
-  auto loaded = load_command_config(args.config_path);
+  auto loaded = load_command_config(args.input.config_path);
   if (!loaded) return fail(kCommand, loaded.error().message, 2);
   const config::OrbConfig& orb = loaded->orb;
-  auto source = args.sequence.empty() ? experiments::open_simulated(args.scenario, args.frames)
-                                      : experiments::open_labelled_sequence(args.sequence, false);
+  auto source = open_frame_source(args.input, args.frames);
   if (!source) return fail(kCommand, source.error().message, 2);
   auto ours = features::OrbExtractor::create(orb);
   if (!ours) return fail(kCommand, ours.error().message, 2);
@@ -108,21 +105,18 @@ int run(const Args& args) {
   return partial ? report_interrupted(kCommand, "printed the figures of the frames done") : 0;
 }
 
-const CommandRegistrar kBenchFeatures{
-    {"bench", "features",
-     "ORB extraction time of the masked grid extractor vs cv::ORB with the same feature count, one run",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<Args>();
-       add_frame_source_options(sub, args->scenario, args->sequence, args->config_path,
-                                "sitepose YAML config (its orb section is used)");
-       sub.add_option("--frames", args->frames, "Frames (0 = all)")->capture_default_str();
-       sub.add_option("--repeats", args->repeats, "Extractions per frame and extractor")
-           ->capture_default_str();
-       sub.add_option("--pool-workers", args->pool_workers,
-                      "Worker threads of the pool the pooled extractor's levels run on (plus the caller)")
-           ->capture_default_str();
-       return [args] { return run(*args); };
-     }}};
+void add_options(CLI::App& sub, Args& args) {
+  add_frame_source_options(sub, args.input, "sitepose YAML config (its orb section is used)");
+  sub.add_option("--frames", args.frames, "Frames (0 = all)")->capture_default_str();
+  sub.add_option("--repeats", args.repeats, "Extractions per frame and extractor")->capture_default_str();
+  sub.add_option("--pool-workers", args.pool_workers,
+                 "Worker threads of the pool the pooled extractor's levels run on (plus the caller)")
+      ->capture_default_str();
+}
+
+const CommandRegistrar kBenchFeatures{make_command<Args>(
+    "bench", "features", add_options, run,
+    "ORB extraction time of the masked grid extractor vs cv::ORB with the same feature count, one run")};
 
 }  // namespace
 }  // namespace sitepose::cli

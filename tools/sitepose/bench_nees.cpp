@@ -131,42 +131,41 @@ int run(const Args& args) {
   return 0;
 }
 
-const CommandRegistrar kBenchNees{
-    {"bench", "nees",
-     "NEES of the published pose covariance and integrity false-alarm / missed-detection rates on a "
-     "simulated scenario",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<Args>();
-       sub.add_option("--scenario", args->scenario, "Scenario name or YAML (default static)");
-       sub.add_option("--frames", args->frames, "Frames (0 = the scenario's)")
-           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
-       sub.add_option("--seed", args->seed, "Rendering seed (default the scenario's)");
-       sub.add_option("--width", args->width, "Render width (same field of view)")
-           ->check(CLI::Range(64, 8192));
-       sub.add_option("--height", args->height, "Render height")->check(CLI::Range(64, 8192));
-       sub.add_option("--mode", args->mode, "Masking mode (default full)");
-       sub.add_option("--config", args->config_path, "sitepose YAML config");
-       sub.add_option("--scale", args->nees.covariance.scale,
-                      "outputs.covariance.scale to score (default the shipped)")
-           ->check(CLI::Range(1e-6, 1e6));
-       sub.add_option("--floor-position-m", args->nees.covariance.floor_position_m,
-                      "outputs.covariance.floor_position_m (default the shipped)")
-           ->check(CLI::Range(0.0, 100.0));
-       sub.add_option("--floor-attitude-deg", args->nees.covariance.floor_attitude_deg,
-                      "outputs.covariance.floor_attitude_deg (default the shipped)")
-           ->check(CLI::Range(0.0, 90.0));
-       sub.add_option("--drift-m-per-sqrt-m", args->nees.covariance.drift_m_per_sqrt_m,
-                      "outputs.covariance.drift_m_per_sqrt_m (default the shipped)")
-           ->check(CLI::Range(0.0, 1.0));
-       sub.add_option("--drift-deg-per-sqrt-m", args->nees.covariance.drift_deg_per_sqrt_m,
-                      "outputs.covariance.drift_deg_per_sqrt_m (default the shipped)")
-           ->check(CLI::Range(0.0, 10.0));
-       sub.add_option("--alert-limit-m", args->nees.alert_limit_m,
-                      "outputs.integrity.alert_limit_m (default the shipped)")
-           ->check(CLI::Range(0.0, 1000.0));
-       sub.add_option("--csv", args->csv, "Write one row per scored frame");
-       return [args] { return run(*args); };
-     }}};
+// --scale and one option per other shipped outputs.covariance and
+// outputs.integrity setting, each overriding the shipped value to score
+// another.
+void add_covariance_options(CLI::App& sub, experiments::NeesOptions& nees) {
+  sub.add_option("--scale", nees.covariance.scale, "outputs.covariance.scale to score (default the shipped)")
+      ->check(CLI::Range(1e-6, 1e6));
+  const auto add_override = [&sub](const char* flag, double& value, const std::string& key, double max) {
+    sub.add_option(flag, value, key + " (default the shipped)")->check(CLI::Range(0.0, max));
+  };
+  output::CovarianceOptions& c = nees.covariance;
+  add_override("--floor-position-m", c.floor_position_m, "outputs.covariance.floor_position_m", 100.0);
+  add_override("--floor-attitude-deg", c.floor_attitude_deg, "outputs.covariance.floor_attitude_deg", 90.0);
+  add_override("--drift-m-per-sqrt-m", c.drift_m_per_sqrt_m, "outputs.covariance.drift_m_per_sqrt_m", 1.0);
+  add_override("--drift-deg-per-sqrt-m", c.drift_deg_per_sqrt_m, "outputs.covariance.drift_deg_per_sqrt_m",
+               10.0);
+  add_override("--alert-limit-m", nees.alert_limit_m, "outputs.integrity.alert_limit_m", 1000.0);
+}
+
+void add_options(CLI::App& sub, Args& args) {
+  sub.add_option("--scenario", args.scenario, "Scenario name or YAML (default static)");
+  sub.add_option("--frames", args.frames, "Frames (0 = the scenario's)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+  sub.add_option("--seed", args.seed, "Rendering seed (default the scenario's)");
+  sub.add_option("--width", args.width, "Render width (same field of view)")->check(CLI::Range(64, 8192));
+  sub.add_option("--height", args.height, "Render height")->check(CLI::Range(64, 8192));
+  sub.add_option("--mode", args.mode, "Masking mode (default full)");
+  sub.add_option("--config", args.config_path, "sitepose YAML config");
+  add_covariance_options(sub, args.nees);
+  sub.add_option("--csv", args.csv, "Write one row per scored frame");
+}
+
+const CommandRegistrar kBenchNees{make_command<Args>(
+    "bench", "nees", add_options, run,
+    "NEES of the published pose covariance and integrity false-alarm / missed-detection rates on a "
+    "simulated scenario")};
 
 }  // namespace
 }  // namespace sitepose::cli

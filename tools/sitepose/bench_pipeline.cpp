@@ -33,7 +33,6 @@
 #include "command_registry.hpp"
 #include "interrupt.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/detect/create_detector.hpp"
 #include "sitepose/drivers/aravis/aravis_source.hpp"
 #include "sitepose/drivers/aravis/fake_stereo_feed.hpp"
 #include "sitepose/io/sequence.hpp"
@@ -50,9 +49,7 @@ using pipeline::SteadyClock;
 
 struct BenchPipelineArgs {
   std::string sequence;
-  std::string config_path;
-  std::string mode = "none";
-  std::string detector;
+  PipelineConfigArgs settings{.mode = "none"};
   int opencv_threads = 0;
   int frames = 0;
   double pace_fps = 0.0;
@@ -214,11 +211,9 @@ void print_latency(const char* what, double pace, const RunResult& r) {
 
 int run_bench_pipeline(const BenchPipelineArgs& a) {
   install_interrupt_handlers();
-  auto loaded = load_command_config(a.config_path, a.mode);
+  auto loaded = load_pipeline_config(a.settings);
   if (!loaded) return fail(kCommand, loaded.error().message, 2);
   config::SiteposeConfig& config = *loaded;
-  if (!a.detector.empty()) config.detector.name = a.detector;
-  detect::add_inherent_dynamic_classes(config.detector, config.dynamic);
   // 0 keeps OpenCV's default pool, as siteposed does. (A/B on 2 cores at
   // 30 frames/s, 600 frames: 1 thread did not lower p99 beyond the noise.)
   if (a.opencv_threads > 0) cv::setNumThreads(a.opencv_threads);
@@ -285,36 +280,34 @@ int run_bench_pipeline(const BenchPipelineArgs& a) {
   return interrupted() ? report_interrupted(kCommand, "printed the figures so far") : 0;
 }
 
-const CommandRegistrar kBenchPipeline{
-    {"bench", "pipeline",
-     "Daemon pipeline on a sequence in memory: frames/s (lossless) and frame-to-publish latency "
-     "p50/p99 at a live pace (timings, never pass/fail)",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<BenchPipelineArgs>();
-       sub.add_option(
-              "--sequence", args->sequence,
-              "Sequence directory (e.g. from `sitepose sim --scenario static --out DIR --frames 120`)")
-           ->required();
-       sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)");
-       sub.add_option("--mode", args->mode,
-                      "Masking mode none|bbox|pixel|hierarchical|full (default none; other modes run the "
-                      "detector in the detect stage, as siteposed does)");
-       sub.add_option("--detector", args->detector,
-                      "Detector for the masking modes (default: the config's, labels)");
-       sub.add_option("--opencv-threads", args->opencv_threads,
-                      "OpenCV worker threads (default 0: OpenCV's own pool, as siteposed)")
-           ->check(CLI::Range(0, 256));
-       sub.add_option("--frames", args->frames, "Use the first N frames (0 = all; all are held in memory)")
-           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
-       sub.add_option("--pace-fps", args->pace_fps,
-                      "Frame rate of the live run (default: 80 % of the measured throughput; 30 with "
-                      "--source aravis)");
-       sub.add_option("--source", args->source,
-                      "replay: the live run from memory; aravis: also the same frames from two in-process "
-                      "Aravis fake cameras through the Aravis source, printed beside it")
-           ->check(CLI::IsMember({"replay", "aravis"}));
-       return [args] { return run_bench_pipeline(*args); };
-     }}};
+void add_options(CLI::App& sub, BenchPipelineArgs& args) {
+  sub.add_option("--sequence", args.sequence,
+                 "Sequence directory (e.g. from `sitepose sim --scenario static --out DIR --frames 120`)")
+      ->required();
+  sub.add_option("--config", args.settings.config_path, "sitepose YAML config (default: built-in defaults)");
+  sub.add_option("--mode", args.settings.mode,
+                 "Masking mode none|bbox|pixel|hierarchical|full (default none; other modes run the "
+                 "detector in the detect stage, as siteposed does)");
+  sub.add_option("--detector", args.settings.detector,
+                 "Detector for the masking modes (default: the config's, labels)");
+  sub.add_option("--opencv-threads", args.opencv_threads,
+                 "OpenCV worker threads (default 0: OpenCV's own pool, as siteposed)")
+      ->check(CLI::Range(0, 256));
+  sub.add_option("--frames", args.frames, "Use the first N frames (0 = all; all are held in memory)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+  sub.add_option("--pace-fps", args.pace_fps,
+                 "Frame rate of the live run (default: 80 % of the measured throughput; 30 with "
+                 "--source aravis)");
+  sub.add_option("--source", args.source,
+                 "replay: the live run from memory; aravis: also the same frames from two in-process "
+                 "Aravis fake cameras through the Aravis source, printed beside it")
+      ->check(CLI::IsMember({"replay", "aravis"}));
+}
+
+const CommandRegistrar kBenchPipeline{make_command<BenchPipelineArgs>(
+    "bench", "pipeline", add_options, run_bench_pipeline,
+    "Daemon pipeline on a sequence in memory: frames/s (lossless) and frame-to-publish latency "
+    "p50/p99 at a live pace (timings, never pass/fail)")};
 
 }  // namespace
 }  // namespace sitepose::cli

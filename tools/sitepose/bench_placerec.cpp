@@ -33,9 +33,7 @@ namespace {
 constexpr const char* kCommand = "bench placerec";
 
 struct Args {
-  std::string scenario = "backforth";
-  std::string sequence;
-  std::string config_path;
+  FrameSourceArgs input{.scenario = "backforth"};
   std::string vocabulary;
   int frames = 240;
   int keyframe_every = 6;
@@ -115,10 +113,9 @@ Measured measure(const std::vector<Frame>& frames, const std::vector<int>& keyfr
 
 int run(const Args& args) {
   install_interrupt_handlers();
-  auto config = load_command_config(args.config_path);
+  auto config = load_command_config(args.input.config_path);
   if (!config) return fail(kCommand, config.error().message, 2);
-  auto source = args.sequence.empty() ? experiments::open_simulated(args.scenario, args.frames)
-                                      : experiments::open_labelled_sequence(args.sequence, false);
+  auto source = open_frame_source(args.input, args.frames);
   if (!source) return fail(kCommand, source.error().message, 2);
   auto extractor = features::OrbExtractor::create(config->orb);
   if (!extractor) return fail(kCommand, extractor.error().message, 2);
@@ -181,26 +178,24 @@ int run(const Args& args) {
   return 0;
 }
 
-const CommandRegistrar kBenchPlacerec{
-    {"bench", "placerec",
-     "Place-recognition query cost with N keyframes: keyframe database (bag of words) vs the exact vote",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<Args>();
-       add_frame_source_options(sub, args->scenario, args->sequence, args->config_path,
-                                "sitepose YAML config (its orb section is used)");
-       sub.add_option("--vocabulary", args->vocabulary,
-                      "Vocabulary file (sitepose vocab train); default: one trained on the keyframes")
-           ->check(CLI::ExistingFile);
-       sub.add_option("--frames", args->frames, "Frames (0 = all)")->capture_default_str();
-       sub.add_option("--keyframe-every", args->keyframe_every, "Every N-th frame is a keyframe")
-           ->capture_default_str()
-           ->check(CLI::Range(2, 1000));
-       sub.add_option("--queries", args->queries, "Query frames (spread over the frames between keyframes)")
-           ->capture_default_str()
-           ->check(CLI::Range(1, 100000));
-       sub.add_option("--keyframes", args->sizes, "Map sizes to measure (keyframes)")->capture_default_str();
-       return [args] { return run(*args); };
-     }}};
+void add_options(CLI::App& sub, Args& args) {
+  add_frame_source_options(sub, args.input, "sitepose YAML config (its orb section is used)");
+  sub.add_option("--vocabulary", args.vocabulary,
+                 "Vocabulary file (sitepose vocab train); default: one trained on the keyframes")
+      ->check(CLI::ExistingFile);
+  sub.add_option("--frames", args.frames, "Frames (0 = all)")->capture_default_str();
+  sub.add_option("--keyframe-every", args.keyframe_every, "Every N-th frame is a keyframe")
+      ->capture_default_str()
+      ->check(CLI::Range(2, 1000));
+  sub.add_option("--queries", args.queries, "Query frames (spread over the frames between keyframes)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  sub.add_option("--keyframes", args.sizes, "Map sizes to measure (keyframes)")->capture_default_str();
+}
+
+const CommandRegistrar kBenchPlacerec{make_command<Args>(
+    "bench", "placerec", add_options, run,
+    "Place-recognition query cost with N keyframes: keyframe database (bag of words) vs the exact vote")};
 
 }  // namespace
 }  // namespace sitepose::cli

@@ -60,22 +60,22 @@ int run_bench_sim(const BenchSimArgs& a) {
                              : 0;
 }
 
-const CommandRegistrar kBenchSim{
-    {"bench", "sim", "Simulator rendering speed: stereo frames/s and ms/frame (rendering only, no PNG writing)",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<BenchSimArgs>();
-       sub.add_option("--scenario", args->scenario, "Scenario name or YAML path")->capture_default_str();
-       sub.add_option("--frames", args->frames, "Stereo frames to render")
-           ->capture_default_str()
-           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
-       sub.add_option("--width", args->width, "Image width")
-           ->capture_default_str()
-           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
-       sub.add_option("--height", args->height, "Image height")
-           ->capture_default_str()
-           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
-       return [args] { return run_bench_sim(*args); };
-     }}};
+void add_options(CLI::App& sub, BenchSimArgs& args) {
+  sub.add_option("--scenario", args.scenario, "Scenario name or YAML path")->capture_default_str();
+  sub.add_option("--frames", args.frames, "Stereo frames to render")
+      ->capture_default_str()
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+  sub.add_option("--width", args.width, "Image width")
+      ->capture_default_str()
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+  sub.add_option("--height", args.height, "Image height")
+      ->capture_default_str()
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+}
+
+const CommandRegistrar kBenchSim{make_command<BenchSimArgs>(
+    "bench", "sim", add_options, run_bench_sim,
+    "Simulator rendering speed: stereo frames/s and ms/frame (rendering only, no PNG writing)")};
 
 }  // namespace
 }  // namespace sitepose::cli

@@ -30,7 +30,6 @@
 #include "command_registry.hpp"
 #include "interrupt.hpp"
 #include "sitepose/config/config.hpp"
-#include "sitepose/detect/create_detector.hpp"
 #include "sitepose/experiments/charts.hpp"
 #include "sitepose/io/sequence.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
@@ -46,8 +45,7 @@ using pipeline::SteadyClock;
 
 struct BenchSoakArgs {
   std::string sequence;
-  std::string config_path;
-  std::string mode = "full";
+  PipelineConfigArgs settings{.mode = "full"};
   std::string csv;
   int frames = 20000;
   int sample_every = 1000;
@@ -259,10 +257,9 @@ int check_rss_growth(const BenchSoakArgs& a, const std::vector<Sample>& samples)
 
 int run_bench_soak(const BenchSoakArgs& a) {
   install_interrupt_handlers();
-  auto loaded = load_command_config(a.config_path, a.mode);
+  auto loaded = load_pipeline_config(a.settings);
   if (!loaded) return fail(kCommand, loaded.error().message, 2);
   config::SiteposeConfig& config = *loaded;
-  detect::add_inherent_dynamic_classes(config.detector, config.dynamic);
   StereoCamera camera;
   double fps = 0.0;
   auto frames = load_frames(a.sequence, camera, fps);
@@ -297,37 +294,35 @@ int run_bench_soak(const BenchSoakArgs& a) {
   return check_rss_growth(a, *samples);
 }
 
-const CommandRegistrar kBenchSoak{
-    {"bench", "soak",
-     "Daemon pipeline on a looped sequence for many frames: RSS, map size, drops and latency p99 every "
-     "--sample-every frames to a CSV; with --max-rss-growth a check on memory growth after the warm-up",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<BenchSoakArgs>();
-       sub.add_option("--sequence", args->sequence,
-                      "Sequence directory whose frames from --loop-from on end where they start (e.g. "
-                      "`sitepose sim --scenario backforth --frames 432 --out DIR` with --loop-from 216)")
-           ->required();
-       sub.add_option("--loop-from", args->loop_from,
-                      "Frames before this one run once, the rest loop (default 0: the whole sequence); "
-                      "backforth is periodic from its second pass (frame 216 at 6 fps) on, its first pass "
-                      "starts from standing")
-           ->check(CLI::Range(0, 100'000'000));
-       sub.add_option("--csv", args->csv, "CSV of the samples; the PNG of them goes beside it (.png)")
-           ->required();
-       sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)");
-       sub.add_option("--mode", args->mode, "Masking mode none|bbox|pixel|hierarchical|full (default full)");
-       sub.add_option("--frames", args->frames, "Frames to run (default 20000)")
-           ->check(CLI::Range(1, 100'000'000));
-       sub.add_option("--sample-every", args->sample_every, "Frames between samples (default 1000)")
-           ->check(CLI::Range(1, 100'000'000));
-       sub.add_option("--warmup-frames", args->warmup_frames,
-                      "Frames before the RSS reference of --max-rss-growth (default 2000)")
-           ->check(CLI::Range(0, 100'000'000));
-       sub.add_option("--max-rss-growth", args->max_rss_growth_pct,
-                      "Exit 1 when RSS grows by more than this many percent after the warm-up")
-           ->check(CLI::Range(0.0, 1000.0));
-       return [args] { return run_bench_soak(*args); };
-     }}};
+void add_options(CLI::App& sub, BenchSoakArgs& args) {
+  sub.add_option("--sequence", args.sequence,
+                 "Sequence directory whose frames from --loop-from on end where they start (e.g. "
+                 "`sitepose sim --scenario backforth --frames 432 --out DIR` with --loop-from 216)")
+      ->required();
+  sub.add_option("--loop-from", args.loop_from,
+                 "Frames before this one run once, the rest loop (default 0: the whole sequence); "
+                 "backforth is periodic from its second pass (frame 216 at 6 fps) on, its first pass "
+                 "starts from standing")
+      ->check(CLI::Range(0, 100'000'000));
+  sub.add_option("--csv", args.csv, "CSV of the samples; the PNG of them goes beside it (.png)")->required();
+  sub.add_option("--config", args.settings.config_path, "sitepose YAML config (default: built-in defaults)");
+  sub.add_option("--mode", args.settings.mode,
+                 "Masking mode none|bbox|pixel|hierarchical|full (default full)");
+  sub.add_option("--frames", args.frames, "Frames to run (default 20000)")->check(CLI::Range(1, 100'000'000));
+  sub.add_option("--sample-every", args.sample_every, "Frames between samples (default 1000)")
+      ->check(CLI::Range(1, 100'000'000));
+  sub.add_option("--warmup-frames", args.warmup_frames,
+                 "Frames before the RSS reference of --max-rss-growth (default 2000)")
+      ->check(CLI::Range(0, 100'000'000));
+  sub.add_option("--max-rss-growth", args.max_rss_growth_pct,
+                 "Exit 1 when RSS grows by more than this many percent after the warm-up")
+      ->check(CLI::Range(0.0, 1000.0));
+}
+
+const CommandRegistrar kBenchSoak{make_command<BenchSoakArgs>(
+    "bench", "soak", add_options, run_bench_soak,
+    "Daemon pipeline on a looped sequence for many frames: RSS, map size, drops and latency p99 every "
+    "--sample-every frames to a CSV; with --max-rss-growth a check on memory growth after the warm-up")};
 
 }  // namespace
 }  // namespace sitepose::cli

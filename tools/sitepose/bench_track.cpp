@@ -18,9 +18,7 @@ namespace sitepose::cli {
 namespace {
 
 struct BenchTrackArgs {
-  std::string scenario = "static";
-  std::string sequence;
-  std::string config_path;
+  FrameSourceArgs input{.scenario = "static"};
   int frames = 300;
   bool mapper_thread = true;
   std::vector<int> rss_at_frames{1000, 3000};
@@ -28,7 +26,7 @@ struct BenchTrackArgs {
 
 int bench_track(const BenchTrackArgs& args) {
   install_interrupt_handlers();
-  auto loaded = load_command_config(args.config_path);
+  auto loaded = load_command_config(args.input.config_path);
   if (!loaded) return fail("bench track", loaded.error().message, 2);
   config::SiteposeConfig& config = *loaded;
   config.dynamic.mode = config::MaskingMode::kNone;
@@ -43,8 +41,7 @@ int bench_track(const BenchTrackArgs& args) {
     if ((i + 1) % 100 == 0 || i + 1 == n) std::fprintf(stderr, "bench track: %d/%d frames\n", i + 1, n);
   };
   options.stop = [] { return interrupted(); };
-  auto source = args.sequence.empty() ? experiments::open_simulated(args.scenario, args.frames)
-                                      : experiments::open_labelled_sequence(args.sequence, false);
+  auto source = open_frame_source(args.input, args.frames);
   if (!source) return fail("bench track", source.error().message, 2);
   auto run = experiments::run_dynamic(**source, config, options);
   if (!run) return fail("bench track", run.error().message, 1);
@@ -78,22 +75,20 @@ int bench_track(const BenchTrackArgs& args) {
   return 0;
 }
 
-const CommandRegistrar kBenchTrack{
-    {"bench", "track",
-     "Tracking time per stage (p50/p99), frames/s and memory on a simulated scenario or a sequence",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<BenchTrackArgs>();
-       add_frame_source_options(sub, args->scenario, args->sequence, args->config_path,
-                                "sitepose YAML config (mode is forced to none)");
-       sub.add_option("--frames", args->frames, "Frames to track (0 = all)")
-           ->capture_default_str()
-           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
-       sub.add_flag("!--inline-mapper", args->mapper_thread,
-                    "Run local mapping inline on the tracking thread instead of its own thread");
-       sub.add_option("--rss-at", args->rss_at_frames, "Frame counts at which to report the resident set")
-           ->capture_default_str();
-       return [args] { return bench_track(*args); };
-     }}};
+void add_options(CLI::App& sub, BenchTrackArgs& args) {
+  add_frame_source_options(sub, args.input, "sitepose YAML config (mode is forced to none)");
+  sub.add_option("--frames", args.frames, "Frames to track (0 = all)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+  sub.add_flag("!--inline-mapper", args.mapper_thread,
+               "Run local mapping inline on the tracking thread instead of its own thread");
+  sub.add_option("--rss-at", args.rss_at_frames, "Frame counts at which to report the resident set")
+      ->capture_default_str();
+}
+
+const CommandRegistrar kBenchTrack{make_command<BenchTrackArgs>(
+    "bench", "track", add_options, bench_track,
+    "Tracking time per stage (p50/p99), frames/s and memory on a simulated scenario or a sequence")};
 
 }  // namespace
 }  // namespace sitepose::cli

@@ -13,8 +13,8 @@
 #include "command_registry.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/core/build_info.hpp"
-#include "sitepose/experiments/eval_plot.hpp"
 #include "sitepose/experiments/dynamic_run.hpp"
+#include "sitepose/experiments/eval_plot.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
 #include "sitepose/views/debug_record.hpp"
 #include "sitepose/views/report_html.hpp"
@@ -88,8 +88,8 @@ experiments::DynamicRunOptions demo_options(DemoCapture& capture, views::DebugRe
   options.on_frame = [tty, &debug, &record_status](int i, int n, const slam::FrameReport& report) {
     if (record_status) record_status = debug.write(report);
     if (tty) {
-      std::fprintf(stderr, "\rframe %d/%d  %-10s  %4d features used", i + 1, n,
-                   to_string(report.pose.state), report.pose.counters.features_used);
+      std::fprintf(stderr, "\rframe %d/%d  %-10s  %4d features used", i + 1, n, to_string(report.pose.state),
+                   report.pose.counters.features_used);
       if (i + 1 == n) std::fprintf(stderr, "\n");
     } else if ((i + 1) % 40 == 0 || i + 1 == n) {
       std::fprintf(stderr, "frame %d/%d\n", i + 1, n);
@@ -104,9 +104,10 @@ int run_demo(const DemoArgs& args) {
   auto mode = config::parse_masking_mode(args.mode);
   if (!mode) return fail("demo", "--mode: " + mode.error().message, 2);
   config.dynamic.mode = *mode;
-  std::printf("demo: simulating scenario '%s' (%d frames, 960x540 stereo) and tracking it in mode "
-              "'%s' (objects from the simulator's labels, as the paper's protocol)\n",
-              args.scenario.c_str(), args.frames, args.mode.c_str());
+  std::printf(
+      "demo: simulating scenario '%s' (%d frames, 960x540 stereo) and tracking it in mode "
+      "'%s' (objects from the simulator's labels, as the paper's protocol)\n",
+      args.scenario.c_str(), args.frames, args.mode.c_str());
   auto source = experiments::open_simulated(args.scenario, args.frames);
   if (!source) return fail("demo", source.error().message, source.error().exit_status());
   std::error_code ec;
@@ -114,8 +115,8 @@ int run_demo(const DemoArgs& args) {
   if (ec) return fail("demo", "cannot create " + args.out_dir + ": " + ec.message(), 1);
   const std::string record_dir = args.out_dir + "/run";
   const StereoCamera& camera = (*source)->camera();
-  views::RunInfo info{version_string(), git_revision(), "", args.scenario, args.mode, "labels",
-                      camera.width,     camera.height,  (*source)->fps()};
+  views::RunInfo info{version_string(), git_revision(),  "", args.scenario, args.mode, "labels", camera.width,
+                      camera.height,    (*source)->fps()};
   auto debug = views::DebugRecordWriter::open(record_dir, info, config::to_yaml(config));
   if (!debug) return fail("demo", debug.error().message, 1);
   // The clip: the middle clip_frames frames of the run.
@@ -142,34 +143,37 @@ int run_demo(const DemoArgs& args) {
   const std::string traj = args.out_dir + "/trajectory.txt";
   const std::string plot = args.out_dir + "/accuracy.png";
   if (auto st = run->recorder.write_tum(traj); !st) return fail("demo", st.error().message, 1);
-  if (auto st = experiments::write_eval_plot(plot, run->ground_truth, e); !st) return fail("demo", st.error().message, 1);
+  if (auto st = experiments::write_eval_plot(plot, run->ground_truth, e); !st)
+    return fail("demo", st.error().message, 1);
   std::printf("wrote %s and %s\n", traj.c_str(), plot.c_str());
   if (!record_status) return fail("demo", record_status.error().message, 1);
   if (auto st = (*debug)->close(); !st) return fail("demo", st.error().message, 1);
   return write_views(record_dir, capture, args.out_dir);
 }
 
-const CommandRegistrar kDemo{{"", "demo",
-                              "Simulate a construction site, track it and print the accuracy (embedded default)",
-                              [](CLI::App& sub) -> CommandAction {
-  auto args = std::make_shared<DemoArgs>();
-  sub.add_option("--scenario", args->scenario, "Scenario to simulate (see `sitepose sim --list`)")
+void add_options(CLI::App& sub, DemoArgs& args) {
+  sub.add_option("--scenario", args.scenario, "Scenario to simulate (see `sitepose sim --list`)")
       ->capture_default_str();
-  sub.add_option("--frames", args->frames, "Frames to simulate and track")->capture_default_str()
+  sub.add_option("--frames", args.frames, "Frames to simulate and track")
+      ->capture_default_str()
       ->check(CLI::Range(3, 100000));
-  sub.add_option("--mode", args->mode,
+  sub.add_option("--mode", args.mode,
                  std::string("Masking mode: ") + config::masking_mode_names() +
                      " (none = plain stereo SLAM; full = the paper's system)")
       ->capture_default_str();
-  sub.add_option("--out-dir", args->out_dir,
-                 "Where the trajectory (TUM), accuracy plot, debug record (run/), report.html and the annotated "
-                 "clip.avi go")
+  sub.add_option(
+         "--out-dir", args.out_dir,
+         "Where the trajectory (TUM), accuracy plot, debug record (run/), report.html and the annotated "
+         "clip.avi go")
       ->capture_default_str();
-  sub.add_option("--clip-frames", args->clip_frames, "Frames in the annotated clip (the middle of the run)")
+  sub.add_option("--clip-frames", args.clip_frames, "Frames in the annotated clip (the middle of the run)")
       ->capture_default_str()
       ->check(CLI::Range(1, 100000));
-  return [args] { return run_demo(*args); };
-}}};
+}
+
+const CommandRegistrar kDemo{make_command<DemoArgs>(
+    "", "demo", add_options, run_demo,
+    "Simulate a construction site, track it and print the accuracy (embedded default)")};
 
 }  // namespace
 }  // namespace sitepose::cli

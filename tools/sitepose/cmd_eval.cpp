@@ -69,47 +69,41 @@ int run_eval(const EvalArgs& args) {
   return 0;
 }
 
-const CommandRegistrar kEval{
-    {"", "eval",
-     "Accuracy of an estimated trajectory against ground truth (TUM, KITTI + times or EuRoC, "
-     "detected from the first line): "
-     "ATE after SE(3) alignment, RPE over 1 s and 10 frames, coverage",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<EvalArgs>();
-       sub.add_option("--gt", args->gt_path,
-                      "Ground-truth poses, T_world_cam: TUM (t x y z qx qy qz qw), KITTI (12 numbers a "
-                      "line, with --times) or EuRoC CSV (e.g. the sequence's poses_tum.txt, or poses.txt)")
-           ->type_name("POSES")
-           ->required();
-       sub.add_option("--times", args->times_path,
-                      "Timestamps of KITTI ground-truth poses (s), one a line (times.txt)")
-           ->type_name("TIMES");
-       sub.add_option("--est", args->est_path,
-                      "Estimated trajectory: TUM, KITTI (times from --est-times, default TRAJ.times.txt "
-                      "as `run --format kitti` writes it) or EuRoC CSV")
-           ->type_name("TRAJ")
-           ->required();
-       sub.add_option("--est-times", args->est_times_path,
-                      "Timestamps of a KITTI estimate (s), one a line (default: TRAJ.times.txt)")
-           ->type_name("TIMES");
-       sub.add_flag("--json", args->json, "Print the figures as JSON on stdout instead of text");
-       sub.add_option("--plot", args->plot_path,
-                      "Write a PNG: top view of ground truth vs aligned estimate coloured by "
-                      "ATE, and ATE over time")
-           ->type_name("PNG");
-       sub.add_option("--max-dt", args->max_dt_s,
-                      "Largest timestamp difference of an associated pair (s)")
-           ->type_name("S")
-           ->check(CLI::PositiveNumber)
-           ->capture_default_str();
-       sub.add_option("--time-offset-search", args->offset_range_s,
-                      "Search a constant clock offset in [-RANGE, +RANGE] s minimising ATE "
-                      "(t_gt = t_est + offset); 0 = no search")
-           ->type_name("RANGE_S")
-           ->check(CLI::NonNegativeNumber)
-           ->capture_default_str();
-       return [args] { return run_eval(*args); };
-     }}};
+void add_options(CLI::App& sub, EvalArgs& args) {
+  add_required(sub, "--gt", args.gt_path, "POSES",
+               "Ground-truth poses, T_world_cam: TUM (t x y z qx qy qz qw), KITTI (12 numbers a "
+               "line, with --times) or EuRoC CSV (e.g. the sequence's poses_tum.txt, or poses.txt)");
+  sub.add_option("--times", args.times_path,
+                 "Timestamps of KITTI ground-truth poses (s), one a line (times.txt)")
+      ->type_name("TIMES");
+  add_required(sub, "--est", args.est_path, "TRAJ",
+               "Estimated trajectory: TUM, KITTI (times from --est-times, default TRAJ.times.txt "
+               "as `run --format kitti` writes it) or EuRoC CSV");
+  sub.add_option("--est-times", args.est_times_path,
+                 "Timestamps of a KITTI estimate (s), one a line (default: TRAJ.times.txt)")
+      ->type_name("TIMES");
+  sub.add_flag("--json", args.json, "Print the figures as JSON on stdout instead of text");
+  sub.add_option("--plot", args.plot_path,
+                 "Write a PNG: top view of ground truth vs aligned estimate coloured by "
+                 "ATE, and ATE over time")
+      ->type_name("PNG");
+  sub.add_option("--max-dt", args.max_dt_s, "Largest timestamp difference of an associated pair (s)")
+      ->type_name("S")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub.add_option("--time-offset-search", args.offset_range_s,
+                 "Search a constant clock offset in [-RANGE, +RANGE] s minimising ATE "
+                 "(t_gt = t_est + offset); 0 = no search")
+      ->type_name("RANGE_S")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+}
+
+const CommandRegistrar kEval{make_command<EvalArgs>(
+    "", "eval", add_options, run_eval,
+    "Accuracy of an estimated trajectory against ground truth (TUM, KITTI + times or EuRoC, "
+    "detected from the first line): "
+    "ATE after SE(3) alignment, RPE over 1 s and 10 frames, coverage")};
 
 }  // namespace
 }  // namespace sitepose::cli

@@ -39,17 +39,16 @@ int run(const ReportArgs& args) {
   return 0;
 }
 
-const CommandRegistrar kReport{
-    {"", "report", "One self-contained HTML page of a run recorded with run --debug-out",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<ReportArgs>();
-       sub.add_option("--run", args->run, "The run's --debug-out folder")->required();
-       sub.add_option(
-           "--gt", args->gt,
-           "Sequence with ground truth (poses, labels, meta.json): accuracy, truth beside the motion states");
-       sub.add_option("--out", args->out, "Output folder (report.html)")->required();
-       return [args] { return run(*args); };
-     }}};
+void add_options(CLI::App& sub, ReportArgs& args) {
+  sub.add_option("--run", args.run, "The run's --debug-out folder")->required();
+  sub.add_option(
+      "--gt", args.gt,
+      "Sequence with ground truth (poses, labels, meta.json): accuracy, truth beside the motion states");
+  sub.add_option("--out", args.out, "Output folder (report.html)")->required();
+}
+
+const CommandRegistrar kReport{make_command<ReportArgs>(
+    "", "report", add_options, run, "One self-contained HTML page of a run recorded with run --debug-out")};
 
 }  // namespace
 }  // namespace sitepose::cli

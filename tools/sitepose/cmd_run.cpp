@@ -410,73 +410,69 @@ int run(const RunArgs& args) {
   return finish_run(args, config, detector != nullptr, **system, tracked, n_frames - first, debug.get());
 }
 
-const CommandRegistrar kRun{
-    {"", "run", "Track a recorded stereo sequence and write its trajectory",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<RunArgs>();
-       sub.add_option("--sequence", args->sequence, "Sequence directory (sitepose/KITTI or EuRoC layout)")
-           ->required();
-       sub.add_option("--config", args->config_path, "sitepose YAML config (default: built-in defaults)")
-           ->check(CLI::ExistingFile);
-       sub.add_option("--orbslam2-settings", args->orbslam2_settings,
-                      "ORB-SLAM2 stereo settings file: camera and ORB parameters override the config")
-           ->check(CLI::ExistingFile);
-       sub.add_option("--mode", args->mode,
-                      std::string("Masking mode: ") + config::masking_mode_names() +
-                          " (default: the config's dynamic.mode, full; full = hierarchical masks + motion "
-                          "states + two passes)")
-           ->check(CLI::Validator(
-               [](std::string& name) {
-                 return config::parse_masking_mode(name)
-                            ? std::string()
-                            : "'" + echo_value(name) + "' is not one of " + config::masking_mode_names();
-               },
-               "MODE"));
-       sub.add_option("--detector", args->detector,
-                      "Detector for the masking modes: labels (the sequence's labels/), stereo-geometric, "
-                      "opencv-dnn, or a plugin .so path (default: the config's detector.name, labels)");
-       sub.add_option("--out", args->out, "Trajectory output (T_world_cam, left camera; frames not LOST)")
-           ->required();
-       sub.add_option(
-              "--format", args->format,
-              "Trajectory format: tum (t x y z qx qy qz qw), kitti (3x4 rows; times in OUT.times.txt) or "
-              "euroc (CSV, t in ns)")
-           ->capture_default_str()
-           ->check(CLI::IsMember({"tum", "kitti", "euroc"}));
-       sub.add_option("--tracking-out", args->tracking_out,
-                      "Tracking state of every frame, CSV frame,t_s,state (OK, RECOVERING or LOST; "
-                      "docs/run/tracking_states.md)");
-       sub.add_option("--states-out", args->states_out,
-                      "Motion states CSV, frame,instance,class,state,score,points,reason (--mode full only; "
-                      "reason: why unknown)");
-       sub.add_option("--stats-out", args->stats_out, "Per-run statistics JSON");
-       sub.add_option("--gt", args->gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
-       sub.add_option(
-           "--debug-out", args->debug_out,
-           "Folder for the per-frame debug record that `sitepose view` and `sitepose report` read");
-       sub.add_option("--frames", args->max_frames, "Process at most N frames (default: all)")
-           ->check(CLI::Range(1, std::numeric_limits<int>::max()));
-       sub.add_option("--first-frame", args->first_frame, "Start at frame N (0-based; default 0)")
-           ->check(CLI::Range(0, std::numeric_limits<int>::max()));
-       sub.add_option(
-              "--map-in", args->map_in,
-              "Start in this saved map (sitepose map file): the first frames relocalise in it and the "
-              "trajectory continues in its frame")
-           ->check(CLI::ExistingFile);
-       sub.add_option(
-           "--map-out", args->map_out,
-           "Save the map here at the end (atomically: a failed save leaves an existing file as it was)");
-       sub.add_option("--vocabulary", args->vocabulary,
-                      "Place-recognition vocabulary (sitepose vocab train): relocalisation candidates from "
-                      "a keyframe database queried by bag of words instead of the exact vote over all map "
-                      "points; its id goes into --map-out")
-           ->check(CLI::ExistingFile);
-       sub.add_flag("--mapper-thread", args->mapper_thread,
-                    "Run local mapping on its own thread (as the daemon does); default runs it "
-                    "inline after each keyframe so results are reproducible");
-       sub.add_flag("--quiet", args->quiet, "No progress output");
-       return [args] { return run(*args); };
-     }}};
+void add_options(CLI::App& sub, RunArgs& args) {
+  sub.add_option("--sequence", args.sequence, "Sequence directory (sitepose/KITTI or EuRoC layout)")
+      ->required();
+  sub.add_option("--config", args.config_path, "sitepose YAML config (default: built-in defaults)")
+      ->check(CLI::ExistingFile);
+  sub.add_option("--orbslam2-settings", args.orbslam2_settings,
+                 "ORB-SLAM2 stereo settings file: camera and ORB parameters override the config")
+      ->check(CLI::ExistingFile);
+  sub.add_option("--mode", args.mode,
+                 std::string("Masking mode: ") + config::masking_mode_names() +
+                     " (default: the config's dynamic.mode, full; full = hierarchical masks + motion "
+                     "states + two passes)")
+      ->check(CLI::Validator(
+          [](std::string& name) {
+            return config::parse_masking_mode(name)
+                       ? std::string()
+                       : "'" + echo_value(name) + "' is not one of " + config::masking_mode_names();
+          },
+          "MODE"));
+  sub.add_option("--detector", args.detector,
+                 "Detector for the masking modes: labels (the sequence's labels/), stereo-geometric, "
+                 "opencv-dnn, or a plugin .so path (default: the config's detector.name, labels)");
+  sub.add_option("--out", args.out, "Trajectory output (T_world_cam, left camera; frames not LOST)")
+      ->required();
+  sub.add_option("--format", args.format,
+                 "Trajectory format: tum (t x y z qx qy qz qw), kitti (3x4 rows; times in OUT.times.txt) or "
+                 "euroc (CSV, t in ns)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"tum", "kitti", "euroc"}));
+  sub.add_option("--tracking-out", args.tracking_out,
+                 "Tracking state of every frame, CSV frame,t_s,state (OK, RECOVERING or LOST; "
+                 "docs/run/tracking_states.md)");
+  sub.add_option("--states-out", args.states_out,
+                 "Motion states CSV, frame,instance,class,state,score,points,reason (--mode full only; "
+                 "reason: why unknown)");
+  sub.add_option("--stats-out", args.stats_out, "Per-run statistics JSON");
+  sub.add_option("--gt", args.gt, "Ground-truth poses file kept apart (real KITTI: poses/NN.txt)");
+  sub.add_option("--debug-out", args.debug_out,
+                 "Folder for the per-frame debug record that `sitepose view` and `sitepose report` read");
+  sub.add_option("--frames", args.max_frames, "Process at most N frames (default: all)")
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+  sub.add_option("--first-frame", args.first_frame, "Start at frame N (0-based; default 0)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+  sub.add_option("--map-in", args.map_in,
+                 "Start in this saved map (sitepose map file): the first frames relocalise in it and the "
+                 "trajectory continues in its frame")
+      ->check(CLI::ExistingFile);
+  sub.add_option(
+      "--map-out", args.map_out,
+      "Save the map here at the end (atomically: a failed save leaves an existing file as it was)");
+  sub.add_option("--vocabulary", args.vocabulary,
+                 "Place-recognition vocabulary (sitepose vocab train): relocalisation candidates from "
+                 "a keyframe database queried by bag of words instead of the exact vote over all map "
+                 "points; its id goes into --map-out")
+      ->check(CLI::ExistingFile);
+  sub.add_flag("--mapper-thread", args.mapper_thread,
+               "Run local mapping on its own thread (as the daemon does); default runs it "
+               "inline after each keyframe so results are reproducible");
+  sub.add_flag("--quiet", args.quiet, "No progress output");
+}
+
+const CommandRegistrar kRun{make_command<RunArgs>(
+    "", "run", add_options, run, "Track a recorded stereo sequence and write its trajectory")};
 
 }  // namespace
 }  // namespace sitepose::cli

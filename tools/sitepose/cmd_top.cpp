@@ -111,27 +111,25 @@ int run(const TopArgs& args) {
   return args.once ? snapshot(**monitor, args) : live(**monitor, args);
 }
 
-const CommandRegistrar kTop{
-    {"", "top", "Live terminal view of a running siteposed (LCM health and pose channels)",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<TopArgs>();
-       sub.add_option("--lcm-url", args->url,
-                      "LCM provider URL (default: LCM_DEFAULT_URL or udpm://239.255.76.67:7667; a log: "
-                      "file:///path.lcmlog?speed=0)");
-       sub.add_option("--pose-channel", args->channels.pose_channel, "pose_t channel")->capture_default_str();
-       sub.add_option("--health-channel", args->channels.health_channel, "health_t channel")
-           ->capture_default_str();
-       sub.add_flag("--once", args->once,
-                    "Print one snapshot once a health and a pose arrived (or --timeout-s passed) and exit; "
-                    "exit 1 when "
-                    "nothing arrived");
-       sub.add_option("--timeout-s", args->timeout_s, "How long --once waits")->capture_default_str();
-       sub.add_option("--interval-s", args->interval_s, "Refresh interval")
-           ->capture_default_str()
-           ->check(CLI::Range(0.05, 60.0));
-       sub.add_flag("--no-colour", args->no_colour, "No ANSI colours");
-       return [args] { return run(*args); };
-     }}};
+void add_options(CLI::App& sub, TopArgs& args) {
+  sub.add_option("--lcm-url", args.url,
+                 "LCM provider URL (default: LCM_DEFAULT_URL or udpm://239.255.76.67:7667; a log: "
+                 "file:///path.lcmlog?speed=0)");
+  sub.add_option("--pose-channel", args.channels.pose_channel, "pose_t channel")->capture_default_str();
+  sub.add_option("--health-channel", args.channels.health_channel, "health_t channel")->capture_default_str();
+  sub.add_flag("--once", args.once,
+               "Print one snapshot once a health and a pose arrived (or --timeout-s passed) and exit; "
+               "exit 1 when "
+               "nothing arrived");
+  sub.add_option("--timeout-s", args.timeout_s, "How long --once waits")->capture_default_str();
+  sub.add_option("--interval-s", args.interval_s, "Refresh interval")
+      ->capture_default_str()
+      ->check(CLI::Range(0.05, 60.0));
+  sub.add_flag("--no-colour", args.no_colour, "No ANSI colours");
+}
+
+const CommandRegistrar kTop{make_command<TopArgs>(
+    "", "top", add_options, run, "Live terminal view of a running siteposed (LCM health and pose channels)")};
 
 }  // namespace
 }  // namespace sitepose::cli

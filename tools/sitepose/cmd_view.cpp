@@ -61,24 +61,22 @@ int run(const ViewArgs& args) {
   return 0;
 }
 
-const CommandRegistrar kView{
-    {"", "view", "Annotated video or PNG frames of a run recorded with run --debug-out",
-     [](CLI::App& sub) -> CommandAction {
-       auto args = std::make_shared<ViewArgs>();
-       sub.add_option("--sequence", args->sequence, "The sequence the run tracked")->required();
-       sub.add_option("--run", args->run, "The run's --debug-out folder")->required();
-       sub.add_option(
-           "--out", args->out,
-           "FILE.avi (Motion-JPEG), FILE.mp4 (MPEG-4, needs OpenCV's FFmpeg backend) or a folder for "
-           "NNNNNN.png (default: RUN/view.avi)");
-       sub.add_option("--frames", args->frames, "A:B, frames A to B-1 of the run (default: all)");
-       sub.add_option("--fps", args->fps, "Video frame rate (default: the sequence's)");
-       sub.add_option("--scale", args->scale, "Output size relative to the drawn frame")
-           ->capture_default_str()
-           ->check(CLI::Range(0.1, 4.0));
-       sub.add_flag("--quiet", args->quiet, "No progress bar");
-       return [args] { return run(*args); };
-     }}};
+void add_options(CLI::App& sub, ViewArgs& args) {
+  sub.add_option("--sequence", args.sequence, "The sequence the run tracked")->required();
+  sub.add_option("--run", args.run, "The run's --debug-out folder")->required();
+  sub.add_option("--out", args.out,
+                 "FILE.avi (Motion-JPEG), FILE.mp4 (MPEG-4, needs OpenCV's FFmpeg backend) or a folder for "
+                 "NNNNNN.png (default: RUN/view.avi)");
+  sub.add_option("--frames", args.frames, "A:B, frames A to B-1 of the run (default: all)");
+  sub.add_option("--fps", args.fps, "Video frame rate (default: the sequence's)");
+  sub.add_option("--scale", args.scale, "Output size relative to the drawn frame")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 4.0));
+  sub.add_flag("--quiet", args.quiet, "No progress bar");
+}
+
+const CommandRegistrar kView{make_command<ViewArgs>(
+    "", "view", add_options, run, "Annotated video or PNG frames of a run recorded with run --debug-out")};
 
 }  // namespace
 }  // namespace sitepose::cli

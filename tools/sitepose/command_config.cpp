@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 
 #include "sitepose/config/config.hpp"
+#include "sitepose/detect/create_detector.hpp"
 
 namespace sitepose::cli {
 
@@ -20,12 +21,24 @@ Expected<config::SiteposeConfig> load_command_config(const std::string& config_p
   return config;
 }
 
-void add_frame_source_options(CLI::App& sub, std::string& scenario, std::string& sequence,
-                              std::string& config_path, const std::string& config_help) {
-  sub.add_option("--scenario", scenario, "Scenario to simulate in-process (ignored with --sequence)")
+Expected<config::SiteposeConfig> load_pipeline_config(const PipelineConfigArgs& args) {
+  SITEPOSE_TRY(config::SiteposeConfig config, load_command_config(args.config_path, args.mode));
+  if (!args.detector.empty()) config.detector.name = args.detector;
+  detect::add_inherent_dynamic_classes(config.detector, config.dynamic);
+  return config;
+}
+
+void add_frame_source_options(CLI::App& sub, FrameSourceArgs& source, const std::string& config_help) {
+  sub.add_option("--scenario", source.scenario, "Scenario to simulate in-process (ignored with --sequence)")
       ->capture_default_str();
-  sub.add_option("--sequence", sequence, "Recorded sequence directory instead of a scenario");
-  sub.add_option("--config", config_path, config_help);
+  sub.add_option("--sequence", source.sequence, "Recorded sequence directory instead of a scenario");
+  sub.add_option("--config", source.config_path, config_help);
+}
+
+Expected<std::unique_ptr<experiments::LabelledSource>> open_frame_source(const FrameSourceArgs& source,
+                                                                         int frames) {
+  return source.sequence.empty() ? experiments::open_simulated(source.scenario, frames)
+                                 : experiments::open_labelled_sequence(source.sequence, false);
 }
 
 }  // namespace sitepose::cli

@@ -2,10 +2,12 @@
 // The sitepose settings most commands start from: --config loaded (or the
 // built-in defaults) and --mode applied.
 
+#include <memory>
 #include <string>
 
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
+#include "sitepose/experiments/labelled_source.hpp"
 
 namespace CLI {
 class App;
@@ -18,10 +20,34 @@ namespace sitepose::cli {
 Expected<config::SiteposeConfig> load_command_config(const std::string& config_path,
                                                      const std::string& mode = "");
 
-// --scenario (simulated in-process), --sequence (recorded, wins over
-// --scenario) and --config, the frame source options of the benches that
-// read one sequence; `config_help` says what the command takes from the file.
-void add_frame_source_options(CLI::App& sub, std::string& scenario, std::string& sequence,
-                              std::string& config_path, const std::string& config_help);
+// The settings of the benches that run the daemon's pipeline. (The {}
+// initializers let a command set one field by name, {.mode = "full"},
+// without GCC's -Wmissing-field-initializers.)
+struct PipelineConfigArgs {
+  std::string config_path{};  // empty: the defaults
+  std::string mode{};         // empty: the config's dynamic.mode
+  std::string detector{};     // empty: the config's detector.name
+};
+
+// load_command_config with the detector set and the classes it reports as
+// dynamic by construction added, as siteposed prepares its config.
+Expected<config::SiteposeConfig> load_pipeline_config(const PipelineConfigArgs& args);
+
+// The frames and config of the benches that read one sequence: a recorded
+// sequence, or else a scenario simulated in-process. ({} as above.)
+struct FrameSourceArgs {
+  std::string scenario{};
+  std::string sequence{};  // wins over `scenario`
+  std::string config_path{};
+};
+
+// --scenario, --sequence and --config, bound to `source`, which must outlive
+// the parse; `config_help` says what the command takes from the file.
+void add_frame_source_options(CLI::App& sub, FrameSourceArgs& source, const std::string& config_help);
+
+// The sequence (labels not required), or else the first `frames` frames of
+// the scenario (0 = all).
+Expected<std::unique_ptr<experiments::LabelledSource>> open_frame_source(const FrameSourceArgs& source,
+                                                                         int frames);
 
 }  // namespace sitepose::cli

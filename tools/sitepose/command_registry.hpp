@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -25,12 +26,34 @@ struct CommandSpec {
   std::function<CommandAction(CLI::App& sub)> setup;
 };
 
+// The spec of a command whose options fill an Args: `add_options(sub, args)`
+// binds them to the fields of an Args that lives as long as the action, and
+// `run(args)` is the action, run once parsing succeeded.
+template <typename Args, typename AddOptions, typename Run>
+CommandSpec make_command(std::string group, std::string name, AddOptions add_options, Run run,
+                         std::string description) {
+  return {std::move(group), std::move(name), std::move(description),
+          [add_options, run](CLI::App& sub) -> CommandAction {
+            auto args = std::make_shared<Args>();
+            add_options(sub, *args);
+            return [args, run] { return run(*args); };
+          }};
+}
+
 void register_command(CommandSpec spec);
 const std::vector<CommandSpec>& registered_commands();
 
 struct CommandRegistrar {
   explicit CommandRegistrar(CommandSpec spec) { register_command(std::move(spec)); }
 };
+
+// A required option shown in the help as `flag TYPE_NAME`, the name of what
+// it takes rather than its C++ type.
+template <typename T>
+CLI::Option* add_required(CLI::App& sub, const std::string& flag, T& value, const std::string& type_name,
+                          const std::string& help) {
+  return sub.add_option(flag, value, help)->type_name(type_name)->required();
+}
 
 // Prints "sitepose <command>: <message>" to stderr and returns `status`.
 int fail(const std::string& command, const std::string& message, int status);

@@ -76,13 +76,14 @@ class Sequence {
   bool has_gt() const;
 
   // labels/boxes.csv (sitepose layout only); parsed and checked at open.
-  virtual bool has_labels() const = 0;
+  // The defaults are those of a layout without labels.
+  virtual bool has_labels() const { return false; }
   // All boxes, sorted by (frame, instance); empty without labels.
-  virtual const std::vector<LabelBox>& boxes() const = 0;
+  virtual const std::vector<LabelBox>& boxes() const;
   std::vector<LabelBox> boxes_for_frame(std::size_t i) const;
 
   // labels/masks/ present (sitepose layout only).
-  virtual bool has_masks() const = 0;
+  virtual bool has_masks() const { return false; }
   // labels/masks/NNNNNN.png of frame i as CV_16UC1 of the camera's size;
   // kNotFound naming frame and file when missing, kUnsupported without masks.
   virtual Expected<cv::Mat> read_instance_mask(std::size_t i) const = 0;

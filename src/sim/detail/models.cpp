@@ -212,9 +212,33 @@ BoxTextures painted_box(Rng& rng, const Vector3d& size, int paint, double dirt, 
   return t;
 }
 
+// A cab of size (length, width, height) with windows all round and a door
+// on each side. Every panel draws from rng: the order left, right, front,
+// back, top is part of what each scene renders, so keep it.
+BoxTextures glass_cab(Rng& rng, const Vector3d& size, int paint) {
+  BoxTextures t;
+  t.left = cab_side(rng, size.x(), size.z(), paint, true);
+  t.right = cab_side(rng, size.x(), size.z(), paint, true);
+  t.front = cab_side(rng, size.y(), size.z(), paint, false);
+  t.back = cab_side(rng, size.y(), size.z(), paint, false);
+  t.top = painted_panel(rng, size.x(), size.y(), paint, 0.2, "", false, false);
+  return t;
+}
+
 int paint_or_default(const std::string& name) {
   const int level = paint_level(name);
   return level >= 0 ? level : paint_level("yellow");
+}
+
+// What a machine is painted with and says on its side: the scenario's
+// choice, or yellow and the model's own label when it makes none.
+struct Livery {
+  int paint;
+  std::string label;
+};
+
+Livery livery_of(const MachineLook& look, const char* model_label) {
+  return {paint_or_default(look.paint), look.label.empty() ? model_label : look.label};
 }
 
 Eigen::Matrix3d pitch_up(double angle_rad) {
@@ -226,8 +250,7 @@ Eigen::Matrix3d pitch_up(double angle_rad) {
 
 Mesh make_roller(Rng& rng, const MachineLook& look) {
   Mesh m;
-  const int paint = paint_or_default(look.paint);
-  const std::string label = look.label.empty() ? "ROLLMAX" : look.label;
+  const auto [paint, label] = livery_of(look, "ROLLMAX");
   // Front drum and its frame.
   add_cylinder(m, {1.9, 0.0, 0.75}, 0.75, 2.1, 16, steel_drum(rng, 2 * std::numbers::pi * 0.75, 2.1),
                hub(rng, 0.75, paint, false));
@@ -245,13 +268,8 @@ Mesh make_roller(Rng& rng, const MachineLook& look) {
   add_cylinder(m, {-1.9, 0.88, 0.75}, 0.75, 0.6, 16, tread, wheel_hub);
   add_cylinder(m, {-1.9, -0.88, 0.75}, 0.75, 0.6, 16, tread, wheel_hub);
   // Cab (mostly glass), roof and beacon.
-  BoxTextures cab;
-  cab.left = cab_side(rng, 2.0, 1.1, paint, true);
-  cab.right = cab_side(rng, 2.0, 1.1, paint, true);
-  cab.front = cab_side(rng, 1.9, 1.1, paint, false);
-  cab.back = cab_side(rng, 1.9, 1.1, paint, false);
-  cab.top = painted_panel(rng, 2.0, 1.9, paint, 0.2, "", false, false);
-  add_box(m, {-1.7, -0.95, 1.9}, {2.0, 1.9, 1.1}, cab);
+  const Vector3d cab_size(2.0, 1.9, 1.1);
+  add_box(m, {-1.7, -0.95, 1.9}, cab_size, glass_cab(rng, cab_size, paint));
   add_box(m, {-1.85, -1.05, 3.0}, {2.3, 2.1, 0.15},
           painted_box(rng, {2.3, 2.1, 0.15}, paint, 0.2, "", false, false));
   add_box(m, {-0.8, -0.1, 3.15}, {-0.6, 0.1, 3.35}, tex(Canvas(rng, 0.2, 0.2, kMachineTpm, 170).image()));
@@ -260,8 +278,7 @@ Mesh make_roller(Rng& rng, const MachineLook& look) {
 
 Mesh make_truck(Rng& rng, const MachineLook& look) {
   Mesh m;
-  const int paint = paint_or_default(look.paint);
-  const std::string label = look.label.empty() ? "HAULCO" : look.label;
+  const auto [paint, label] = livery_of(look, "HAULCO");
   add_box(m, {-4.2, -0.9, 0.55}, {4.2, 0.9, 1.05}, painted_panel(rng, 8.4, 0.5, 50, 0.8, "", false, false));
   // Cab: windows, door, grille and lights at the front.
   BoxTextures cab;
@@ -298,8 +315,7 @@ Mesh make_truck(Rng& rng, const MachineLook& look) {
 }
 
 std::vector<JointPart> make_excavator_parts(Rng& rng, const MachineLook& look) {
-  const int paint = paint_or_default(look.paint);
-  const std::string label = look.label.empty() ? "EX 320" : look.label;
+  const auto [paint, label] = livery_of(look, "EX 320");
   std::vector<JointPart> parts(5);
   JointPart& under = parts[0];
   under.name = "undercarriage";
@@ -358,8 +374,7 @@ Mesh make_excavator(Rng& rng, const MachineLook& look) {
 }
 
 std::vector<JointPart> make_loader_parts(Rng& rng, const MachineLook& look) {
-  const int paint = paint_or_default(look.paint);
-  const std::string label = look.label.empty() ? "WL 150" : look.label;
+  const auto [paint, label] = livery_of(look, "WL 150");
   std::vector<JointPart> parts(3);
   JointPart& body = parts[0];
   body.name = "body";
@@ -367,13 +382,8 @@ std::vector<JointPart> make_loader_parts(Rng& rng, const MachineLook& look) {
   add_box(body.mesh, {-3.0, -1.15, 0.6}, rear, painted_box(rng, rear, paint, 0.35, label, true, true));
   add_box(body.mesh, {0.0, -0.6, 0.6}, {1.2, 1.2, 0.7},
           painted_box(rng, {1.2, 1.2, 0.7}, paint, 0.4, "", false, false));
-  BoxTextures cab;
-  cab.left = cab_side(rng, 1.6, 1.4, paint, true);
-  cab.right = cab_side(rng, 1.6, 1.4, paint, true);
-  cab.front = cab_side(rng, 1.5, 1.4, paint, false);
-  cab.back = cab_side(rng, 1.5, 1.4, paint, false);
-  cab.top = painted_panel(rng, 1.6, 1.5, paint, 0.2, "", false, false);
-  add_box(body.mesh, {-1.6, -0.75, 2.1}, {1.6, 1.5, 1.4}, cab);
+  const Vector3d cab_size(1.6, 1.5, 1.4);
+  add_box(body.mesh, {-1.6, -0.75, 2.1}, cab_size, glass_cab(rng, cab_size, paint));
   const TexturePtr tread = tyre_tread(rng, 2 * std::numbers::pi * 0.7, 0.55);
   const TexturePtr wheel_hub = hub(rng, 0.7, 200, true);
   for (double x : {-2.0, 0.9}) {
