@@ -73,12 +73,9 @@ constexpr const char* kPersonClass = "person";
 // it moving once they are at least this share of the matched points and at
 // least kMinArticulatedPartPoints; as many that leave it without proving
 // motion make it unknown (masked); it needs twice the static verdicts.
-// Measured on slewing (seed 7): a working excavator's static-looking frames
-// had >= 2 such points and >= 12 % in 84 of 104. A machine that is not
-// working keeps the rigid rules: on parked, the parked excavator passed by
-// the ego showed such "parts" (repeated texture, occlusion edges): with the
-// part test on every excavator it was unmasked in 69 of 104 frames, and
-// with a part of 20 % and 8 points it flickered 3 times.
+// A machine that is not working keeps the rigid rules: a parked excavator
+// passed by the ego shows such "parts" too (repeated texture, occlusion
+// edges) and would stay masked (docs/dynamic/motion_states.md, "Tuning").
 constexpr double kMinArticulatedPartFraction = 0.12;
 // Longer than the pauses between a working machine's strokes (4-8 s).
 constexpr double kWorkingMemoryS = 20.0;
