@@ -72,20 +72,17 @@ constexpr const char* kPersonClass = "person";
 // its points that leave the common displacement and each show motion make
 // it moving once they are at least this share of the matched points and at
 // least kMinArticulatedPartPoints; as many that leave it without proving
-// motion make it unknown (masked); it needs twice the static verdicts.
-// Measured on slewing (seed 7): a working excavator's static-looking frames
-// had >= 2 such points and >= 12 % in 84 of 104. A machine that is not
-// working keeps the rigid rules: on parked, the parked excavator passed by
-// the ego showed such "parts" (repeated texture, occlusion edges): with the
-// part test on every excavator it was unmasked in 69 of 104 frames, and
-// with a part of 20 % and 8 points it flickered 3 times.
+// motion make it unknown (masked).
+// A machine that is not working keeps the rigid rules: a parked excavator
+// passed by the ego shows such "parts" too (repeated texture, occlusion
+// edges) and would stay masked (docs/dynamic/motion_states.md, "Tuning").
 constexpr double kMinArticulatedPartFraction = 0.12;
-// Longer than the pauses between a working machine's strokes (4-8 s).
+// Longer than the pauses between a working machine's strokes (4-8 s). An
+// articulated machine with a moving verdict and one more sign of motion
+// within it stays masked: its next stroke starts from rest, too slowly for
+// the first frames' test, and its moving house loses its matches while the
+// standing tracks keep theirs and look static.
 constexpr double kWorkingMemoryS = 20.0;
-// A working machine pauses with zero joint speed between strokes (and at
-// the turn of a stroke), where a few static-looking frames follow motion:
-// it is unmasked only after twice the static verdicts.
-constexpr int kArticulatedHysteresisFactor = 2;
 constexpr int kMinArticulatedPartPoints = 2;
 bool is_articulated_class(const std::string& class_name) {
   return class_name == "excavator" || class_name == "loader";
@@ -418,8 +415,21 @@ bool MotionClassifier::is_working(std::uint16_t instance, const std::string& cla
          static_cast<double>(t_ns - *it->second.previous_moving_t_ns) * 1e-9 <= kWorkingMemoryS;
 }
 
+bool MotionClassifier::may_resume_work(std::uint16_t instance, const std::string& class_name,
+                                       std::int64_t t_ns) const {
+  if (!is_articulated_class(class_name)) return false;
+  const auto it = tracks_.find(instance);
+  if (it == tracks_.end()) return false;
+  const auto within_memory = [&](const std::optional<std::int64_t>& t) {
+    return t && static_cast<double>(t_ns - *t) * 1e-9 <= kWorkingMemoryS;
+  };
+  // One moving verdict alone may be a mismatch (a machine coming out from
+  // behind a passing truck); a second sign of motion confirms it.
+  return within_memory(it->second.last_moving_t_ns) && within_memory(it->second.previous_sign_t_ns);
+}
+
 MotionState MotionClassifier::smooth(std::uint16_t instance, const ObjectFeatures& current, MotionState raw,
-                                     bool static_evidence_counts, bool conflicting_evidence,
+                                     StaticEvidence static_evidence, bool conflicting_evidence,
                                      int hysteresis_frames) {
   Track& t = tracks_[instance];
   t.last_seq = current.seq;
@@ -428,7 +438,12 @@ MotionState MotionClassifier::smooth(std::uint16_t instance, const ObjectFeature
     case MotionState::kMoving: t.mask_as_moving(current.t_ns); break;
     case MotionState::kStatic:
       t.unknown_streak = 0;
-      if (!static_evidence_counts) break;  // too short a time span to tell
+      if (static_evidence == StaticEvidence::kTooShort) break;
+      if (static_evidence == StaticEvidence::kPaused) {
+        t.static_streak = 0;
+        t.state = MotionState::kUnknown;
+        break;
+      }
       ++t.static_streak;
       if (t.static_streak >= n) t.state = MotionState::kStatic;
       break;
@@ -440,6 +455,7 @@ MotionState MotionClassifier::smooth(std::uint16_t instance, const ObjectFeature
         // doubt).
         t.unknown_streak = 0;
         t.state = MotionState::kUnknown;
+        t.note_sign_of_motion(current.t_ns);
         break;
       }
       ++t.unknown_streak;
@@ -535,11 +551,13 @@ void MotionClassifier::judge(const Pairing& pairing,
   const bool long_enough =
       pairing.ref != nullptr &&
       static_cast<double>(pairing.current.t_ns - pairing.ref->t_ns) * 1e-9 >= kMinStaticEvidenceS;
-  const int hysteresis = config_.hysteresis_frames * (person    ? kPersonHysteresisFactor
-                                                      : working ? kArticulatedHysteresisFactor
-                                                                : 1);
+  const StaticEvidence static_evidence = !long_enough ? StaticEvidence::kTooShort
+                                         : may_resume_work(v.instance, v.class_name, pairing.current.t_ns)
+                                             ? StaticEvidence::kPaused
+                                             : StaticEvidence::kCounts;
+  const int hysteresis = config_.hysteresis_frames * (person ? kPersonHysteresisFactor : 1);
   v.state = paper ? v.raw
-                  : smooth(v.instance, pairing.current, v.raw, long_enough,
+                  : smooth(v.instance, pairing.current, v.raw, static_evidence,
                            reason == UnknownReason::kAmbiguous, hysteresis);
   if (v.state != MotionState::kUnknown) {
     v.unknown_reason = UnknownReason::kNone;

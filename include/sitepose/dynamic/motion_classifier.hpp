@@ -14,10 +14,13 @@
 //      the camera stands still (centre within 3 cm) the newest frame at
 //      least 1 s older, chosen by time (any displacement is then the
 //      object's own); else the oldest kept frame;
-//    - articulated machines: the points that leave the common displacement
+//    - articulated machines (excavator, loader): once working (two moving
+//      verdicts within 20 s), the points that leave the common displacement
 //      and each show motion on their own make the object moving when they
-//      are >= 20 % of its points and >= min_object_points (a slewing house
-//      on standing tracks is not outvoted by the tracks);
+//      are >= 12 % of its points and >= 2 (a slewing house on standing
+//      tracks is not outvoted by the tracks); with a moving verdict and one
+//      more sign of motion (moving or ambiguous) within 20 s, static
+//      verdicts do not unmask it (it may resume work: unknown, settling);
 //    - people are unmasked only on strong evidence (twice the points,
 //      three times the hysteresis);
 //    - an unknown verdict says why (ObjectVerdict::unknown_reason);
@@ -188,6 +191,14 @@ class MotionClassifier {
     // the time before, if ever.
     std::optional<std::int64_t> last_moving_t_ns;
     std::optional<std::int64_t> previous_moving_t_ns;
+    // When a sign of motion (a moving verdict, or points that contradict
+    // each other) was seen last and the time before, if ever.
+    std::optional<std::int64_t> last_sign_t_ns;
+    std::optional<std::int64_t> previous_sign_t_ns;
+    void note_sign_of_motion(std::int64_t t_ns) {
+      previous_sign_t_ns = last_sign_t_ns;
+      last_sign_t_ns = t_ns;
+    }
     // Safety first: evidence of motion masks the object again at once.
     void mask_as_moving(std::int64_t t_ns) {
       state = MotionState::kMoving;
@@ -195,6 +206,7 @@ class MotionClassifier {
       unknown_streak = 0;
       previous_moving_t_ns = last_moving_t_ns;
       last_moving_t_ns = t_ns;
+      note_sign_of_motion(t_ns);
     }
   };
 
@@ -221,8 +233,18 @@ class MotionClassifier {
   // Whether `instance` is an articulated machine with two moving verdicts
   // within kWorkingMemoryS before t_ns (working: its parts move on their own).
   bool is_working(std::uint16_t instance, const std::string& class_name, std::int64_t t_ns) const;
+  // Whether `instance` is an articulated machine with a moving verdict and
+  // one more sign of motion within kWorkingMemoryS before t_ns: it may
+  // resume work at any moment.
+  bool may_resume_work(std::uint16_t instance, const std::string& class_name, std::int64_t t_ns) const;
+  // What a static raw verdict is worth to the hysteresis.
+  enum class StaticEvidence {
+    kCounts,
+    kTooShort,  // RF and CF too close in time to tell: the state stays
+    kPaused,    // a working machine between strokes: masked (unknown)
+  };
   MotionState smooth(std::uint16_t instance, const ObjectFeatures& current, MotionState raw,
-                     bool static_evidence_counts, bool conflicting_evidence, int hysteresis_frames);
+                     StaticEvidence static_evidence, bool conflicting_evidence, int hysteresis_frames);
   double pixel_sigma_px(int octave, double variance_factor) const;
   // A keypoint's stereo point moved to the world: its covariance from the
   // pixel noise of its level (scaled by the variance factor) and, when

@@ -155,19 +155,45 @@ int late_moving_called_static(const DynamicRunResult& run, int frames) {
   return late;
 }
 
+// Moving-called-static object-frames of `class_name` after the instance was
+// once in state moving: a machine seen working must not be used as static
+// while a part of it moves.
+int moving_called_static_once_seen_moving(const DynamicRunResult& run, const std::string& class_name) {
+  std::set<std::uint16_t> seen_moving;
+  int n = 0;
+  for (const ObjectSample& s : run.samples) {
+    const dynamic::ObjectVerdict& v = s.object.verdict;
+    if (v.class_name != class_name) continue;
+    if (s.moving_gt && *s.moving_gt && v.state == dynamic::MotionState::kStatic &&
+        seen_moving.count(v.instance)) {
+      ++n;
+    }
+    if (v.state == dynamic::MotionState::kMoving) seen_moving.insert(v.instance);
+  }
+  std::printf("[figures] %s moving called static after a moving state: %d\n", class_name.c_str(), n);
+  return n;
+}
+
 // Two excavators slew and dig while their tracks stand (the ego drives 12 s,
-// then stands); a third never moves. Issue 22 asks 0 moving-called-static
-// frames; measured (seed 7, 150 frames) 31 of 113 decided moving excavator
-// frames, all CX 210 (few matched points: its part test starts only once
-// two moving verdicts made it "working"), 4 of them within 3 frames of a
-// stroke start. These bounds hold what is reached; the parked EX 120 is
-// unmasked in 99 of 106 testable frames.
+// then stands); a third (EX 120, id 3) never moves. Issue 22 asks 0
+// moving-called-static frames. Bounds: what holds on seeds 7, 8 and 9
+// (docs/dynamic/motion_states.md), not on the default seed 7 alone. A
+// machine seen working stays masked between strokes: 0 such frames after
+// its first moving state on every seed (before: 30 / 40 / 4). What is left
+// is a machine's first stroke, before any moving verdict: 1 / 29 / 2
+// (seed 8: the moving house loses its matches and the standing tracks look
+// static; 26 of them more than 3 frames into the stroke). Balanced
+// accuracy 0.993 / 0.793 / 0.989; unknown 41.7 / 41.2 / 29.1 % (paused
+// working machines stay masked); EX 120 unmasked in 93-95 % of its
+// testable frames.
 TEST(MotionStates, Slewing) {
   const Figures f = run_full("slewing", 150);
-  EXPECT_LE(late_moving_called_static(f.run, 3), 27);
-  EXPECT_LE(f.by_class.at("excavator").moving_called_static, 31);
-  EXPECT_GE(f.all.balanced_accuracy(), 0.85);  // measured 0.863, AUC 0.682 (testable)
-  EXPECT_GE(unmasked_share(f.run, 3), 0.8);
+  EXPECT_EQ(moving_called_static_once_seen_moving(f.run, "excavator"), 0);
+  EXPECT_LE(late_moving_called_static(f.run, 3), 26);
+  EXPECT_LE(f.by_class.at("excavator").moving_called_static, 29);
+  EXPECT_GE(f.all.balanced_accuracy(), 0.79);
+  EXPECT_LE(f.all.unknown_share(), 0.45);
+  EXPECT_GE(unmasked_share(f.run, 3), 0.9);
 }
 
 // The ego stands while a truck passes twice and a roller starts and stops

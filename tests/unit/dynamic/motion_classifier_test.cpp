@@ -275,6 +275,41 @@ TEST(MotionClassifier, SiteposeSmallMovingPartCountsOnlyOnAWorkingArticulatedMac
   EXPECT_GT(v.part_statistic, 100.0);
 }
 
+// A machine that moved (0.3 m, seq 6 and 7) and then stands still: its
+// static verdicts unmask it after hysteresis_frames, unless it is an
+// articulated machine with two signs of motion within kWorkingMemoryS (it
+// may resume work: unknown, settling). One moving verdict is not enough.
+TEST(MotionClassifier, SiteposeWorkingExcavatorStaysMaskedBetweenStrokes) {
+  const auto state_after_pause = [](const std::string& class_name, int moving_verdicts) {
+    std::mt19937 rng(31);
+    const Object machine = make_object(1, 60, 0.0, rng);
+    const SE3 standing = at_x(0.0);
+    const Eigen::Vector3d moved(0.3, 0.0, 0.0);
+    const auto as_class = [&](ObjectFeatures f) {
+      f.boxes[0].class_name = class_name;
+      return f;
+    };
+    MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+    classifier.remember(as_class(observe({machine}, {Eigen::Vector3d::Zero()}, standing, 0, 0.2, rng)));
+    for (int k = 0; k < moving_verdicts; ++k) {
+      const auto out = classifier.classify(as_class(observe({machine}, {moved}, standing, 6 + k, 0.2, rng)));
+      EXPECT_EQ(out[0].verdict.raw, MotionState::kMoving);
+    }
+    classifier.remember(as_class(observe({machine}, {moved}, standing, 8, 0.2, rng)));
+    ObjectVerdict v;
+    for (int seq = 14; seq < 18; ++seq) {
+      v = classifier.classify(as_class(observe({machine}, {moved}, standing, seq, 0.2, rng)))[0].verdict;
+      EXPECT_EQ(v.raw, MotionState::kStatic);
+    }
+    return v;
+  };
+  EXPECT_EQ(state_after_pause("truck", 2).state, MotionState::kStatic);
+  EXPECT_EQ(state_after_pause("excavator", 1).state, MotionState::kStatic);
+  const ObjectVerdict working = state_after_pause("excavator", 2);
+  EXPECT_EQ(working.state, MotionState::kUnknown);
+  EXPECT_EQ(working.unknown_reason, UnknownReason::kSettling);
+}
+
 // A standing camera compares against a frame chosen by time: the newest
 // one at least 1 s old (not the ring's oldest, 2 s back).
 TEST(MotionClassifier, SiteposeStandingCameraTakesTheFrameOneSecondBack) {
