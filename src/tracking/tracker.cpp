@@ -492,6 +492,23 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
     }
   }
   count_close_repeatability(frame, result);
+  record_in_map(result);
+  // A pose that has not held yet adds nothing to the map: if it is wrong,
+  // its points would be wrong where the map is right.
+  if (!hold_.holding() && need_keyframe(frame, result, usable)) create_keyframe(frame, result, usable);
+
+  pose.state = state_;
+  pose.state_reason = state_reason(result);
+  pose.T_world_cam = result.T_cam_world.inverse();
+  pose.covariance = result.covariance_world_cam.value_or(Matrix6d::Identity() * 1e6);
+  pose.counters.features_used = result.n_inliers;
+  pose.counters.features_used_pass1 = result.n_inliers;
+  return pose;
+}
+
+// The map points' visible / found counts (culling of points), and the
+// keyframes this frame uses (site-map culling must leave them).
+void Tracker::record_in_map(const PassResult& result) {
   map_.write([&](map::MapData& map) {
     for (map::PointId pid : result.visible_points) {
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
@@ -506,17 +523,6 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
     }
     map.set_tracker_keyframes(tracker_keyframes(reference_keyframe_, votes));
   });
-  // A pose that has not held yet adds nothing to the map: if it is wrong,
-  // its points would be wrong where the map is right.
-  if (!hold_.holding() && need_keyframe(frame, result, usable)) create_keyframe(frame, result, usable);
-
-  pose.state = state_;
-  pose.state_reason = state_reason(result);
-  pose.T_world_cam = result.T_cam_world.inverse();
-  pose.covariance = result.covariance_world_cam.value_or(Matrix6d::Identity() * 1e6);
-  pose.counters.features_used = result.n_inliers;
-  pose.counters.features_used_pass1 = result.n_inliers;
-  return pose;
 }
 
 void Tracker::count_close_repeatability(const PreparedFrame& frame, const PassResult& result) {

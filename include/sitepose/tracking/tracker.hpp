@@ -170,6 +170,8 @@ class Tracker {
                        const std::vector<std::uint8_t>& usable);
   // Updates the close-point repeatability counters with a committed frame.
   void count_close_repeatability(const PreparedFrame& frame, const PassResult& result);
+  // The map points' visible / found counts and the keyframes the frame uses.
+  void record_in_map(const PassResult& result);
 
   StereoCamera camera_;
   config::SiteposeConfig config_;
