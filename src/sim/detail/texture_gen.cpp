@@ -56,8 +56,7 @@ void wrapped(const cv::Size& size, cv::Point c, int r, Draw draw) {
   }
 }
 
-void stones(Rng& rng, cv::Mat& img, int count, double r_min, double r_max, int lo, int hi,
-            double shadow) {
+void stones(Rng& rng, cv::Mat& img, int count, double r_min, double r_max, int lo, int hi, double shadow) {
   for (int i = 0; i < count; ++i) {
     const cv::Point c(rng.integer(0, img.cols - 1), rng.integer(0, img.rows - 1));
     const double r = rng.uniform(r_min, r_max);
@@ -70,8 +69,8 @@ void stones(Rng& rng, cv::Mat& img, int count, double r_min, double r_max, int l
       cv::ellipse(img, c + o + cv::Point(1, 2), axes, angle, 0, 360, shadow_level, -1, cv::LINE_8);
       cv::ellipse(img, c + o, axes, angle, 0, 360, level, -1, cv::LINE_8);
       if (axes.width >= 3)
-        cv::circle(img, c + o - cv::Point(axes.width / 3, axes.height / 3),
-                   std::max(1, axes.height / 3), std::min(255, level + 35), -1, cv::LINE_8);
+        cv::circle(img, c + o - cv::Point(axes.width / 3, axes.height / 3), std::max(1, axes.height / 3),
+                   std::min(255, level + 35), -1, cv::LINE_8);
     });
   }
 }
@@ -105,13 +104,14 @@ cv::Mat soil_tile(Rng& rng, int size_px) {
       poly.emplace_back(static_cast<int>(rr * std::cos(a)), static_cast<int>(rr * std::sin(a)));
     }
     const int level = rng.integer(60, 175);
+    const int shadow_level = level / 2;  // integer halving, as the images were made
     wrapped(img.size(), c, static_cast<int>(r * 1.3) + 3, [&](cv::Point o) {
       std::vector<cv::Point> shadow_poly, body;
       for (const auto& p : poly) {
         shadow_poly.push_back(p + c + o + cv::Point(2, 2));
         body.push_back(p + c + o);
       }
-      cv::fillConvexPoly(img, shadow_poly, static_cast<double>(level / 2), cv::LINE_8);
+      cv::fillConvexPoly(img, shadow_poly, shadow_level, cv::LINE_8);
       cv::fillConvexPoly(img, body, level, cv::LINE_8);
     });
   }
@@ -276,7 +276,8 @@ void Canvas::hazard_stripes(double x, double y, double w, double h) {
 void Canvas::grille(double x, double y, double w, double h, double pitch_m) {
   rect(x, y, w, h, 50);
   for (double yy = y + pitch_m * 0.5; yy < y + h; yy += pitch_m) {
-    cv::line(image_, px(x + 0.03, yy), px(x + w - 0.03, yy), 175, std::max(1, static_cast<int>(pitch_m * tpm_ * 0.35)));
+    cv::line(image_, px(x + 0.03, yy), px(x + w - 0.03, yy), 175,
+             std::max(1, static_cast<int>(pitch_m * tpm_ * 0.35)));
   }
 }
 
