@@ -4,7 +4,6 @@
 #include <array>
 #include <map>
 #include <opencv2/aruco.hpp>
-#include <opencv2/imgproc.hpp>
 #include <utility>
 
 namespace sitepose::calib::detail {
@@ -38,9 +37,10 @@ namespace {
 // OpenCV 4.6's own refinement of the interpolated corners left them about
 // half a pixel off (varying with the view) on rendered views whose
 // chessboard corners cv::cornerSubPix finds within 0.1 px; so they are
-// refined again as find_board_corners refines a chessboard's: a window that
-// grows with the corner spacing (neighbours in a row), up to 11x11.
+// refined again as a chessboard's are, the spacing taken from neighbours in
+// a row (a 5x5 half window when no two neighbours were found).
 void refine_like_a_chessboard(const cv::Mat& gray, int cols, BoardCorners& found) {
+  constexpr double kUnknownSpacingPx = 20.0;
   std::map<int, cv::Point2f> by_id;
   for (std::size_t i = 0; i < found.ids.size(); ++i) by_id.emplace(found.ids[i], found.points_px[i]);
   double spacing = 1e9;
@@ -49,9 +49,7 @@ void refine_like_a_chessboard(const cv::Mat& gray, int cols, BoardCorners& found
     const auto next = by_id.find(id + 1);
     if (next != by_id.end()) spacing = std::min(spacing, static_cast<double>(cv::norm(next->second - point)));
   }
-  const int half = spacing < 1e9 ? std::clamp(static_cast<int>(spacing / 4.0), 2, 11) : 5;
-  cv::cornerSubPix(gray, found.points_px, cv::Size(half, half), cv::Size(-1, -1),
-                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+  refine_corners(gray, spacing < 1e9 ? spacing : kUnknownSpacingPx, found.points_px);
 }
 
 }  // namespace

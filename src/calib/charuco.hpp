@@ -1,7 +1,8 @@
 #pragma once
 // ChArUco boards for stereo_calibrate.cpp (private to the calib module):
 // the board OpenCV builds from a BoardSpec, its dictionary by name, and the
-// corner search. OpenCV's aruco module stays out of the public headers.
+// corner search; and the corner refinement both board kinds share. OpenCV's aruco module stays out of the
+// public headers.
 
 #include <opencv2/aruco/charuco.hpp>
 #include <string>
@@ -11,6 +12,11 @@
 #include "sitepose/core/expected.hpp"
 
 namespace sitepose::calib::detail {
+
+// Sub-pixel refinement of board corners in an 8-bit gray image (both board
+// kinds): cv::cornerSubPix with a window that grows with the smallest corner
+// spacing, a quarter of it, from 5x5 up to 23x23 (half sizes 2..11).
+void refine_corners(const cv::Mat& gray, double min_spacing_px, std::vector<cv::Point2f>& corners);
 
 // cv::aruco's predefined dictionary of that name ("DICT_5X5_100"), or
 // kInvalidArgument naming the known ones.

@@ -100,7 +100,6 @@ std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const Boar
   const cv::Size pattern(board.cols, board.rows);
   const int flags = cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE;
   if (!cv::findChessboardCorners(gray, pattern, corners, flags)) return {};
-  // The search window grows with the corner spacing, up to 11x11.
   double spacing = 1e9;
   for (int r = 0; r < board.rows; ++r) {
     for (int c = 0; c + 1 < board.cols; ++c) {
@@ -109,13 +108,17 @@ std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const Boar
       spacing = std::min(spacing, cv::norm(corners[i + 1] - corners[i]));
     }
   }
-  const int half = std::clamp(static_cast<int>(spacing / 4.0), 2, 11);
-  cv::cornerSubPix(gray, corners, cv::Size(half, half), cv::Size(-1, -1),
-                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+  detail::refine_corners(gray, spacing, corners);
   return corners;
 }
 
 }  // namespace
+
+void detail::refine_corners(const cv::Mat& gray, double min_spacing_px, std::vector<cv::Point2f>& corners) {
+  const int half = std::clamp(static_cast<int>(min_spacing_px / 4.0), 2, 11);
+  cv::cornerSubPix(gray, corners, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3));
+}
 
 BoardCorners find_board_corners(const cv::Mat& gray, const BoardSpec& board) {
   if (board.kind == BoardKind::kCharuco) return detail::find_charuco_corners(gray, board);
