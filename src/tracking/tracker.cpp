@@ -506,9 +506,11 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
   return pose;
 }
 
-// The map points' visible / found counts (culling of points), and the
-// keyframes this frame uses (site-map culling must leave them).
+// The map points' visible / found counts (culling of points), and, with
+// site-map culling, the keyframes this frame uses (it must leave them; no
+// other culling reads them, so the vote is skipped without it).
 void Tracker::record_in_map(const PassResult& result) {
+  const bool site_culling = config_.mapping.site_culling;
   map_.write([&](map::MapData& map) {
     for (map::PointId pid : result.visible_points) {
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
@@ -518,10 +520,10 @@ void Tracker::record_in_map(const PassResult& result) {
       map::MapPoint* p = map.point(pid);
       if (p == nullptr) continue;
       ++p->n_found;
-      if (p->bad) continue;
+      if (p->bad || !site_culling) continue;
       for (const auto& [kf, index] : p->observations) ++votes[kf];
     }
-    map.set_tracker_keyframes(tracker_keyframes(reference_keyframe_, votes));
+    if (site_culling) map.set_tracker_keyframes(tracker_keyframes(reference_keyframe_, votes));
   });
 }
 
