@@ -91,6 +91,7 @@ Section<TrackingConfig> tracking_section() {
       .key("keyframe_tracked_ratio", &T::keyframe_tracked_ratio, greater_than(0.0), at_most(1.0))
       .key("keyframe_min_close_points", &T::keyframe_min_close_points, non_negative())
       .key("keyframe_new_close_points", &T::keyframe_new_close_points, non_negative())
+      .key("trust_established_map", &T::trust_established_map)
       .check([](const ReadKeys& keys, const T& tracking) {
         if (keys.valid("min_inliers_recovering") &&
             tracking.min_inliers_recovering > tracking.min_inliers_ok) {

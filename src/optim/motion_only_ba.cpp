@@ -30,8 +30,7 @@ bool all_finite(const PoseObservation& o) {
 std::unique_ptr<ceres::CostFunction> make_cost(const StereoCamera& camera, const PoseObservation& o) {
   if (o.is_stereo()) {
     return std::make_unique<StereoPoseCost>(
-        camera, o.p_world, Eigen::Vector3d(o.uv_left_px.x(), o.uv_left_px.y(), o.u_right_px),
-        o.sigma2_px2);
+        camera, o.p_world, Eigen::Vector3d(o.uv_left_px.x(), o.uv_left_px.y(), o.u_right_px), o.sigma2_px2);
   }
   return std::make_unique<MonoPoseCost>(camera, o.p_world, o.uv_left_px, o.sigma2_px2);
 }
@@ -57,9 +56,9 @@ Status validate(std::span<const PoseObservation> observations) {
                             " has a non-finite value; expected finite p_world, uv, u_right, sigma2");
     }
     if (!(o.sigma2_px2 > 0.0)) {
-      return make_error(ErrorCode::kInvalidArgument,
-                        "motion-only BA: observation " + std::to_string(i) + " has sigma2_px2 = " +
-                            std::to_string(o.sigma2_px2) + "; expected > 0");
+      return make_error(ErrorCode::kInvalidArgument, "motion-only BA: observation " + std::to_string(i) +
+                                                         " has sigma2_px2 = " + std::to_string(o.sigma2_px2) +
+                                                         "; expected > 0");
     }
   }
   return ok_status();
@@ -87,8 +86,8 @@ void classify_at(const Costs& costs, std::span<const PoseObservation> observatio
 
 // Optimises `pose` over the inliers, round after round, re-labelling after
 // each; stops early when fewer than kMinObservationsToOptimise are left.
-Status optimise_in_rounds(const Costs& costs, std::span<const PoseObservation> observations, const Rounds& settings,
-                          PoseBlock& pose, MotionBaResult& result) {
+Status optimise_in_rounds(const Costs& costs, std::span<const PoseObservation> observations,
+                          const Rounds& settings, PoseBlock& pose, MotionBaResult& result) {
   Se3LeftManifold manifold;
   ceres::HuberLoss huber_mono(std::sqrt(settings.chi2_mono));
   ceres::HuberLoss huber_stereo(std::sqrt(settings.chi2_stereo));
@@ -128,9 +127,8 @@ Status optimise_in_rounds(const Costs& costs, std::span<const PoseObservation> o
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, &problem, &summary);
     if (summary.termination_type == ceres::FAILURE) {
-      return make_error(ErrorCode::kRuntime,
-                        "motion-only BA: Ceres failed in round " + std::to_string(round) + ": " +
-                            summary.message);
+      return make_error(ErrorCode::kRuntime, "motion-only BA: Ceres failed in round " +
+                                                 std::to_string(round) + ": " + summary.message);
     }
     result.iterations += static_cast<int>(summary.iterations.size()) - 1;
     ++result.rounds_run;
@@ -142,8 +140,8 @@ Status optimise_in_rounds(const Costs& costs, std::span<const PoseObservation> o
 
 // Inlier counts and chi2 statistics at `pose`, the a-posteriori variance
 // factor and the Hessian covariance of the inliers.
-void summarise_inliers(const Costs& costs, std::span<const PoseObservation> observations, const PoseBlock& pose,
-                       MotionBaResult& result) {
+void summarise_inliers(const Costs& costs, std::span<const PoseObservation> observations,
+                       const PoseBlock& pose, MotionBaResult& result) {
   Matrix6d H = Matrix6d::Zero();
   int inlier_residuals = 0;
   for (std::size_t i = 0; i < observations.size(); ++i) {
@@ -169,9 +167,8 @@ void summarise_inliers(const Costs& costs, std::span<const PoseObservation> obse
   const double max_ev = eig.eigenvalues().maxCoeff();
   if (result.num_inliers > 0 && max_ev > 0.0 &&
       eig.eigenvalues().minCoeff() > kMinRelativeEigenvalue * max_ev) {
-    const Matrix6d cov_cam_world = eig.eigenvectors() *
-                                   eig.eigenvalues().cwiseInverse().asDiagonal() *
-                                   eig.eigenvectors().transpose();
+    const Matrix6d cov_cam_world =
+        eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
     result.covariance_world_cam = left_covariance_of_inverse(result.T_cam_world, cov_cam_world);
   }
 }
@@ -211,6 +208,21 @@ Expected<MotionBaResult> MotionOnlyBa::solve(const SE3& T_cam_world_init,
   result.T_cam_world = from_pose_block(pose.data());
   summarise_inliers(costs, observations, pose, result);
   return result;
+}
+
+Expected<std::vector<std::uint8_t>> MotionOnlyBa::inliers_at(
+    const SE3& T_cam_world, std::span<const PoseObservation> observations) const {
+  SITEPOSE_TRY_STATUS(validate(observations));
+  const PoseBlock pose = to_pose_block(T_cam_world);
+  Costs costs;
+  costs.reserve(observations.size());
+  for (const PoseObservation& o : observations) costs.push_back(make_cost(camera_, o));
+  MotionBaResult result;
+  result.inlier.assign(observations.size(), 0);
+  result.chi2.assign(observations.size(), 0.0);
+  classify_at(costs, observations, pose, Rounds{rounds_, iterations_per_round_, chi2_mono_, chi2_stereo_},
+              result);
+  return std::move(result.inlier);
 }
 
 }  // namespace sitepose::optim

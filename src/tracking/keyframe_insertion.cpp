@@ -1,6 +1,8 @@
 #include "sitepose/tracking/tracker.hpp"
 
 #include <algorithm>
+#include <numbers>
+#include <optional>
 #include <utility>
 
 #include "sitepose/core/log.hpp"
@@ -14,6 +16,28 @@ namespace {
 // ORB-SLAM2 thresholds, named (METHOD.md "Core tracker").
 constexpr int kMinInitialisationPoints = 100;  // stereo points to start a map
 constexpr int kMinNewClosePoints = 100;        // new keyframe: create at least this many
+// A camera this close to its reference keyframe (translation as a share of
+// the frame's median stereo depth, and rotation) sees from the same
+// viewpoint: a keyframe there adds no geometry.
+constexpr double kSameViewpointDepthShare = 0.01;
+constexpr double kSameViewpointRad = 1.0 * std::numbers::pi / 180.0;
+
+double median_stereo_depth_m(const PreparedFrame& frame) {
+  std::vector<double> depths;
+  for (int k = 0; k < frame.size(); ++k) {
+    if (frame.features.has_depth(k)) depths.push_back(frame.features.depth_m[k]);
+  }
+  if (depths.empty()) return 0.0;
+  auto middle = depths.begin() + static_cast<std::ptrdiff_t>(depths.size() / 2);
+  std::nth_element(depths.begin(), middle, depths.end());
+  return *middle;
+}
+
+bool same_viewpoint(const SE3& T_world_reference, const SE3& T_cam_world, const PreparedFrame& frame) {
+  const SE3 T_reference_cam = T_world_reference.inverse() * T_cam_world.inverse();
+  return T_reference_cam.translation().norm() < kSameViewpointDepthShare * median_stereo_depth_m(frame) &&
+         rotation_angle_rad(T_reference_cam.rotation()) < kSameViewpointRad;
+}
 
 }  // namespace
 
@@ -39,9 +63,11 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   const bool mapper_idle = mapper_.is_idle ? mapper_.is_idle() : true;
   int reference_matches = 0;
   int reference_background_matches = 0;
+  std::optional<SE3> T_world_reference;
   map_.read([&](const map::MapData& map) {
     const map::KeyFrame* ref = map.keyframe(reference_keyframe_);
     if (ref == nullptr) return;
+    T_world_reference = ref->T_world_cam;
     const int min_observations = map.keyframe_count() <= 2 ? 2 : 3;
     for (std::size_t k = 0; k < ref->point_of_keypoint.size(); ++k) {
       const map::PointId pid = ref->point_of_keypoint[k];
@@ -89,6 +115,13 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   const bool c2 = (result.n_inliers < ratio * reference_matches || background_thinning || need_close) &&
                   result.n_inliers > 15;
   if (!(c1 && c2)) return false;
+  // Tracked points fell while the camera stands where its reference keyframe
+  // stood: something hides the view (a machine passing close). A keyframe
+  // would add no geometry, only points on whatever hides it.
+  if (config_.tracking.trust_established_map && T_world_reference &&
+      same_viewpoint(*T_world_reference, result.T_cam_world, frame)) {
+    return false;
+  }
   spdlog::debug(
       "tracking: keyframe wanted at frame {}: inliers {} of reference {} (background {} of {}), close "
       "tracked {} untracked {}, mapper idle {}, queued {}",

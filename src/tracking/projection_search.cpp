@@ -7,9 +7,15 @@
 
 namespace sitepose::tracking {
 
-PointView make_point_view(const map::MapPoint& point) {
+PointView make_point_view(const map::MapData& map, const map::MapPoint& point) {
   PointView view;
   static_cast<map::PointAppearance&>(view) = map::appearance_of(point);
+  if (point.observations.size() >= 2) {
+    // Keyframe ids grow with time: the first and last ids span the rest.
+    const map::KeyFrame* first = map.keyframe(point.observations.begin()->first);
+    const map::KeyFrame* last = map.keyframe(point.observations.rbegin()->first);
+    if (first != nullptr && last != nullptr) view.observed_span_s = std::abs(last->t_ns - first->t_ns) * 1e-9;
+  }
   return view;
 }
 

@@ -1,6 +1,7 @@
 #include "sitepose/tracking/tracker.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <iterator>
 #include <map>
 #include <set>
@@ -132,19 +133,24 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
 
 void Tracker::optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
                             const std::vector<int>& match_of_keypoint, PassResult& result) const {
-  tracking::optimise_pose(motion_ba_, pyramid_, frame, points, match_of_keypoint, result);
+  if (config_.tracking.trust_established_map) {
+    optimise_pose_established_first(motion_ba_, camera_, pyramid_, frame, points, match_of_keypoint, result);
+  } else {
+    tracking::optimise_pose(motion_ba_, pyramid_, frame, points, match_of_keypoint, result);
+  }
 }
 
 namespace {
 
 // `points` searched by projection from `predicted` (the window doubled when
 // too few match), then the pose refined on the matches: the motion model's
-// step, also used on the reference keyframe's local map.
+// step, also used on the reference keyframe's local map. `refine`: the
+// tracker's pose optimisation.
+using RefinePose = std::function<void(const std::vector<PointView>&, const std::vector<int>&, PassResult&)>;
 bool track_from_prediction(const PreparedFrame& frame, const StereoCamera& camera,
-                           const map::ScalePyramid& pyramid, const optim::MotionOnlyBa& motion_ba,
-                           const SE3& predicted, const std::vector<PointView>& points,
-                           const std::vector<std::uint8_t>& usable, SearchParams params,
-                           std::vector<int>& match, PassResult& result) {
+                           const map::ScalePyramid& pyramid, const RefinePose& refine, const SE3& predicted,
+                           const std::vector<PointView>& points, const std::vector<std::uint8_t>& usable,
+                           SearchParams params, std::vector<int>& match, PassResult& result) {
   int n = search_by_projection(frame, camera, pyramid, predicted, points, usable, params, match, nullptr);
   if (n < kMinMatchesMotionModel) {
     std::fill(match.begin(), match.end(), -1);
@@ -153,7 +159,7 @@ bool track_from_prediction(const PreparedFrame& frame, const StereoCamera& camer
   }
   if (n < kMinMatchesMotionModel) return false;
   result.T_cam_world = predicted;
-  optimise_pose(motion_ba, pyramid, frame, points, match, result);
+  refine(points, match, result);
   return result.n_inliers >= kMinInliersMotionModel;
 }
 
@@ -168,7 +174,7 @@ bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<s
     for (const auto& [id, octave] : last_matches_) {
       const map::MapPoint* p = map.good_point(id);
       if (p == nullptr) continue;
-      PointView view = make_point_view(*p);
+      PointView view = make_point_view(map, *p);
       view.octave_hint = octave;
       points.push_back(view);
     }
@@ -176,7 +182,10 @@ bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<s
   SearchParams params;
   params.radius_px = kMotionModelRadiusPx;
   std::vector<int> match(frame.size(), -1);
-  return track_from_prediction(frame, camera_, pyramid_, motion_ba_, predicted, points, usable, params, match,
+  const RefinePose refine = [&](const auto& p, const auto& m, PassResult& r) {
+    optimise_pose(frame, p, m, r);
+  };
+  return track_from_prediction(frame, camera_, pyramid_, refine, predicted, points, usable, params, match,
                                result);
 }
 
@@ -186,7 +195,10 @@ bool Tracker::track_reference_map(const PreparedFrame& frame, const std::vector<
   const std::vector<map::PointId> none(frame.size(), map::kNoPoint);
   const std::vector<PointView> points = local_points(frame, none, false, match);
   SearchParams params = local_map_search(kMotionModelRadiusPx);
-  return track_from_prediction(frame, camera_, pyramid_, motion_ba_, predicted, points, usable, params, match,
+  const RefinePose refine = [&](const auto& p, const auto& m, PassResult& r) {
+    optimise_pose(frame, p, m, r);
+  };
+  return track_from_prediction(frame, camera_, pyramid_, refine, predicted, points, usable, params, match,
                                result);
 }
 
@@ -224,7 +236,7 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
       if (const map::MapPoint* p = map.good_point(tracked[k]); p != nullptr) {
         seen.insert(p->id);
         if (keep_tracked) match[k] = static_cast<int>(points.size());
-        points.push_back(make_point_view(*p));
+        points.push_back(make_point_view(map, *p));
       }
     }
     for (map::KeyFrameId id : local) {
@@ -232,7 +244,8 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
       if (kf == nullptr) continue;
       for (map::PointId pid : kf->point_of_keypoint) {
         if (pid == map::kNoPoint || !seen.insert(pid).second) continue;
-        if (const map::MapPoint* p = map.good_point(pid); p != nullptr) points.push_back(make_point_view(*p));
+        if (const map::MapPoint* p = map.good_point(pid); p != nullptr)
+          points.push_back(make_point_view(map, *p));
       }
     }
   });

@@ -65,6 +65,10 @@ struct TrackingConfig {
   double keyframe_tracked_ratio = 0.75;  // new keyframe if tracked/ref < ratio (all, or background alone)
   int keyframe_min_close_points = 100;   // need close points: add when fewer tracked
   int keyframe_new_close_points = 70;    // ... and more than this many could be created
+  // Fresh map points cannot outvote the established map, and no keyframe from
+  // the reference keyframe's viewpoint (tracking/pose_refinement.hpp,
+  // docs/tracking/standing.md). Off: three mode-full regression bounds move.
+  bool trust_established_map = false;
 
   bool operator==(const TrackingConfig&) const = default;
 };

@@ -50,21 +50,21 @@ struct PoseObservation {
 };
 
 struct MotionBaResult {
-  SE3 T_cam_world;                 // optimised pose
+  SE3 T_cam_world;                   // optimised pose
   std::vector<std::uint8_t> inlier;  // per input observation: 1 = inlier after the last round
-  std::vector<double> chi2;        // per observation at the final pose; +inf when behind the camera
+  std::vector<double> chi2;          // per observation at the final pose; +inf when behind the camera
   int num_inliers = 0;
   int num_inliers_stereo = 0;
   int num_inliers_mono = 0;
-  double chi2_inlier_sum = 0.0;    // sum of chi2 over the final inliers
+  double chi2_inlier_sum = 0.0;  // sum of chi2 over the final inliers
   double chi2_inlier_max = 0.0;
   // A-posteriori variance factor: chi2_inlier_sum / (inlier residuals - 6).
   // ~1 when the observations are as noisy as sigma2_px2 says; the Hessian
   // covariance below is NOT scaled by it (callers decide). 1 when there are
   // too few residuals to tell.
   double variance_factor = 1.0;
-  int rounds_run = 0;              // rounds actually optimised (fewer when inliers ran short)
-  int iterations = 0;              // LM iterations over all rounds
+  int rounds_run = 0;  // rounds actually optimised (fewer when inliers ran short)
+  int iterations = 0;  // LM iterations over all rounds
   // Left perturbation [translation; rotation] of T_world_cam (m^2, rad^2);
   // nullopt when the inliers do not constrain all 6 degrees of freedom.
   std::optional<Matrix6d> covariance_world_cam;
@@ -83,6 +83,12 @@ class MotionOnlyBa {
   // how many there are and the caller decides the tracking state.
   Expected<MotionBaResult> solve(const SE3& T_cam_world_init,
                                  std::span<const PoseObservation> observations) const;
+
+  // Per observation: 1 when it passes the chi^2 gate at the fixed pose
+  // T_cam_world (in front of the camera, chi2 <= chi2_mono / chi2_stereo),
+  // nothing optimised. Same errors as solve().
+  Expected<std::vector<std::uint8_t>> inliers_at(const SE3& T_cam_world,
+                                                 std::span<const PoseObservation> observations) const;
 
  private:
   StereoCamera camera_;

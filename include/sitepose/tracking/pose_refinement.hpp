@@ -21,4 +21,33 @@ void optimise_pose(const optim::MotionOnlyBa& motion_ba, const map::ScalePyramid
                    const PreparedFrame& frame, const std::vector<PointView>& points,
                    const std::vector<int>& match_of_keypoint, PassResult& result);
 
+// A map point is established when keyframes at least this far apart in time
+// observed it where it is: a static point stays put, a point on a passing
+// machine is matched again only by chance (a repeated texture), and hardly
+// at the same place over half a second. A point seen by one keyframe, or
+// by keyframes close in time, is fresh.
+inline constexpr double kEstablishedSpanS = 0.5;
+
+// optimise_pose(), but fresh points cannot outvote the established map.
+// When fresh points are at least a third of the matches:
+// - with at least kMinEstablishedMatches established matches, the pose is
+//   first solved on those alone, the fresh matches are kept only where they
+//   fit that pose (chi^2 gate), and the pose is solved again on both;
+// - with fewer, while at least kHiddenEstablishedPoints established points
+//   project into the image at the starting pose (the established map is
+//   there but hidden), no pose: n_inliers = 0 and result.failure says why;
+// - with fewer and no established map in view (a new map, new ground),
+//   optimise_pose() on all matches.
+// Otherwise (the usual case) it is optimise_pose() on all matches.
+// Why: with the camera standing, a machine passing close hides most of the
+// background; each keyframe then makes points on the machine, and a frame
+// later they outnumber the background's and drag the pose along with the
+// machine (issue 24, docs/tracking/standing.md).
+inline constexpr int kMinEstablishedMatches = 20;
+inline constexpr int kHiddenEstablishedPoints = 2 * kMinEstablishedMatches;
+void optimise_pose_established_first(const optim::MotionOnlyBa& motion_ba, const StereoCamera& camera,
+                                     const map::ScalePyramid& pyramid, const PreparedFrame& frame,
+                                     const std::vector<PointView>& points,
+                                     const std::vector<int>& match_of_keypoint, PassResult& result);
+
 }  // namespace sitepose::tracking

@@ -19,13 +19,17 @@ inline constexpr int kDescriptorDistanceLow = 50;
 // What a tracker needs of a map point, copied out under the map lock.
 struct PointView : map::PointAppearance {
   int octave_hint = -1;  // level where it was last seen (motion-model search), -1 unknown
+  // Time between the first and the last keyframe observing the point (s);
+  // 0 for a point seen by one keyframe (see pose_refinement.hpp).
+  double observed_span_s = 0.0;
 };
 
-PointView make_point_view(const map::MapPoint& point);
+// `map`: the map `point` belongs to (for its keyframes' times).
+PointView make_point_view(const map::MapData& map, const map::MapPoint& point);
 
 struct SearchParams {
-  double radius_px = 7.0;   // scaled by the level's scale factor
-  double ratio = 1.0;       // best < ratio * second best (1.0 = off)
+  double radius_px = 7.0;  // scaled by the level's scale factor
+  double ratio = 1.0;      // best < ratio * second best (1.0 = off)
   int max_distance = kDescriptorDistanceHigh;
   bool check_view_angle = false;  // local-map search: viewing cos >= 0.5, scale range
 };

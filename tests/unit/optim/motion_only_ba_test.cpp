@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -129,6 +130,30 @@ TEST(MotionOnlyBa, PointsBehindTheCameraAreOutliers) {
     EXPECT_TRUE(std::isinf(result->chi2[i]));
   }
   EXPECT_LT(translation_error_m(result->T_world_cam(), s.T_world_cam_true), 0.01);
+}
+
+TEST(MotionOnlyBa, InliersAtJudgesAFixedPoseByTheGates) {
+  const Scene s = make_scene(200, 0.2, false, 11);
+  const MotionOnlyBa ba(hd_camera(), default_tracking());
+  const auto at_truth = ba.inliers_at(s.T_world_cam_true.inverse(), s.observations);
+  ASSERT_TRUE(at_truth.has_value());
+  int kept_clean = 0;
+  int kept_outliers = 0;
+  for (std::size_t i = 0; i < s.observations.size(); ++i) {
+    (s.gross_outlier[i] ? kept_outliers : kept_clean) += (*at_truth)[i];
+  }
+  const int n_clean = static_cast<int>(std::count(s.gross_outlier.begin(), s.gross_outlier.end(), 0));
+  EXPECT_GE(kept_clean, n_clean * 90 / 100);  // chi2 gates at 95 %
+  EXPECT_EQ(kept_outliers, 0);
+  // Half a metre off: hardly anything fits.
+  const SE3 shifted =
+      SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.5, 0.0, 0.0)) * s.T_world_cam_true.inverse();
+  const auto at_shifted = ba.inliers_at(shifted, s.observations);
+  ASSERT_TRUE(at_shifted.has_value());
+  EXPECT_LT(std::count(at_shifted->begin(), at_shifted->end(), 1), n_clean / 10);
+  std::vector<PoseObservation> bad = s.observations;
+  bad[3].sigma2_px2 = 0.0;
+  EXPECT_FALSE(ba.inliers_at(s.T_world_cam_true.inverse(), bad).has_value());
 }
 
 TEST(MotionOnlyBa, TooFewObservationsKeepsPoseAndReportsCount) {
