@@ -33,9 +33,12 @@ double median_stereo_depth_m(const PreparedFrame& frame) {
   return *middle;
 }
 
-bool same_viewpoint(const SE3& T_world_reference, const SE3& T_cam_world, const PreparedFrame& frame) {
+constexpr std::int64_t kStandingWindowNs = 1'000'000'000;  // stood for this long
+constexpr std::int64_t kCentreHistoryNs = 2 * kStandingWindowNs;
+
+bool same_viewpoint(const SE3& T_world_reference, const SE3& T_cam_world, double max_m) {
   const SE3 T_reference_cam = T_world_reference.inverse() * T_cam_world.inverse();
-  return T_reference_cam.translation().norm() < kSameViewpointDepthShare * median_stereo_depth_m(frame) &&
+  return T_reference_cam.translation().norm() < max_m &&
          rotation_angle_rad(T_reference_cam.rotation()) < kSameViewpointRad;
 }
 
@@ -118,9 +121,14 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   // Tracked points fell while the camera stands where its reference keyframe
   // stood: something hides the view (a machine passing close). A keyframe
   // would add no geometry, only points on whatever hides it.
-  if (config_.tracking.trust_established_map && T_world_reference &&
-      same_viewpoint(*T_world_reference, result.T_cam_world, frame)) {
-    return false;
+  // Only for a camera that stood for a second: a slowly driving one also
+  // stays near its reference keyframe for a frame or two.
+  if (config_.tracking.trust_established_map && T_world_reference) {
+    const double max_m = kSameViewpointDepthShare * median_stereo_depth_m(frame);
+    if (same_viewpoint(*T_world_reference, result.T_cam_world, max_m) &&
+        stood_for_a_second(frame.t_ns, result.T_cam_world.inverse().translation(), max_m)) {
+      return false;
+    }
   }
   spdlog::debug(
       "tracking: keyframe wanted at frame {}: inliers {} of reference {} (background {} of {}), close "
@@ -131,6 +139,19 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   // Stereo: insert while the mapper is busy only if its queue is short.
   if (mapper_.interrupt) mapper_.interrupt();
   return queued < 3;
+}
+
+void Tracker::remember_centre(std::int64_t t_ns, const Eigen::Vector3d& centre_world) {
+  recent_centres_.emplace_back(t_ns, centre_world);
+  while (recent_centres_.front().first < t_ns - kCentreHistoryNs) recent_centres_.pop_front();
+}
+
+bool Tracker::stood_for_a_second(std::int64_t t_ns, const Eigen::Vector3d& centre_world, double max_m) const {
+  // The newest remembered centre at least a second old.
+  for (auto it = recent_centres_.rbegin(); it != recent_centres_.rend(); ++it) {
+    if (it->first <= t_ns - kStandingWindowNs) return (it->second - centre_world).norm() < max_m;
+  }
+  return false;
 }
 
 void Tracker::create_keyframe(const PreparedFrame& frame, const PassResult& result,

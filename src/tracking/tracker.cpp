@@ -486,6 +486,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
     state_ = TrackingState::kLost;
     has_velocity_ = false;
     last_close_points_.clear();
+    recent_centres_.clear();
     pose.state = TrackingState::kLost;
     pose.state_reason = verdict.dropped ? not_precise_reason(result) : result.failure;
     // Keep the last pose for relocalisation; the outputs carry LOST.
@@ -497,6 +498,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
   has_velocity_ = has_last_ && !relocalised;
   if (has_velocity_) velocity_ = result.T_cam_world * last_T_cam_world_.inverse();
   last_T_cam_world_ = result.T_cam_world;
+  remember_centre(frame.t_ns, result.T_cam_world.inverse().translation());
   has_last_ = true;
   last_matches_.clear();
   for (int k = 0; k < frame.size(); ++k) {

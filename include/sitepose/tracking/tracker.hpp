@@ -16,6 +16,7 @@
 // Thread: one thread (the track stage) calls all three; the map is shared
 // with the local mapper through map::SharedMap (see its ownership rule).
 
+#include <deque>
 #include <functional>
 #include <optional>
 #include <vector>
@@ -166,6 +167,10 @@ class Tracker {
   bool initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable);
   bool need_keyframe(const PreparedFrame& frame, const PassResult& result,
                      const std::vector<std::uint8_t>& usable) const;
+  void remember_centre(std::int64_t t_ns, const Eigen::Vector3d& centre_world);
+  // The camera stood (moved less than `max_m`) over the last second; false
+  // with less than a second of tracked frames behind it.
+  bool stood_for_a_second(std::int64_t t_ns, const Eigen::Vector3d& centre_world, double max_m) const;
   void create_keyframe(const PreparedFrame& frame, const PassResult& result,
                        const std::vector<std::uint8_t>& usable);
   // Updates the close-point repeatability counters with a committed frame.
@@ -193,6 +198,9 @@ class Tracker {
   map::KeyFrameId reference_keyframe_ = map::kNoKeyFrame;
   std::int64_t last_keyframe_seq_ = -1;
   std::int64_t last_keyframe_t_ns_ = 0;
+  // (t_ns, camera centre in the world) of the tracked frames of the last
+  // two seconds, oldest first; cleared when tracking is lost.
+  std::deque<std::pair<std::int64_t, Eigen::Vector3d>> recent_centres_;
   TrackerCounters counters_;
 };
 
