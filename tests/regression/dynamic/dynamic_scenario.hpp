@@ -53,7 +53,13 @@ class Scenario {
   ModeFigures run(config::MaskingMode mode,
                   config::ClassifierMode classifier = config::ClassifierMode::kSitepose,
                   const std::string& detector = "") {
-    config::SiteposeConfig config;
+    return run_with(config::SiteposeConfig{}, mode, classifier, detector);
+  }
+  // run() from `config` instead of the defaults (mode, classifier and
+  // detector still set here).
+  ModeFigures run_with(config::SiteposeConfig config, config::MaskingMode mode,
+                       config::ClassifierMode classifier = config::ClassifierMode::kSitepose,
+                       const std::string& detector = "") {
     config.dynamic.mode = mode;
     config.dynamic.classifier = classifier;
     DynamicRunOptions options;
