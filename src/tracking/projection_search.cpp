@@ -7,9 +7,14 @@
 
 namespace sitepose::tracking {
 
-PointView make_point_view(const map::MapData& map, const map::MapPoint& point) {
+PointView make_point_view(const map::MapPoint& point) {
   PointView view;
   static_cast<map::PointAppearance&>(view) = map::appearance_of(point);
+  return view;
+}
+
+PointView make_point_view_with_span(const map::MapData& map, const map::MapPoint& point) {
+  PointView view = make_point_view(point);
   if (point.observations.size() >= 2) {
     // Keyframe ids grow with time: the first and last ids span the rest.
     const map::KeyFrame* first = map.keyframe(point.observations.begin()->first);

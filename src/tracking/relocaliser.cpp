@@ -29,7 +29,7 @@ RelocalisationCandidate relocalisation_candidate(const map::MapData& map, const 
   std::set<map::PointId> seen;
   for (map::PointId pid : kf.point_of_keypoint) {
     if (const map::MapPoint* p = map.good_point(pid); p != nullptr && seen.insert(pid).second) {
-      c.points.push_back(make_point_view(map, *p));
+      c.points.push_back(make_point_view(*p));
     }
   }
   c.neighbourhood_points = c.points;
@@ -38,7 +38,7 @@ RelocalisationCandidate relocalisation_candidate(const map::MapData& map, const 
     if (neighbour == nullptr) continue;
     for (map::PointId pid : neighbour->point_of_keypoint) {
       if (const map::MapPoint* p = map.good_point(pid); p != nullptr && seen.insert(pid).second) {
-        c.neighbourhood_points.push_back(make_point_view(map, *p));
+        c.neighbourhood_points.push_back(make_point_view(*p));
       }
     }
   }

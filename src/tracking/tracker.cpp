@@ -1,7 +1,6 @@
 #include "sitepose/tracking/tracker.hpp"
 
 #include <algorithm>
-#include <functional>
 #include <iterator>
 #include <map>
 #include <set>
@@ -131,6 +130,12 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
   return out;
 }
 
+PointView Tracker::point_view(const map::MapData& map, const map::MapPoint& point) const {
+  // The span costs two keyframe look-ups a point; only the option reads it.
+  return config_.tracking.trust_established_map ? make_point_view_with_span(map, point)
+                                                : make_point_view(point);
+}
+
 void Tracker::optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
                             const std::vector<int>& match_of_keypoint, PassResult& result) const {
   if (config_.tracking.trust_established_map) {
@@ -140,30 +145,20 @@ void Tracker::optimise_pose(const PreparedFrame& frame, const std::vector<PointV
   }
 }
 
-namespace {
-
-// `points` searched by projection from `predicted` (the window doubled when
-// too few match), then the pose refined on the matches: the motion model's
-// step, also used on the reference keyframe's local map. `refine`: the
-// tracker's pose optimisation.
-using RefinePose = std::function<void(const std::vector<PointView>&, const std::vector<int>&, PassResult&)>;
-bool track_from_prediction(const PreparedFrame& frame, const StereoCamera& camera,
-                           const map::ScalePyramid& pyramid, const RefinePose& refine, const SE3& predicted,
-                           const std::vector<PointView>& points, const std::vector<std::uint8_t>& usable,
-                           SearchParams params, std::vector<int>& match, PassResult& result) {
-  int n = search_by_projection(frame, camera, pyramid, predicted, points, usable, params, match, nullptr);
+bool Tracker::track_from_prediction(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                                    const SE3& predicted, const std::vector<PointView>& points,
+                                    SearchParams params, std::vector<int>& match, PassResult& result) const {
+  int n = search_by_projection(frame, camera_, pyramid_, predicted, points, usable, params, match, nullptr);
   if (n < kMinMatchesMotionModel) {
     std::fill(match.begin(), match.end(), -1);
     params.radius_px *= 2.0;
-    n = search_by_projection(frame, camera, pyramid, predicted, points, usable, params, match, nullptr);
+    n = search_by_projection(frame, camera_, pyramid_, predicted, points, usable, params, match, nullptr);
   }
   if (n < kMinMatchesMotionModel) return false;
   result.T_cam_world = predicted;
-  refine(points, match, result);
+  optimise_pose(frame, points, match, result);
   return result.n_inliers >= kMinInliersMotionModel;
 }
-
-}  // namespace
 
 bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                                  const SE3& predicted, PassResult& result) const {
@@ -174,7 +169,7 @@ bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<s
     for (const auto& [id, octave] : last_matches_) {
       const map::MapPoint* p = map.good_point(id);
       if (p == nullptr) continue;
-      PointView view = make_point_view(map, *p);
+      PointView view = point_view(map, *p);
       view.octave_hint = octave;
       points.push_back(view);
     }
@@ -182,11 +177,7 @@ bool Tracker::track_motion_model(const PreparedFrame& frame, const std::vector<s
   SearchParams params;
   params.radius_px = kMotionModelRadiusPx;
   std::vector<int> match(frame.size(), -1);
-  const RefinePose refine = [&](const auto& p, const auto& m, PassResult& r) {
-    optimise_pose(frame, p, m, r);
-  };
-  return track_from_prediction(frame, camera_, pyramid_, refine, predicted, points, usable, params, match,
-                               result);
+  return track_from_prediction(frame, usable, predicted, points, params, match, result);
 }
 
 bool Tracker::track_reference_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -195,11 +186,7 @@ bool Tracker::track_reference_map(const PreparedFrame& frame, const std::vector<
   const std::vector<map::PointId> none(frame.size(), map::kNoPoint);
   const std::vector<PointView> points = local_points(frame, none, false, match);
   SearchParams params = local_map_search(kMotionModelRadiusPx);
-  const RefinePose refine = [&](const auto& p, const auto& m, PassResult& r) {
-    optimise_pose(frame, p, m, r);
-  };
-  return track_from_prediction(frame, camera_, pyramid_, refine, predicted, points, usable, params, match,
-                               result);
+  return track_from_prediction(frame, usable, predicted, points, params, match, result);
 }
 
 std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
@@ -236,7 +223,7 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
       if (const map::MapPoint* p = map.good_point(tracked[k]); p != nullptr) {
         seen.insert(p->id);
         if (keep_tracked) match[k] = static_cast<int>(points.size());
-        points.push_back(make_point_view(map, *p));
+        points.push_back(point_view(map, *p));
       }
     }
     for (map::KeyFrameId id : local) {
@@ -244,8 +231,7 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
       if (kf == nullptr) continue;
       for (map::PointId pid : kf->point_of_keypoint) {
         if (pid == map::kNoPoint || !seen.insert(pid).second) continue;
-        if (const map::MapPoint* p = map.good_point(pid); p != nullptr)
-          points.push_back(make_point_view(map, *p));
+        if (const map::MapPoint* p = map.good_point(pid); p != nullptr) points.push_back(point_view(map, *p));
       }
     }
   });

@@ -24,8 +24,10 @@ struct PointView : map::PointAppearance {
   double observed_span_s = 0.0;
 };
 
-// `map`: the map `point` belongs to (for its keyframes' times).
-PointView make_point_view(const map::MapData& map, const map::MapPoint& point);
+PointView make_point_view(const map::MapPoint& point);
+// make_point_view() with observed_span_s from the point's keyframes' times
+// (`map`: the map `point` belongs to).
+PointView make_point_view_with_span(const map::MapData& map, const map::MapPoint& point);
 
 struct SearchParams {
   double radius_px = 7.0;  // scaled by the level's scale factor

@@ -131,6 +131,12 @@ class Tracker {
   // reference keyframe there) before the frame counts as lost.
   bool track_reference_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                            const SE3& predicted, PassResult& result) const;
+  // `points` searched by projection from `predicted` (the window doubled
+  // when too few match), then the pose refined on the matches: the motion
+  // model's step, also used on the reference keyframe's local map.
+  bool track_from_prediction(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                             const SE3& predicted, const std::vector<PointView>& points, SearchParams params,
+                             std::vector<int>& match, PassResult& result) const;
   // Without anchor: the local map of result's own matches, which stay.
   // With anchor: the anchor's local map, every keypoint matched afresh.
   void track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -144,6 +150,9 @@ class Tracker {
   // the motion-only BA's chi2 gate (stereo or mono, by the keypoint).
   bool within_reprojection_gate(const PreparedFrame& frame, int k, const Eigen::Vector3d& p_world,
                                 const SE3& T_cam_world) const;
+  // What the searches need of a map point (with its observed span when
+  // tracking.trust_established_map reads it).
+  PointView point_view(const map::MapData& map, const map::MapPoint& point) const;
   // Motion-only BA over the matches in result.point_of_keypoint; drops
   // outliers and fills pose, covariance and inlier count.
   void optimise_pose(const PreparedFrame& frame, const std::vector<PointView>& points,
