@@ -454,24 +454,17 @@ void LocalMapper::cull_keyframes(map::KeyFrameId keyframe) {
                                close_depth_m_);
   });
   if (candidates.empty()) return;
-  // Removing one keyframe lowers the redundancy of the others: test again
-  // on the live map, one at a time. With site culling the window obeys the
-  // site rules too (no emptied cell, the tracker's keyframes stay).
+  // With site culling the window obeys the site rules too (no emptied
+  // cell, the tracker's keyframes stay).
   const SiteNeighbourhood site = site_neighbourhood();
-  const std::vector<map::KeyFrameId> culled = map_.write([&](map::MapData& m) {
-    std::vector<map::KeyFrameId> removed;
-    for (map::KeyFrameId id : candidates) {
-      const bool cull =
-          mapping_.site_culling
-              ? may_cull_from_site(m, id, keyframe, site, mapping_.keyframe_redundancy, close_depth_m_)
-              : is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_);
-      if (!cull) continue;
-      m.set_keyframe_bad(id);
-      removed.push_back(id);
-    }
-    return removed;
-  });
-  report_culled(culled, false);
+  remove_keyframes(
+      candidates,
+      [&](const map::MapData& m, map::KeyFrameId id) {
+        return mapping_.site_culling
+                   ? may_cull_from_site(m, id, keyframe, site, mapping_.keyframe_redundancy, close_depth_m_)
+                   : is_keyframe_redundant(m, id, mapping_.keyframe_redundancy, close_depth_m_);
+      },
+      false);
 }
 
 void LocalMapper::cull_site_keyframes(map::KeyFrameId keyframe) {
@@ -489,19 +482,28 @@ void LocalMapper::cull_site_keyframes(map::KeyFrameId keyframe) {
   spdlog::debug("local mapping: keyframe={} site candidates={} redundant={}", keyframe, near,
                 candidates.size());
   if (candidates.empty()) return;
+  remove_keyframes(
+      candidates,
+      [&](const map::MapData& m, map::KeyFrameId id) {
+        return may_cull_from_site(m, id, keyframe, site, mapping_.keyframe_redundancy, close_depth_m_);
+      },
+      true);
+}
+
+void LocalMapper::remove_keyframes(const std::vector<map::KeyFrameId>& candidates,
+                                   const std::function<bool(const map::MapData&, map::KeyFrameId)>& may_cull,
+                                   bool by_site) {
+  // Removing one keyframe lowers the redundancy of the others: test again
+  // on the live map, one at a time.
   const std::vector<map::KeyFrameId> culled = map_.write([&](map::MapData& m) {
     std::vector<map::KeyFrameId> removed;
     for (map::KeyFrameId id : candidates) {
-      if (!may_cull_from_site(m, id, keyframe, site, mapping_.keyframe_redundancy, close_depth_m_)) continue;
+      if (!may_cull(m, id)) continue;
       m.set_keyframe_bad(id);
       removed.push_back(id);
     }
     return removed;
   });
-  report_culled(culled, true);
-}
-
-void LocalMapper::report_culled(const std::vector<map::KeyFrameId>& culled, bool by_site) {
   if (listener_.removed) {
     for (map::KeyFrameId id : culled) listener_.removed(id);
   }

@@ -150,8 +150,11 @@ class LocalMapper {
   Status local_bundle_adjustment(map::KeyFrameId keyframe);
   void cull_keyframes(map::KeyFrameId keyframe);
   void cull_site_keyframes(map::KeyFrameId keyframe);
-  // Tells the listener and counts (by_site: removed by the site rule).
-  void report_culled(const std::vector<map::KeyFrameId>& culled, bool by_site);
+  // Removes, on the live map one at a time, the candidates `may_cull` still
+  // allows; tells the listener and counts them (by_site: by the site rule).
+  void remove_keyframes(const std::vector<map::KeyFrameId>& candidates,
+                        const std::function<bool(const map::MapData&, map::KeyFrameId)>& may_cull,
+                        bool by_site);
   SiteNeighbourhood site_neighbourhood() const;
   bool queue_empty() const;
 
