@@ -1,8 +1,8 @@
 #pragma once
 // ChArUco boards for stereo_calibrate.cpp (private to the calib module):
 // the board OpenCV builds from a BoardSpec, its dictionary by name, and the
-// corner search; and the corner refinement both board kinds share. OpenCV's aruco module stays out of the
-// public headers.
+// corner search; and the corner refinement both board kinds share. OpenCV's
+// aruco module stays out of the public headers.
 
 #include <opencv2/aruco/charuco.hpp>
 #include <string>

@@ -83,6 +83,11 @@ constexpr double kMinArticulatedPartFraction = 0.12;
 // the first frames' test, and its moving house loses its matches while the
 // standing tracks keep theirs and look static.
 constexpr double kWorkingMemoryS = 20.0;
+// `seen_t_ns` (a verdict's or sign's time, if any) lies within
+// kWorkingMemoryS before t_ns.
+bool within_working_memory(const std::optional<std::int64_t>& seen_t_ns, std::int64_t t_ns) {
+  return seen_t_ns && static_cast<double>(t_ns - *seen_t_ns) * 1e-9 <= kWorkingMemoryS;
+}
 constexpr int kMinArticulatedPartPoints = 2;
 bool is_articulated_class(const std::string& class_name) {
   return class_name == "excavator" || class_name == "loader";
@@ -411,21 +416,17 @@ bool MotionClassifier::is_working(std::uint16_t instance, const std::string& cla
                                   std::int64_t t_ns) const {
   if (!is_articulated_class(class_name)) return false;
   const auto it = tracks_.find(instance);
-  return it != tracks_.end() && it->second.previous_moving_t_ns &&
-         static_cast<double>(t_ns - *it->second.previous_moving_t_ns) * 1e-9 <= kWorkingMemoryS;
+  return it != tracks_.end() && within_working_memory(it->second.previous_moving_t_ns, t_ns);
 }
 
 bool MotionClassifier::may_resume_work(std::uint16_t instance, const std::string& class_name,
                                        std::int64_t t_ns) const {
   if (!is_articulated_class(class_name)) return false;
   const auto it = tracks_.find(instance);
-  if (it == tracks_.end()) return false;
-  const auto within_memory = [&](const std::optional<std::int64_t>& t) {
-    return t && static_cast<double>(t_ns - *t) * 1e-9 <= kWorkingMemoryS;
-  };
   // One moving verdict alone may be a mismatch (a machine coming out from
   // behind a passing truck); a second sign of motion confirms it.
-  return within_memory(it->second.last_moving_t_ns) && within_memory(it->second.previous_sign_t_ns);
+  return it != tracks_.end() && within_working_memory(it->second.last_moving_t_ns, t_ns) &&
+         within_working_memory(it->second.previous_sign_t_ns, t_ns);
 }
 
 MotionState MotionClassifier::smooth(std::uint16_t instance, const ObjectFeatures& current, MotionState raw,

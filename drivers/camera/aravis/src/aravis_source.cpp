@@ -35,8 +35,6 @@ void wait_until(std::stop_token stop, Clock::time_point until) {
   cv.wait_until(lock, std::move(stop), until, [] { return false; });
 }
 
-// Opens one camera, retrying absent ones (kNotFound) with back-off until
-// `wait_s` has passed.
 const char* trigger_name(TriggerMode trigger) {
   switch (trigger) {
     case TriggerMode::kFreeRun: return "free-run";
@@ -46,6 +44,8 @@ const char* trigger_name(TriggerMode trigger) {
   return "?";
 }
 
+// Opens one camera, retrying absent ones (kNotFound) with back-off until
+// `wait_s` has passed.
 Expected<std::unique_ptr<CameraDevice>> open_waiting(const CameraOpener& opener, const std::string& id,
                                                      Side side, const AravisSourceOptions& o,
                                                      const std::stop_token& stop) {
