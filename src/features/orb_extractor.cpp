@@ -31,6 +31,22 @@ const std::array<int, kOrientationRadiusPx + 1>& disc_half_widths() {
   return widths;
 }
 
+// Budget per level falls geometrically with the level's area ratio so that
+// features per unit of image area stay constant (as in ORB-SLAM2).
+std::vector<int> level_budgets(int n_features, double scale_factor, int n_levels) {
+  std::vector<int> budgets(n_levels);
+  const double f = 1.0 / scale_factor;
+  double per_level = n_features * (1.0 - f) / (1.0 - std::pow(f, n_levels));
+  int assigned = 0;
+  for (int l = 0; l < n_levels - 1; ++l) {
+    budgets[l] = static_cast<int>(std::lround(per_level));
+    assigned += budgets[l];
+    per_level *= f;
+  }
+  budgets[n_levels - 1] = std::max(n_features - assigned, 0);
+  return budgets;
+}
+
 }  // namespace
 
 Status validate(const config::OrbConfig& c) {
@@ -69,18 +85,7 @@ OrbExtractor::OrbExtractor(const config::OrbConfig& config, TaskPool* pool) : co
     level_sigma2_[l] = scale_factors_[l] * scale_factors_[l];
     inv_level_sigma2_[l] = 1.0 / level_sigma2_[l];
   }
-  // Budget per level falls geometrically with the level's area ratio so that
-  // features per unit of image area stay constant (as in ORB-SLAM2).
-  features_per_level_.resize(n);
-  const double f = 1.0 / config.scale_factor;
-  double per_level = config.n_features * (1.0 - f) / (1.0 - std::pow(f, n));
-  int assigned = 0;
-  for (int l = 0; l < n - 1; ++l) {
-    features_per_level_[l] = static_cast<int>(std::lround(per_level));
-    assigned += features_per_level_[l];
-    per_level *= f;
-  }
-  features_per_level_[n - 1] = std::max(config.n_features - assigned, 0);
+  features_per_level_ = level_budgets(config.n_features, config.scale_factor, n);
 
   // One level per compute() call: the keypoints are given in that level's
   // pixels, so OpenCV blurs exactly our level image (7x7, sigma 2) and uses
@@ -161,23 +166,42 @@ void OrbExtractor::for_each_level(const std::function<void(int)>& job) const {
   }
 }
 
-std::vector<cv::KeyPoint> OrbExtractor::detect_candidates(const ImagePyramid& pyramid, int level,
-                                                          const cv::Mat& mask) const {
+std::vector<std::vector<cv::KeyPoint>> OrbExtractor::detect_candidates(const ImagePyramid& pyramid, int level,
+                                                                       const cv::Mat& mask,
+                                                                       const cv::Mat& mask_integral,
+                                                                       int n_sides) const {
   const cv::Mat& img = pyramid.levels[level];
   const cv::Rect area = keypoint_area(img);
-  if (area.width <= 0 || area.height <= 0) return {};
+  if (area.width <= 0 || area.height <= 0) return std::vector<std::vector<cv::KeyPoint>>(n_sides);
   // Masked candidates go before cells are judged and before the
-  // distribution, so the budget moves to unmasked areas.
-  auto is_masked = [&](float x, float y) {
-    if (mask.empty()) return false;
+  // distribution, so the budget moves to unmasked areas (side 0); with two
+  // sides they are the masked area's (side 1).
+  detail::CandidateSides sides;
+  sides.n_sides = n_sides;
+  sides.side_of = [&](float x, float y) {
+    if (mask.empty()) return 0;
     const cv::Point2d p0 = pyramid.to_level0(level, cv::Point2d(x, y));
     // Test exactly the pixel the returned float keypoint rounds to.
     const int u = std::clamp(static_cast<int>(std::lround(float(p0.x))), 0, mask.cols - 1);
     const int v = std::clamp(static_cast<int>(std::lround(float(p0.y))), 0, mask.rows - 1);
-    return mask.at<std::uint8_t>(v, u) != 0;
+    if (mask.at<std::uint8_t>(v, u) == 0) return 0;
+    return n_sides > 1 ? 1 : -1;
+  };
+  sides.may_hold = [&](const cv::Rect& cell, int side) {
+    if (mask.empty()) return side == 0;
+    // The level-0 pixels the cell's pixels round to, plus one pixel each way.
+    const cv::Point2d first = pyramid.to_level0(level, cv::Point2d(cell.x, cell.y));
+    const cv::Point2d last = pyramid.to_level0(level, cv::Point2d(cell.br().x - 1, cell.br().y - 1));
+    const int u0 = std::clamp(static_cast<int>(std::floor(first.x)) - 1, 0, mask.cols - 1);
+    const int v0 = std::clamp(static_cast<int>(std::floor(first.y)) - 1, 0, mask.rows - 1);
+    const int u1 = std::clamp(static_cast<int>(std::ceil(last.x)) + 1, 0, mask.cols - 1);
+    const int v1 = std::clamp(static_cast<int>(std::ceil(last.y)) + 1, 0, mask.rows - 1);
+    const int masked = mask_integral.at<int>(v1 + 1, u1 + 1) - mask_integral.at<int>(v0, u1 + 1) -
+                       mask_integral.at<int>(v1 + 1, u0) + mask_integral.at<int>(v0, u0);
+    return side == 0 ? masked < (u1 - u0 + 1) * (v1 - v0 + 1) : masked > 0;
   };
   return detail::detect_fast_per_cell(img, area, config_.grid_cell_px, config_.ini_fast_threshold,
-                                      config_.min_fast_threshold, is_masked);
+                                      config_.min_fast_threshold, sides);
 }
 
 void OrbExtractor::describe(const ImagePyramid& pyramid, int level, std::vector<cv::KeyPoint>& kps,
@@ -204,44 +228,95 @@ void OrbExtractor::describe(const ImagePyramid& pyramid, int level, std::vector<
 }
 
 Expected<OrbFeatures> OrbExtractor::extract(const cv::Mat& image, const cv::Mat& mask) {
+  SITEPOSE_TRY(std::vector<OrbFeatures> sides, extract_sides(image, mask, {features_per_level_}));
+  return std::move(sides[0]);
+}
+
+Expected<MaskSideFeatures> OrbExtractor::extract_both_sides(const cv::Mat& image, const cv::Mat& mask,
+                                                            int inside_features) {
+  if (inside_features < 1) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      fmt::format("ORB extraction: inside_features = {}: must be >= 1", inside_features));
+  }
+  SITEPOSE_TRY(std::vector<OrbFeatures> sides,
+               extract_sides(image, mask,
+                             {features_per_level_,
+                              level_budgets(inside_features, config_.scale_factor, config_.n_levels)}));
+  MaskSideFeatures out;
+  out.outside = std::move(sides[0]);
+  out.inside = std::move(sides[1]);
+  return out;
+}
+
+Expected<std::vector<OrbFeatures>> OrbExtractor::extract_sides(const cv::Mat& image, const cv::Mat& mask,
+                                                               const std::vector<std::vector<int>>& budgets) {
   SITEPOSE_TRY_STATUS(check_extract_inputs(image, mask));
-  OrbFeatures out;
-  out.pyramid = build_pyramid(image);
-  const ImagePyramid& pyramid = out.pyramid;
+  const int n_sides = static_cast<int>(budgets.size());
   const int n_levels = config_.n_levels;
-  std::vector<std::vector<cv::KeyPoint>> candidates(n_levels);
-  std::vector<std::vector<cv::KeyPoint>> keypoints(n_levels);
+  std::vector<OrbFeatures> out(n_sides);
+  out[0].pyramid = build_pyramid(image);
+  const ImagePyramid& pyramid = out[0].pyramid;
+  // Masked pixel counts over rectangles, to skip the fallback FAST in cells
+  // that hold no pixel of a side.
+  cv::Mat mask_integral;
+  if (!mask.empty()) {
+    cv::Mat masked_01;  // 1 = masked
+    cv::threshold(mask, masked_01, 0, 1, cv::THRESH_BINARY);
+    cv::integral(masked_01, mask_integral, CV_32S);
+  }
+  // [level][side]
+  std::vector<std::vector<std::vector<cv::KeyPoint>>> candidates(n_levels);
+  std::vector<std::vector<std::vector<cv::KeyPoint>>> keypoints(
+      n_levels, std::vector<std::vector<cv::KeyPoint>>(n_sides));
   std::vector<cv::Mat> descriptors(n_levels);
 
   // Candidates do not depend on the budget: one job per level.
-  for_each_level([&](int level) { candidates[level] = detect_candidates(pyramid, level, mask); });
-  // The budget does (unused budget of a texture-poor or masked level moves
-  // to the next level): in level order.
-  int carried_budget = 0;
-  for (int level = 0; level < n_levels; ++level) {
-    const int budget = features_per_level_[level] + carried_budget;
-    carried_budget = budget;
-    if (budget <= 0) continue;
-    const cv::Rect area = keypoint_area(pyramid.levels[level]);
-    const std::vector<int> picked = detail::distribute_quadtree(
-        candidates[level], cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)),
-        budget);
-    if (picked.empty()) continue;
-    carried_budget = budget - static_cast<int>(picked.size());
-    keypoints[level].reserve(picked.size());
-    for (const int i : picked) keypoints[level].push_back(candidates[level][i]);
-  }
   for_each_level([&](int level) {
-    if (!keypoints[level].empty()) describe(pyramid, level, keypoints[level], descriptors[level]);
+    candidates[level] = detect_candidates(pyramid, level, mask, mask_integral, n_sides);
+  });
+  // The budget does (unused budget of a texture-poor or masked level moves
+  // to the next level): in level order, each side on its own.
+  for (int side = 0; side < n_sides; ++side) {
+    int carried_budget = 0;
+    for (int level = 0; level < n_levels; ++level) {
+      const int budget = budgets[side][level] + carried_budget;
+      carried_budget = budget;
+      if (budget <= 0) continue;
+      const cv::Rect area = keypoint_area(pyramid.levels[level]);
+      const std::vector<cv::KeyPoint>& level_candidates = candidates[level][side];
+      const std::vector<int> picked = detail::distribute_quadtree(
+          level_candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)),
+          budget);
+      if (picked.empty()) continue;
+      carried_budget = budget - static_cast<int>(picked.size());
+      keypoints[level][side].reserve(picked.size());
+      for (const int i : picked) keypoints[level][side].push_back(level_candidates[i]);
+    }
+  }
+  // One descriptor call per level for all sides (a descriptor depends only
+  // on its own keypoint); rows in side order.
+  std::vector<std::vector<cv::KeyPoint>> level_keypoints(n_levels);
+  for_each_level([&](int level) {
+    for (const auto& side_keypoints : keypoints[level]) {
+      level_keypoints[level].insert(level_keypoints[level].end(), side_keypoints.begin(),
+                                    side_keypoints.end());
+    }
+    if (!level_keypoints[level].empty()) describe(pyramid, level, level_keypoints[level], descriptors[level]);
   });
 
-  std::vector<cv::Mat> level_descriptors;
-  for (int level = 0; level < n_levels; ++level) {
-    if (keypoints[level].empty()) continue;
-    out.keypoints.insert(out.keypoints.end(), keypoints[level].begin(), keypoints[level].end());
-    level_descriptors.push_back(descriptors[level]);
+  for (int side = 0; side < n_sides; ++side) {
+    std::vector<cv::Mat> level_descriptors;
+    for (int level = 0; level < n_levels; ++level) {
+      int first_row = 0;
+      for (int s = 0; s < side; ++s) first_row += static_cast<int>(keypoints[level][s].size());
+      const int n = static_cast<int>(keypoints[level][side].size());
+      if (n == 0) continue;
+      out[side].keypoints.insert(out[side].keypoints.end(), level_keypoints[level].begin() + first_row,
+                                 level_keypoints[level].begin() + first_row + n);
+      level_descriptors.push_back(descriptors[level].rowRange(first_row, first_row + n));
+    }
+    if (!level_descriptors.empty()) cv::vconcat(level_descriptors, out[side].descriptors);
   }
-  if (!level_descriptors.empty()) cv::vconcat(level_descriptors, out.descriptors);
   return out;
 }
 

@@ -1,6 +1,7 @@
 #include "sitepose/features/stereo_extractor.hpp"
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -10,14 +11,6 @@ namespace sitepose::features {
 namespace {
 
 constexpr int kMaxFeatures = 100000;  // validate(OrbConfig)'s bound
-
-std::optional<OrbExtractor> masked_area_extractor(const config::OrbConfig& orb,
-                                                  const StereoExtractorOptions& options) {
-  if (options.masked_area_features <= 0) return std::nullopt;
-  config::OrbConfig masked = orb;
-  masked.n_features = options.masked_area_features;
-  return OrbExtractor(masked, options.pool);
-}
 
 // Appends b's keypoints and descriptor rows to a's.
 void append(OrbFeatures& a, const OrbFeatures& b) {
@@ -36,7 +29,7 @@ StereoExtractor::StereoExtractor(const config::OrbConfig& orb, const config::Ste
                                  const StereoCamera& camera, const StereoExtractorOptions& options)
     : left_(orb, options.pool),
       right_(orb, options.pool),
-      masked_area_(masked_area_extractor(orb, options)),
+      masked_area_features_(options.masked_area_features),
       matcher_(stereo, camera.bf()),
       pool_(options.pool) {
   SITEPOSE_CHECK(options.masked_area_features >= 0 && options.masked_area_features <= kMaxFeatures);
@@ -58,15 +51,10 @@ Expected<StereoExtractor> StereoExtractor::create(const config::OrbConfig& orb,
 }
 
 Expected<OrbFeatures> StereoExtractor::extract_left(const cv::Mat& left, const cv::Mat& left_mask) {
-  // extract() checks the mask before anything counts its pixels.
-  SITEPOSE_TRY(OrbFeatures features, left_.extract(left, left_mask));
-  if (masked_area_ && !left_mask.empty() && cv::countNonZero(left_mask) > 0) {
-    cv::Mat inverse_mask;
-    cv::bitwise_not(left_mask, inverse_mask);
-    SITEPOSE_TRY(const OrbFeatures masked, masked_area_->extract(left, inverse_mask));
-    append(features, masked);
-  }
-  return features;
+  if (masked_area_features_ == 0 || left_mask.empty()) return left_.extract(left, left_mask);
+  SITEPOSE_TRY(MaskSideFeatures sides, left_.extract_both_sides(left, left_mask, masked_area_features_));
+  append(sides.outside, sides.inside);
+  return std::move(sides.outside);
 }
 
 Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv::Mat& right,

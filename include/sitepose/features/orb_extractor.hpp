@@ -62,6 +62,12 @@ struct OrbFeatures {
   ImagePyramid pyramid;  // the unblurred levels the keypoints were found on
 };
 
+// Both sides of a mask from one extraction (OrbExtractor::extract_both_sides).
+struct MaskSideFeatures {
+  OrbFeatures outside;  // exactly what extract(image, mask) returns; holds the pyramid
+  OrbFeatures inside;   // the masked area with its own budget; its pyramid is left empty
+};
+
 // Checks every OrbConfig field; the message names the key, value and rule.
 Status validate(const config::OrbConfig& config);
 
@@ -80,6 +86,13 @@ class OrbExtractor {
   // returned, and masked candidates are removed before the distribution so
   // the budget goes to unmasked areas.
   Expected<OrbFeatures> extract(const cv::Mat& image, const cv::Mat& mask = cv::Mat());
+  // Both sides of `mask` (same rules as extract) from one pyramid and one
+  // FAST pass per level: `outside` is extract(image, mask); `inside` is
+  // what an extractor with n_features = inside_features returns for
+  // extract(image, mask == 0), i.e. the masked area with a budget of its own,
+  // bit for bit. inside_features >= 1.
+  Expected<MaskSideFeatures> extract_both_sides(const cv::Mat& image, const cv::Mat& mask,
+                                                int inside_features);
 
   const config::OrbConfig& config() const { return config_; }
   int n_levels() const { return config_.n_levels; }
@@ -96,9 +109,15 @@ class OrbExtractor {
   ImagePyramid build_pyramid(const cv::Mat& image) const;
   // job(level) for every level, on the pool when there is one.
   void for_each_level(const std::function<void(int)>& job) const;
-  // FAST candidates of one level (level pixels), masked ones dropped.
-  std::vector<cv::KeyPoint> detect_candidates(const ImagePyramid& pyramid, int level,
-                                              const cv::Mat& mask) const;
+  // The features of each side of the mask (one side: the unmasked area
+  // only; two: unmasked, then masked) with budgets[side][level], from one
+  // pyramid and one FAST pass per level. out[0] holds the pyramid.
+  Expected<std::vector<OrbFeatures>> extract_sides(const cv::Mat& image, const cv::Mat& mask,
+                                                   const std::vector<std::vector<int>>& budgets);
+  // FAST candidates of one level (level pixels) per side of the mask.
+  std::vector<std::vector<cv::KeyPoint>> detect_candidates(const ImagePyramid& pyramid, int level,
+                                                           const cv::Mat& mask, const cv::Mat& mask_integral,
+                                                           int n_sides) const;
   // Orientation and descriptors of the level's picked keypoints (level
   // pixels in, level-0 pixels out).
   void describe(const ImagePyramid& pyramid, int level, std::vector<cv::KeyPoint>& kps,

@@ -7,7 +7,8 @@
 // does"): the tracker uses left keypoints; right ones only serve as match
 // candidates. The mask keeps the left budget away from its pixels; with
 // masked_area_features > 0 the masked area gets that many features of its
-// own (so a later pass can unmask objects), appended after the others.
+// own (so a later pass can unmask objects), appended after the others; both
+// come from one pyramid and one FAST pass (OrbExtractor::extract_both_sides).
 // Threads: the left (with the masked area) and the right image are two jobs
 // on the lent TaskPool, each with one job per pyramid level (no pool: all
 // on the caller's thread, same result); one extract() at a time per
@@ -15,7 +16,6 @@
 // share the pyramid buffers allocated for this call, never the caller's
 // images except level 0).
 
-#include <optional>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
@@ -92,7 +92,7 @@ class StereoExtractor {
 
   OrbExtractor left_;
   OrbExtractor right_;
-  std::optional<OrbExtractor> masked_area_;  // when masked_area_features > 0
+  int masked_area_features_;  // 0: no keypoints on the mask
   StereoMatcher matcher_;
   TaskPool* pool_;
 };

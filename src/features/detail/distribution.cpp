@@ -16,14 +16,16 @@ namespace {
 constexpr int kFastApronPx = 4;
 }  // namespace
 
-std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area, int cell_px,
-                                               int ini_threshold, int min_threshold,
-                                               const std::function<bool(float, float)>& is_masked) {
+std::vector<std::vector<cv::KeyPoint>> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area,
+                                                            int cell_px, int ini_threshold, int min_threshold,
+                                                            const CandidateSides& sides) {
+  SITEPOSE_CHECK(sides.n_sides >= 1 && sides.side_of && sides.may_hold);
   const cv::Rect roi(area.x - kFastApronPx, area.y - kFastApronPx, area.width + 2 * kFastApronPx,
                      area.height + 2 * kFastApronPx);
   SITEPOSE_CHECK((roi & cv::Rect(0, 0, level_image.cols, level_image.rows)) == roi);
   const int n_cols = std::max(1, static_cast<int>(std::lround(double(area.width) / cell_px)));
   const int n_rows = std::max(1, static_cast<int>(std::lround(double(area.height) / cell_px)));
+  const int n_cells = n_cols * n_rows;
   // Integer cell edges, so "inside the cell" is exact for integer pixels.
   auto col_edge = [&](int c) {
     return area.x + static_cast<int>(std::lround(double(area.width) * c / n_cols));
@@ -34,9 +36,9 @@ std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const
 
   std::vector<cv::KeyPoint> found;
   cv::FAST(level_image(roi), found, ini_threshold, true, cv::FastFeatureDetector::TYPE_9_16);
-  std::vector<cv::KeyPoint> kept;
-  kept.reserve(found.size());
-  std::vector<char> served(static_cast<size_t>(n_cols) * n_rows, 0);
+  std::vector<std::vector<cv::KeyPoint>> kept(sides.n_sides);
+  // served[side * n_cells + cell]
+  std::vector<char> served(static_cast<size_t>(sides.n_sides) * n_cells, 0);
   std::vector<int> col_of_x(area.width);
   for (int c = 0; c < n_cols; ++c) {
     for (int x = col_edge(c); x < col_edge(c + 1); ++x) col_of_x[x - area.x] = c;
@@ -51,18 +53,26 @@ std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const
     const int x = static_cast<int>(kp.pt.x);
     const int y = static_cast<int>(kp.pt.y);
     if (x < area.x || y < area.y || x >= area.br().x || y >= area.br().y) continue;
-    if (is_masked(kp.pt.x, kp.pt.y)) continue;
-    served[row_of_y[y - area.y] * n_cols + col_of_x[x - area.x]] = 1;
-    kept.push_back(kp);
+    const int side = sides.side_of(kp.pt.x, kp.pt.y);
+    if (side < 0) continue;
+    served[static_cast<size_t>(side) * n_cells + row_of_y[y - area.y] * n_cols + col_of_x[x - area.x]] = 1;
+    kept[side].push_back(kp);
   }
 
   std::vector<cv::KeyPoint> weak;
+  std::vector<char> wanted(sides.n_sides);
   for (int r = 0; r < n_rows; ++r) {
     for (int c = 0; c < n_cols; ++c) {
-      if (served[r * n_cols + c]) continue;
       const cv::Rect cell(col_edge(c), row_edge(r), col_edge(c + 1) - col_edge(c),
                           row_edge(r + 1) - row_edge(r));
       if (cell.width <= 0 || cell.height <= 0) continue;
+      bool any_wanted = false;
+      for (int side = 0; side < sides.n_sides; ++side) {
+        wanted[side] =
+            !served[static_cast<size_t>(side) * n_cells + r * n_cols + c] && sides.may_hold(cell, side);
+        any_wanted = any_wanted || wanted[side];
+      }
+      if (!any_wanted) continue;
       const cv::Rect cell_roi(cell.x - kFastApronPx, cell.y - kFastApronPx, cell.width + 2 * kFastApronPx,
                               cell.height + 2 * kFastApronPx);
       cv::FAST(level_image(cell_roi), weak, min_threshold, true, cv::FastFeatureDetector::TYPE_9_16);
@@ -70,8 +80,9 @@ std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const
         kp.pt.x += float(cell_roi.x);
         kp.pt.y += float(cell_roi.y);
         if (!cell.contains(cv::Point(static_cast<int>(kp.pt.x), static_cast<int>(kp.pt.y)))) continue;
-        if (is_masked(kp.pt.x, kp.pt.y)) continue;
-        kept.push_back(kp);
+        const int side = sides.side_of(kp.pt.x, kp.pt.y);
+        if (side < 0 || !wanted[side]) continue;
+        kept[side].push_back(kp);
       }
     }
   }

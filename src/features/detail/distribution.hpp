@@ -7,17 +7,30 @@
 
 namespace sitepose::features::detail {
 
-// FAST candidates of one level with a per-cell threshold fallback: FAST at
-// ini_threshold over `area` (level pixels, >= 4 px inside the image), then,
-// for each grid cell (sides close to cell_px) left without an unmasked
-// candidate, FAST at min_threshold on that cell alone. Non-maximum
-// suppression is on; the cell is searched with a 4-px apron so suppression
-// sees the same neighbours as a whole-image run. Candidates for which
-// is_masked(x, y) is true (level pixels) are dropped before a cell counts
-// as served, so masked strong corners make a cell fall back.
-std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area,
-                                               int cell_px, int ini_threshold, int min_threshold,
-                                               const std::function<bool(float, float)>& is_masked);
+// How candidates are split between the sides of a mask: side_of(x, y)
+// (level pixels) is the side of a candidate in [0, n_sides), or -1 to drop
+// it; may_hold(cell, side) is false only where the cell (level pixels)
+// certainly holds no pixel of that side, which spares the fallback search
+// there (the result is the same: it could only find dropped candidates).
+struct CandidateSides {
+  int n_sides = 1;
+  std::function<int(float, float)> side_of;
+  std::function<bool(const cv::Rect&, int)> may_hold;
+};
+
+// FAST candidates of one level with a per-cell threshold fallback, per side:
+// FAST at ini_threshold over `area` (level pixels, >= 4 px inside the
+// image), then, for each grid cell (sides close to cell_px) left without a
+// candidate of a side, FAST at min_threshold on that cell alone for that
+// side. Non-maximum suppression is on; the cell is searched with a 4-px
+// apron so suppression sees the same neighbours as a whole-image run. A
+// side is judged on its own candidates only, so masked strong corners make
+// an unmasked cell fall back. out[side] holds the side's candidates, the
+// ini-threshold ones first in FAST's order, then the fallback ones cell by
+// cell (row-major), so each side gets what a run for that side alone gets.
+std::vector<std::vector<cv::KeyPoint>> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area,
+                                                            int cell_px, int ini_threshold, int min_threshold,
+                                                            const CandidateSides& sides);
 
 // Spreads a selection of at most `target` candidates over `area`: the area
 // is cut into near-square root nodes, then the largest node holding more
@@ -26,7 +39,7 @@ std::vector<cv::KeyPoint> detect_fast_per_cell(const cv::Mat& level_image, const
 // strongest candidate (ties: lowest index). If the last split overshoots,
 // its weakest children are dropped (the spread elsewhere stays). Returns
 // indices into `candidates`, sorted.
-std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates,
-                                     const cv::Rect2f& area, int target);
+std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates, const cv::Rect2f& area,
+                                     int target);
 
 }  // namespace sitepose::features::detail

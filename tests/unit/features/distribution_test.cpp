@@ -25,6 +25,16 @@ PointSet positions(const std::vector<cv::KeyPoint>& kps, const cv::Rect& inside)
   return out;
 }
 
+// One side: every candidate kept unless `masked` says so; every cell may hold it.
+template <typename Masked>
+std::vector<cv::KeyPoint> detect_unmasked(const cv::Mat& image, const cv::Rect& area, int cell_px,
+                                          Masked masked) {
+  CandidateSides sides;
+  sides.side_of = [&](float x, float y) { return masked(x, y) ? -1 : 0; };
+  sides.may_hold = [](const cv::Rect&, int) { return true; };
+  return detect_fast_per_cell(image, area, cell_px, 20, 7, sides)[0];
+}
+
 const auto kNothingMasked = [](float, float) { return false; };
 
 TEST(CellThresholds, StrongCellsMatchWholeImageFast) {
@@ -32,7 +42,7 @@ TEST(CellThresholds, StrongCellsMatchWholeImageFast) {
   // the result is exactly FAST(20) over the area.
   const cv::Mat image = testing::make_texture(cv::Size(400, 300), 11);
   const cv::Rect area(16, 16, 368, 268);
-  const auto kept = detect_fast_per_cell(image, area, 35, 20, 7, kNothingMasked);
+  const auto kept = detect_unmasked(image, area, 35, kNothingMasked);
   std::vector<cv::KeyPoint> whole;
   cv::FAST(image, whole, 20, true);
   ASSERT_GT(kept.size(), 500u);
@@ -46,7 +56,7 @@ TEST(CellThresholds, WeakCellsFallBackToTheMinimumThreshold) {
   const cv::Mat texture = testing::make_texture(cv::Size(400, 300), 12);
   const cv::Mat image = testing::with_contrast(texture, cv::Rect(0, 0, 200, 300), 0.1);
   const cv::Rect area(16, 16, 368, 268);
-  const auto kept = detect_fast_per_cell(image, area, 46, 20, 7, kNothingMasked);
+  const auto kept = detect_unmasked(image, area, 46, kNothingMasked);
   std::vector<cv::KeyPoint> strong;
   std::vector<cv::KeyPoint> weak;
   cv::FAST(image, strong, 20, true);
@@ -68,7 +78,7 @@ TEST(CellThresholds, MaskedStrongCornersMakeTheCellFallBack) {
   cv::FAST(image, strong, 20, true);
   const PointSet strong_set = positions(strong, area);
   const auto masked = [&](float x, float y) { return strong_set.count({int(x), int(y)}) > 0; };
-  const auto kept = detect_fast_per_cell(image, area, 42, 20, 7, masked);
+  const auto kept = detect_unmasked(image, area, 42, masked);
   ASSERT_FALSE(kept.empty());
   int weak_only = 0;
   for (const auto& kp : kept) {
@@ -80,7 +90,8 @@ TEST(CellThresholds, MaskedStrongCornersMakeTheCellFallBack) {
 
 TEST(Quadtree, IsolatedCandidatesWinOverADenseCluster) {
   std::vector<cv::KeyPoint> candidates;
-  for (int i = 0; i < 1000; ++i) candidates.push_back(candidate(10.0f + (i % 40) * 0.5f, 10.0f + (i / 40) * 0.5f, 100.0f));
+  for (int i = 0; i < 1000; ++i)
+    candidates.push_back(candidate(10.0f + (i % 40) * 0.5f, 10.0f + (i / 40) * 0.5f, 100.0f));
   std::vector<int> isolated;
   for (int gx = 0; gx < 4; ++gx) {
     for (int gy = 0; gy < 3; ++gy) {
@@ -108,8 +119,8 @@ TEST(Parabola, VertexAndDegenerateCases) {
   EXPECT_NEAR(*parabola_vertex_offset(4.0, 1.0, 4.0), 0.0, 1e-12);
   // Samples of (x - 0.3)^2 at -1, 0, 1.
   EXPECT_NEAR(*parabola_vertex_offset(1.69, 0.09, 0.49), 0.3, 1e-12);
-  EXPECT_FALSE(parabola_vertex_offset(2.0, 2.0, 2.0).has_value());  // flat
-  EXPECT_FALSE(parabola_vertex_offset(1.0, 3.0, 1.0).has_value());  // maximum, not minimum
+  EXPECT_FALSE(parabola_vertex_offset(2.0, 2.0, 2.0).has_value());    // flat
+  EXPECT_FALSE(parabola_vertex_offset(1.0, 3.0, 1.0).has_value());    // maximum, not minimum
   EXPECT_FALSE(parabola_vertex_offset(10.0, 1.0, -5.0).has_value());  // vertex beyond one sample
 }
 

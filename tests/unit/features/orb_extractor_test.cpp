@@ -138,13 +138,65 @@ TEST(OrbExtractor, MaskMovesBudgetToUnmaskedHalf) {
   EXPECT_GT(static_cast<int>(half.keypoints.size()), cfg.n_features * 9 / 10);
 }
 
+void expect_identical(const OrbFeatures& a, const OrbFeatures& b, const char* what) {
+  ASSERT_EQ(a.keypoints.size(), b.keypoints.size()) << what;
+  for (size_t i = 0; i < a.keypoints.size(); ++i) {
+    const cv::KeyPoint& p = a.keypoints[i];
+    const cv::KeyPoint& q = b.keypoints[i];
+    ASSERT_TRUE(p.pt == q.pt && p.angle == q.angle && p.response == q.response && p.octave == q.octave &&
+                p.size == q.size)
+        << what << " keypoint " << i;
+  }
+  ASSERT_EQ(a.descriptors.rows, b.descriptors.rows) << what;
+  if (a.descriptors.rows > 0) {
+    EXPECT_EQ(cv::norm(a.descriptors, b.descriptors, cv::NORM_L1), 0.0) << what;
+  }
+}
+
+TEST(OrbExtractor, BothSidesInOnePassEqualTwoSeparateExtractions) {
+  // Texture, faint below row 300 (cells fall back to the minimum threshold
+  // on both sides of the mask), and a mask of blobs plus a 1-px line of
+  // value 1.
+  const cv::Mat texture = testing::make_texture(kSize, 4);
+  const cv::Mat image = testing::with_contrast(texture, cv::Rect(0, 0, kSize.width, 300), 0.1);
+  cv::Mat mask = cv::Mat::zeros(kSize, CV_8UC1);
+  cv::RNG rng(9);
+  for (int i = 0; i < 12; ++i) {
+    cv::circle(mask, cv::Point(rng.uniform(0, kSize.width), rng.uniform(0, kSize.height)),
+               rng.uniform(20, 120), cv::Scalar(255), cv::FILLED);
+  }
+  cv::rectangle(mask, cv::Rect(500, 50, 1, 400), cv::Scalar(1), cv::FILLED);
+  const cv::Mat inverse = mask == 0;
+
+  config::OrbConfig cfg;
+  config::OrbConfig inside_cfg = cfg;
+  inside_cfg.n_features = 600;
+  OrbExtractor outside_only(cfg);
+  OrbExtractor inside_only(inside_cfg);
+  const OrbFeatures outside = extract_ok(outside_only, image, mask);
+  const OrbFeatures inside = extract_ok(inside_only, image, inverse);
+  ASSERT_GT(inside.keypoints.size(), 300u);
+
+  TaskPool pool(1);
+  for (TaskPool* lent : {static_cast<TaskPool*>(nullptr), &pool}) {
+    OrbExtractor both(cfg, lent);
+    auto sides = both.extract_both_sides(image, mask, inside_cfg.n_features);
+    ASSERT_TRUE(sides.has_value()) << sides.error().message;
+    expect_identical(sides->outside, outside, "outside");
+    expect_identical(sides->inside, inside, "inside");
+    EXPECT_EQ(sides->outside.pyramid.n_levels(), cfg.n_levels);
+  }
+  OrbExtractor both(cfg);
+  EXPECT_FALSE(both.extract_both_sides(image, mask, 0).has_value());
+}
+
 TEST(OrbExtractor, SpreadsOverTheGridWherePlainFastClusters) {
   config::OrbConfig cfg;
   OrbExtractor extractor(cfg);
   // Strong texture only in the top-left quadrant, weak (but detectable by
   // the minimum threshold) elsewhere.
   const cv::Mat image = testing::with_contrast(testing::make_texture(kSize, 4),
-                                            cv::Rect(0, 0, kSize.width / 2, kSize.height / 2), 0.12);
+                                               cv::Rect(0, 0, kSize.width / 2, kSize.height / 2), 0.12);
   const OrbFeatures f = extract_ok(extractor, image);
   const std::vector<int> ours = grid_counts(f.keypoints, kSize, 4, 4);
 
@@ -229,13 +281,14 @@ TEST(OrbExtractor, DescriptorsOfShiftedSceneMatch) {
   const OrbFeatures fb = extract_ok(extractor, b);
   std::vector<int> distances;
   std::vector<double> angle_changes;
-  corresponding(fa, fb, [](cv::Point2f p) { return p + cv::Point2f(24, 12); }, 0.01, &distances,
-                &angle_changes);
+  corresponding(
+      fa, fb, [](cv::Point2f p) { return p + cv::Point2f(24, 12); }, 0.01, &distances, &angle_changes);
   ASSERT_GT(distances.size(), 300u);
   EXPECT_LE(median(distances), 2);
   // Unrelated keypoints are ~128 bits apart.
   std::vector<int> unrelated;
-  for (int i = 0; i < 200; ++i) unrelated.push_back(hamming_distance(fa.descriptors, i, fb.descriptors, i + 300));
+  for (int i = 0; i < 200; ++i)
+    unrelated.push_back(hamming_distance(fa.descriptors, i, fb.descriptors, i + 300));
   EXPECT_GT(median(unrelated), 90);
 }
 
@@ -254,8 +307,9 @@ TEST(OrbExtractor, DescriptorsAreSteeredByOrientation) {
   corresponding(
       fa, fb,
       [&rot](cv::Point2f p) {
-        return cv::Point2f(float(rot.at<double>(0, 0) * p.x + rot.at<double>(0, 1) * p.y + rot.at<double>(0, 2)),
-                           float(rot.at<double>(1, 0) * p.x + rot.at<double>(1, 1) * p.y + rot.at<double>(1, 2)));
+        return cv::Point2f(
+            float(rot.at<double>(0, 0) * p.x + rot.at<double>(0, 1) * p.y + rot.at<double>(0, 2)),
+            float(rot.at<double>(1, 0) * p.x + rot.at<double>(1, 1) * p.y + rot.at<double>(1, 2)));
       },
       1.0, &distances, &angle_changes);
   ASSERT_GT(distances.size(), 100u);
@@ -289,7 +343,8 @@ TEST(OrbExtractor, ValidateNamesKeyValueAndRule) {
   cfg.scale_factor = 0.9;
   auto status = validate(cfg);
   ASSERT_FALSE(status.has_value());
-  EXPECT_NE(status.error().message.find("orb.scale_factor = 0.9"), std::string::npos) << status.error().message;
+  EXPECT_NE(status.error().message.find("orb.scale_factor = 0.9"), std::string::npos)
+      << status.error().message;
   cfg = config::OrbConfig{};
   cfg.min_fast_threshold = 30;
   status = validate(cfg);
