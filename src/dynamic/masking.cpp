@@ -4,6 +4,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "sitepose/core/stopwatch.hpp"
+
 namespace sitepose::dynamic {
 namespace {
 // Pixel masks grow by this much: a FAST corner on an object's silhouette
@@ -100,7 +102,9 @@ Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& ob
                                                      " needs pixel masks (mar " + std::to_string(out.mar) +
                                                      "), but the detector has no segmentation");
     }
+    const auto segment_start = SteadyClock::now();
     SITEPOSE_TRY(cv::Mat segmented, objects.segment(out.dynamic_boxes));
+    out.segment_ms = ms_since(segment_start);
     if (segmented.type() != CV_16UC1 || segmented.size() != image_size) {
       return make_error(ErrorCode::kInvalidArgument,
                         "pixel segmentation returned a " + std::to_string(segmented.cols) + "x" +

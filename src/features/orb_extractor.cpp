@@ -103,7 +103,7 @@ Expected<OrbExtractor> OrbExtractor::create(const config::OrbConfig& config, Tas
   return OrbExtractor(config, pool);
 }
 
-ImagePyramid OrbExtractor::build_pyramid(const cv::Mat& image) const {
+ImagePyramid OrbExtractor::make_pyramid(const cv::Mat& image) const {
   ImagePyramid pyramid;
   const int n = config_.n_levels;
   pyramid.levels.resize(n);
@@ -166,10 +166,12 @@ void OrbExtractor::for_each_level(const std::function<void(int)>& job) const {
   }
 }
 
-std::vector<std::vector<cv::KeyPoint>> OrbExtractor::detect_candidates(const ImagePyramid& pyramid, int level,
-                                                                       const cv::Mat& mask,
-                                                                       const cv::Mat& mask_integral,
-                                                                       int n_sides) const {
+std::vector<std::vector<cv::KeyPoint>> OrbExtractor::detect_candidates(const OrbExtraction& x,
+                                                                       int level) const {
+  const ImagePyramid& pyramid = x.pyramid_;
+  const cv::Mat& mask = x.mask_;
+  const cv::Mat& mask_integral = x.mask_integral_;
+  const int n_sides = static_cast<int>(x.budgets_.size());
   const cv::Mat& img = pyramid.levels[level];
   const cv::Rect area = keypoint_area(img);
   if (area.width <= 0 || area.height <= 0) return std::vector<std::vector<cv::KeyPoint>>(n_sides);
@@ -228,7 +230,7 @@ void OrbExtractor::describe(const ImagePyramid& pyramid, int level, std::vector<
 }
 
 Expected<OrbFeatures> OrbExtractor::extract(const cv::Mat& image, const cv::Mat& mask) {
-  SITEPOSE_TRY(std::vector<OrbFeatures> sides, extract_sides(image, mask, {features_per_level_}));
+  SITEPOSE_TRY(std::vector<OrbFeatures> sides, extract_sides(image, mask, 0));
   return std::move(sides[0]);
 }
 
@@ -238,10 +240,7 @@ Expected<MaskSideFeatures> OrbExtractor::extract_both_sides(const cv::Mat& image
     return make_error(ErrorCode::kInvalidArgument,
                       fmt::format("ORB extraction: inside_features = {}: must be >= 1", inside_features));
   }
-  SITEPOSE_TRY(std::vector<OrbFeatures> sides,
-               extract_sides(image, mask,
-                             {features_per_level_,
-                              level_budgets(inside_features, config_.scale_factor, config_.n_levels)}));
+  SITEPOSE_TRY(std::vector<OrbFeatures> sides, extract_sides(image, mask, inside_features));
   MaskSideFeatures out;
   out.outside = std::move(sides[0]);
   out.inside = std::move(sides[1]);
@@ -249,74 +248,102 @@ Expected<MaskSideFeatures> OrbExtractor::extract_both_sides(const cv::Mat& image
 }
 
 Expected<std::vector<OrbFeatures>> OrbExtractor::extract_sides(const cv::Mat& image, const cv::Mat& mask,
-                                                               const std::vector<std::vector<int>>& budgets) {
+                                                               int inside_features) {
+  SITEPOSE_TRY(OrbExtraction x, begin(image, mask, inside_features));
+  build_pyramid(x);
+  for_each_level([&](int level) { detect_level(x, level); });
+  select(x);
+  for_each_level([&](int level) { describe_level(x, level); });
+  return finish(std::move(x));
+}
+
+Expected<OrbExtraction> OrbExtractor::begin(const cv::Mat& image, const cv::Mat& mask,
+                                            int inside_features) const {
   SITEPOSE_TRY_STATUS(check_extract_inputs(image, mask));
-  const int n_sides = static_cast<int>(budgets.size());
+  if (inside_features < 0 || inside_features > 100000) {
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        fmt::format("ORB extraction: inside_features = {}: must be in [0, 100000]", inside_features));
+  }
+  OrbExtraction x;
+  x.image_ = image;
+  x.mask_ = mask;
+  x.budgets_.push_back(features_per_level_);
+  if (inside_features > 0) {
+    x.budgets_.push_back(level_budgets(inside_features, config_.scale_factor, config_.n_levels));
+  }
   const int n_levels = config_.n_levels;
-  std::vector<OrbFeatures> out(n_sides);
-  out[0].pyramid = build_pyramid(image);
-  const ImagePyramid& pyramid = out[0].pyramid;
+  x.candidates_.resize(n_levels);
+  x.picked_.assign(n_levels, OrbExtraction::Sides(x.budgets_.size()));
+  x.described_.resize(n_levels);
+  x.descriptors_.resize(n_levels);
+  return x;
+}
+
+void OrbExtractor::build_pyramid(OrbExtraction& x) const {
+  x.pyramid_ = make_pyramid(x.image_);
   // Masked pixel counts over rectangles, to skip the fallback FAST in cells
   // that hold no pixel of a side.
-  cv::Mat mask_integral;
-  if (!mask.empty()) {
+  if (!x.mask_.empty()) {
     cv::Mat masked_01;  // 1 = masked
-    cv::threshold(mask, masked_01, 0, 1, cv::THRESH_BINARY);
-    cv::integral(masked_01, mask_integral, CV_32S);
+    cv::threshold(x.mask_, masked_01, 0, 1, cv::THRESH_BINARY);
+    cv::integral(masked_01, x.mask_integral_, CV_32S);
   }
-  // [level][side]
-  std::vector<std::vector<std::vector<cv::KeyPoint>>> candidates(n_levels);
-  std::vector<std::vector<std::vector<cv::KeyPoint>>> keypoints(
-      n_levels, std::vector<std::vector<cv::KeyPoint>>(n_sides));
-  std::vector<cv::Mat> descriptors(n_levels);
+}
 
-  // Candidates do not depend on the budget: one job per level.
-  for_each_level([&](int level) {
-    candidates[level] = detect_candidates(pyramid, level, mask, mask_integral, n_sides);
-  });
-  // The budget does (unused budget of a texture-poor or masked level moves
-  // to the next level): in level order, each side on its own.
-  for (int side = 0; side < n_sides; ++side) {
+void OrbExtractor::detect_level(OrbExtraction& x, int level) const {
+  x.candidates_[level] = detect_candidates(x, level);
+}
+
+void OrbExtractor::select(OrbExtraction& x) const {
+  // The budget depends on the levels below (unused budget of a texture-poor
+  // or masked level moves to the next level): in level order, each side on
+  // its own.
+  for (std::size_t side = 0; side < x.budgets_.size(); ++side) {
     int carried_budget = 0;
-    for (int level = 0; level < n_levels; ++level) {
-      const int budget = budgets[side][level] + carried_budget;
+    for (int level = 0; level < config_.n_levels; ++level) {
+      const int budget = x.budgets_[side][level] + carried_budget;
       carried_budget = budget;
       if (budget <= 0) continue;
-      const cv::Rect area = keypoint_area(pyramid.levels[level]);
-      const std::vector<cv::KeyPoint>& level_candidates = candidates[level][side];
+      const cv::Rect area = keypoint_area(x.pyramid_.levels[level]);
+      const std::vector<cv::KeyPoint>& candidates = x.candidates_[level][side];
       const std::vector<int> picked = detail::distribute_quadtree(
-          level_candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)),
+          candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)),
           budget);
       if (picked.empty()) continue;
       carried_budget = budget - static_cast<int>(picked.size());
-      keypoints[level][side].reserve(picked.size());
-      for (const int i : picked) keypoints[level][side].push_back(level_candidates[i]);
+      std::vector<cv::KeyPoint>& kept = x.picked_[level][side];
+      kept.reserve(picked.size());
+      for (const int i : picked) kept.push_back(candidates[i]);
     }
   }
-  // One descriptor call per level for all sides (a descriptor depends only
-  // on its own keypoint); rows in side order.
-  std::vector<std::vector<cv::KeyPoint>> level_keypoints(n_levels);
-  for_each_level([&](int level) {
-    for (const auto& side_keypoints : keypoints[level]) {
-      level_keypoints[level].insert(level_keypoints[level].end(), side_keypoints.begin(),
-                                    side_keypoints.end());
-    }
-    if (!level_keypoints[level].empty()) describe(pyramid, level, level_keypoints[level], descriptors[level]);
-  });
+}
 
+void OrbExtractor::describe_level(OrbExtraction& x, int level) const {
+  // One descriptor call for all sides (a descriptor depends only on its own
+  // keypoint, and the level is blurred once); rows in side order.
+  std::vector<cv::KeyPoint>& keypoints = x.described_[level];
+  for (const auto& side : x.picked_[level]) keypoints.insert(keypoints.end(), side.begin(), side.end());
+  if (!keypoints.empty()) describe(x.pyramid_, level, keypoints, x.descriptors_[level]);
+}
+
+std::vector<OrbFeatures> OrbExtractor::finish(OrbExtraction&& x) const {
+  const int n_sides = static_cast<int>(x.budgets_.size());
+  std::vector<OrbFeatures> out(n_sides);
   for (int side = 0; side < n_sides; ++side) {
     std::vector<cv::Mat> level_descriptors;
-    for (int level = 0; level < n_levels; ++level) {
+    for (int level = 0; level < config_.n_levels; ++level) {
       int first_row = 0;
-      for (int s = 0; s < side; ++s) first_row += static_cast<int>(keypoints[level][s].size());
-      const int n = static_cast<int>(keypoints[level][side].size());
+      for (int s = 0; s < side; ++s) first_row += static_cast<int>(x.picked_[level][s].size());
+      const int n = static_cast<int>(x.picked_[level][side].size());
       if (n == 0) continue;
-      out[side].keypoints.insert(out[side].keypoints.end(), level_keypoints[level].begin() + first_row,
-                                 level_keypoints[level].begin() + first_row + n);
-      level_descriptors.push_back(descriptors[level].rowRange(first_row, first_row + n));
+      const auto first = x.described_[level].begin() + first_row;
+      out[side].keypoints.insert(out[side].keypoints.end(), first, first + n);
+      level_descriptors.push_back(x.descriptors_[level].rowRange(first_row, first_row + n));
     }
     if (!level_descriptors.empty()) cv::vconcat(level_descriptors, out[side].descriptors);
   }
+  out[0].pyramid = std::move(x.pyramid_);
   return out;
 }
 

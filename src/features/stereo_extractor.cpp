@@ -1,7 +1,7 @@
 #include "sitepose/features/stereo_extractor.hpp"
 
+#include <array>
 #include <opencv2/core.hpp>
-#include <optional>
 #include <string>
 #include <utility>
 
@@ -50,13 +50,6 @@ Expected<StereoExtractor> StereoExtractor::create(const config::OrbConfig& orb,
   return StereoExtractor(orb, stereo, camera, options);
 }
 
-Expected<OrbFeatures> StereoExtractor::extract_left(const cv::Mat& left, const cv::Mat& left_mask) {
-  if (masked_area_features_ == 0 || left_mask.empty()) return left_.extract(left, left_mask);
-  SITEPOSE_TRY(MaskSideFeatures sides, left_.extract_both_sides(left, left_mask, masked_area_features_));
-  append(sides.outside, sides.inside);
-  return std::move(sides.outside);
-}
-
 Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv::Mat& right,
                                                   const cv::Mat& left_mask) {
   if (left.size() != right.size() || left.type() != right.type()) {
@@ -66,33 +59,46 @@ Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv:
                           std::to_string(right.cols) + "x" + std::to_string(right.rows) + " type " +
                           std::to_string(right.type()) + " must have the same size and type");
   }
-  // Two jobs that share nothing (separate OrbExtractor instances); the
-  // matcher needs both.
-  // Constructed in place (emplace), never assigned: Expected<T> has no
-  // noexcept move assignment for a T holding cv::Mat.
-  std::optional<Expected<OrbFeatures>> left_features;
-  std::optional<Expected<OrbFeatures>> right_features;
-  StereoTimings timings;
-  const auto job = [&](int image) {
-    const auto start = SteadyClock::now();
-    if (image == 0) {
-      left_features.emplace(extract_left(left, left_mask));
-      timings.extract_left_ms = ms_since(start);
+  const bool both_sides = masked_area_features_ > 0 && !left_mask.empty();
+  SITEPOSE_TRY(OrbExtraction left_extraction,
+               left_.begin(left, left_mask, both_sides ? masked_area_features_ : 0));
+  SITEPOSE_TRY(OrbExtraction right_extraction, right_.begin(right, cv::Mat()));
+  // The two images' steps go into shared batches (both pyramids, then all
+  // levels' FAST of both, ...), so the threads stay busy until a step is
+  // done for both; left_ and right_ share no state.
+  const std::array<const OrbExtractor*, 2> extractors{&left_, &right_};
+  const std::array<OrbExtraction*, 2> extractions{&left_extraction, &right_extraction};
+  std::array<double, 2> work_ms{0.0, 0.0};
+  // step(image, level) for both images and `per_image` levels, as jobs
+  // level-major (the largest level first, the images interleaved); each
+  // job's time counts for its image.
+  const auto run_step = [&](int per_image, const auto& step) {
+    std::vector<double> job_ms(2 * per_image, 0.0);
+    const auto job = [&](int j) {
+      const auto start = SteadyClock::now();
+      step(*extractors[j % 2], *extractions[j % 2], j / 2);
+      job_ms[j] = ms_since(start);
+    };
+    if (pool_ != nullptr) {
+      pool_->run(2 * per_image, job);
     } else {
-      right_features.emplace(right_.extract(right));
-      timings.extract_right_ms = ms_since(start);
+      for (int j = 0; j < 2 * per_image; ++j) job(j);
     }
+    for (int j = 0; j < 2 * per_image; ++j) work_ms[j % 2] += job_ms[j];
   };
-  if (pool_ != nullptr) {
-    pool_->run(2, job);
-  } else {
-    job(0);
-    job(1);
-  }
-  if (!*left_features) return Unexpected{left_features->error()};
-  if (!*right_features) return Unexpected{right_features->error()};
-  OrbFeatures& left_ok = **left_features;
-  OrbFeatures& right_ok = **right_features;
+  const int n_levels = left_.n_levels();
+  run_step(1, [](const OrbExtractor& e, OrbExtraction& x, int) { e.build_pyramid(x); });
+  run_step(n_levels, [](const OrbExtractor& e, OrbExtraction& x, int level) { e.detect_level(x, level); });
+  run_step(1, [](const OrbExtractor& e, OrbExtraction& x, int) { e.select(x); });
+  run_step(n_levels, [](const OrbExtractor& e, OrbExtraction& x, int level) { e.describe_level(x, level); });
+  std::vector<OrbFeatures> left_sides = left_.finish(std::move(left_extraction));
+  std::vector<OrbFeatures> right_sides = right_.finish(std::move(right_extraction));
+  if (left_sides.size() > 1) append(left_sides[0], left_sides[1]);
+  OrbFeatures& left_ok = left_sides[0];
+  OrbFeatures& right_ok = right_sides[0];
+  StereoTimings timings;
+  timings.extract_left_ms = work_ms[0];
+  timings.extract_right_ms = work_ms[1];
 
   const auto match_start = SteadyClock::now();
   SITEPOSE_TRY(StereoMatches matches, matcher_.match(left_ok, right_ok));

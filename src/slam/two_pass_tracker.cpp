@@ -69,6 +69,7 @@ Expected<dynamic::MaskResult> TwoPassTracker::build_mask(const StereoFrame& fram
   const auto start = SteadyClock::now();
   SITEPOSE_TRY(dynamic::MaskResult mask, dynamic::build_mask(config_.mode, objects, frame.left.size(), config_));
   report.timings.mask_ms = ms_since(start);
+  report.timings.segment_ms = mask.segment_ms;
   report.mar = mask.mar;
   report.masked_ratio = mask.masked_ratio;
   report.pixel_mask_used = mask.pixel_mask_used;

@@ -43,6 +43,7 @@ void print_stage_shares(const slam::RunRecorder& recorder, const slam::SlamSyste
   const double whole = recorder.stage_total_ms("whole_frame");
   const double detect = recorder.stage_total_ms("detect");
   const double mask = recorder.stage_total_ms("mask");
+  const double segment = recorder.stage_total_ms("segment");
   const double classify = recorder.stage_total_ms("classify");
   const double pass2 = recorder.stage_total_ms("pass2");
   const double extract = recorder.stage_total_ms("extract_left");
@@ -57,6 +58,7 @@ void print_stage_shares(const slam::RunRecorder& recorder, const slam::SlamSyste
   };
   row("detect", detect);
   row("mask (Algorithm 1)", mask);
+  row("  of it: segment", segment);
   row("classify (Algorithm 2)", classify);
   row("pass 2", pass2);
   row("dynamic layer", dynamic_ms);
@@ -67,9 +69,14 @@ void print_stage_shares(const slam::RunRecorder& recorder, const slam::SlamSyste
       whole > 0 ? 100.0 * dynamic_ms / whole : 0.0, whole > 0 ? 100.0 * extract / whole : 0.0);
   print_tracker_counters(system.tracker_counters());
   const auto stages = recorder.stage_summaries();
+  print_stage_table(stages);
   if (const auto it = stages.find("whole_frame"); it != stages.end()) {
     std::printf("whole frame p50 %.2f ms, p99 %.2f ms (detect included)\n", it->second.p50_ms,
                 it->second.p99_ms);
+  }
+  if (const auto it = stages.find("frame_excl_detector"); it != stages.end()) {
+    std::printf("whole frame without the detector's detect + segment: p50 %.2f ms, p99 %.2f ms\n",
+                it->second.p50_ms, it->second.p99_ms);
   }
 }
 

@@ -1,7 +1,13 @@
 #pragma once
 // Figures the bench commands print alike.
 
+#include <algorithm>
 #include <cstdio>
+#include <iterator>
+#include <map>
+#include <string>
+
+#include "sitepose/slam/run_recorder.hpp"
 
 #include "sitepose/tracking/tracker.hpp"
 
@@ -17,6 +23,23 @@ inline void print_tracker_counters(const tracking::TrackerCounters& c) {
       "close-point repeatability %.3f (%ld of %ld close points matched again in the next frame)\n",
       c.close_points_previous > 0 ? double(c.close_points_rematched) / double(c.close_points_previous) : 0.0,
       c.close_points_rematched, c.close_points_previous);
+}
+
+// p50 / p99 / mean of every stage the run timed: the tracker's stages in
+// pipeline order first, then the others (e.g. the dynamic layer's) by name.
+inline void print_stage_table(const std::map<std::string, slam::StageSummary>& stages) {
+  std::printf("%-20s %9s %9s %9s\n", "stage", "p50 ms", "p99 ms", "mean ms");
+  const auto row = [](const std::string& name, const slam::StageSummary& s) {
+    std::printf("%-20s %9.2f %9.2f %9.2f\n", name.c_str(), s.p50_ms, s.p99_ms, s.mean_ms);
+  };
+  const char* const ordered[] = {"extract_left",    "extract_right",  "stereo_match", "track_motion_model",
+                                 "track_local_map", "motion_only_ba", "whole_frame"};
+  for (const char* name : ordered) {
+    if (const auto it = stages.find(name); it != stages.end()) row(name, it->second);
+  }
+  for (const auto& [name, summary] : stages) {
+    if (std::find(std::begin(ordered), std::end(ordered), name) == std::end(ordered)) row(name, summary);
+  }
 }
 
 }  // namespace sitepose::cli

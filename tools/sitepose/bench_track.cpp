@@ -49,13 +49,7 @@ int bench_track(const BenchTrackArgs& args) {
   std::printf("bench track: %s, %d frames%s, mapper %s\n", run->name.c_str(), run->frames,
               run->partial ? " (interrupted: partial)" : "",
               args.mapper_thread ? "on its own thread" : "inline (excluded from whole_frame)");
-  std::printf("%-20s %9s %9s %9s\n", "stage", "p50 ms", "p99 ms", "mean ms");
-  for (const char* name : {"extract_left", "extract_right", "stereo_match", "track_motion_model",
-                           "track_local_map", "motion_only_ba", "whole_frame"}) {
-    const auto it = stages.find(name);
-    if (it == stages.end()) continue;
-    std::printf("%-20s %9.2f %9.2f %9.2f\n", name, it->second.p50_ms, it->second.p99_ms, it->second.mean_ms);
-  }
+  print_stage_table(stages);
   std::printf("frames/s (1000 / mean whole_frame): %.1f\n", run->recorder.frames_per_second());
   std::printf("keyframes in map %zu, points in map %zu\n", run->keyframes, run->points);
   print_tracker_counters(run->tracker_counters);

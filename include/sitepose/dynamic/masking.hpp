@@ -27,6 +27,7 @@ struct MaskResult {
   double mar = 0.0;                   // union of dynamic boxes / image area (Algorithm 1)
   double masked_ratio = 0.0;          // pixels actually masked / image area
   bool pixel_mask_used = false;       // the segmenter was called this frame
+  double segment_ms = 0.0;            // wall time of that call (the detector's work)
 };
 
 // True when `class_name` is in the a-priori dynamic classes (exact, case-

@@ -68,6 +68,26 @@ struct MaskSideFeatures {
   OrbFeatures inside;   // the masked area with its own budget; its pyramid is left empty
 };
 
+// One extraction in progress, for OrbExtractor's steps (see
+// OrbExtractor::begin). Only the extractor that began it reads or writes it.
+class OrbExtraction {
+ public:
+  int n_levels() const { return static_cast<int>(budgets_.empty() ? 0 : budgets_[0].size()); }
+
+ private:
+  friend class OrbExtractor;
+  cv::Mat image_;
+  cv::Mat mask_;
+  cv::Mat mask_integral_;                  // masked-pixel counts (empty without a mask)
+  std::vector<std::vector<int>> budgets_;  // [side][level]
+  ImagePyramid pyramid_;
+  using Sides = std::vector<std::vector<cv::KeyPoint>>;
+  std::vector<Sides> candidates_;                     // [level][side], level pixels
+  std::vector<Sides> picked_;                         // [level][side], level pixels
+  std::vector<std::vector<cv::KeyPoint>> described_;  // [level], sides in order, level-0 pixels
+  std::vector<cv::Mat> descriptors_;                  // [level], rows = described_[level]
+};
+
 // Checks every OrbConfig field; the message names the key, value and rule.
 Status validate(const config::OrbConfig& config);
 
@@ -94,6 +114,24 @@ class OrbExtractor {
   Expected<MaskSideFeatures> extract_both_sides(const cv::Mat& image, const cv::Mat& mask,
                                                 int inside_features);
 
+  // The steps extract() and extract_both_sides() run, for a caller that
+  // puts the steps of several images into one batch of jobs (as
+  // StereoExtractor does with the two images of a pair):
+  //   begin -> build_pyramid -> detect_level(l) for every level (any order,
+  //   any thread) -> select (in level order) -> describe_level(l) for every
+  //   level -> finish.
+  // The same inputs give the same result, however the steps are spread.
+  // begin checks the inputs; inside_features = 0 extracts the unmasked
+  // area only (extract), >= 1 both sides (extract_both_sides).
+  Expected<OrbExtraction> begin(const cv::Mat& image, const cv::Mat& mask, int inside_features = 0) const;
+  void build_pyramid(OrbExtraction& x) const;
+  void detect_level(OrbExtraction& x, int level) const;
+  void select(OrbExtraction& x) const;
+  void describe_level(OrbExtraction& x, int level) const;
+  // The unmasked area's features (with the pyramid), then the masked
+  // area's when begun with inside_features >= 1.
+  std::vector<OrbFeatures> finish(OrbExtraction&& x) const;
+
   const config::OrbConfig& config() const { return config_; }
   int n_levels() const { return config_.n_levels; }
   // Nominal per-level factors: scale = scale_factor^level, sigma2 = scale^2
@@ -106,18 +144,14 @@ class OrbExtractor {
   const std::vector<int>& features_per_level() const { return features_per_level_; }
 
  private:
-  ImagePyramid build_pyramid(const cv::Mat& image) const;
+  ImagePyramid make_pyramid(const cv::Mat& image) const;
   // job(level) for every level, on the pool when there is one.
   void for_each_level(const std::function<void(int)>& job) const;
-  // The features of each side of the mask (one side: the unmasked area
-  // only; two: unmasked, then masked) with budgets[side][level], from one
-  // pyramid and one FAST pass per level. out[0] holds the pyramid.
+  // All steps, the levels on the pool.
   Expected<std::vector<OrbFeatures>> extract_sides(const cv::Mat& image, const cv::Mat& mask,
-                                                   const std::vector<std::vector<int>>& budgets);
+                                                   int inside_features);
   // FAST candidates of one level (level pixels) per side of the mask.
-  std::vector<std::vector<cv::KeyPoint>> detect_candidates(const ImagePyramid& pyramid, int level,
-                                                           const cv::Mat& mask, const cv::Mat& mask_integral,
-                                                           int n_sides) const;
+  std::vector<std::vector<cv::KeyPoint>> detect_candidates(const OrbExtraction& x, int level) const;
   // Orientation and descriptors of the level's picked keypoints (level
   // pixels in, level-0 pixels out).
   void describe(const ImagePyramid& pyramid, int level, std::vector<cv::KeyPoint>& kps,

@@ -9,10 +9,11 @@
 // masked_area_features > 0 the masked area gets that many features of its
 // own (so a later pass can unmask objects), appended after the others; both
 // come from one pyramid and one FAST pass (OrbExtractor::extract_both_sides).
-// Threads: the left (with the masked area) and the right image are two jobs
-// on the lent TaskPool, each with one job per pyramid level (no pool: all
-// on the caller's thread, same result); one extract() at a time per
-// instance. Ownership: the result owns its data (cv::Mat headers
+// Threads: the two images' extraction steps (OrbExtractor::begin) run as
+// shared batches on the lent TaskPool: both pyramids, then every level's
+// FAST of both images, both selections, every level's descriptors (no
+// pool: all on the caller's thread, same result); one extract() at a time
+// per instance. Ownership: the result owns its data (cv::Mat headers
 // share the pyramid buffers allocated for this call, never the caller's
 // images except level 0).
 
@@ -30,7 +31,9 @@ namespace sitepose::features {
 
 // Wall time of the steps of one extract().
 struct StereoTimings {
-  double extract_left_ms = 0.0;  // left image, with the masked area's share
+  // Work on each image (with the left masked area's share): the time of
+  // its steps summed over the threads that ran them, so not wall time.
+  double extract_left_ms = 0.0;
   double extract_right_ms = 0.0;
   double stereo_match_ms = 0.0;
 };
@@ -87,9 +90,6 @@ class StereoExtractor {
   const StereoMatcher& matcher() const { return matcher_; }
 
  private:
-  // The left image with the mask's budget split (see the file comment).
-  Expected<OrbFeatures> extract_left(const cv::Mat& left, const cv::Mat& left_mask);
-
   OrbExtractor left_;
   OrbExtractor right_;
   int masked_area_features_;  // 0: no keypoints on the mask

@@ -25,6 +25,7 @@ struct FrameTimings {
   // only if the caller adds it.
   double detect_ms = 0.0;
   double mask_ms = 0.0;      // Algorithm 1 incl. pixel segmentation
+  double segment_ms = 0.0;   // of mask_ms: the detector's pixel segmentation
   double classify_ms = 0.0;  // Algorithm 2 (matching + tests) and the map check
   double pass2_ms = 0.0;     // the second pose estimate
   double total_ms = 0.0;     // the whole frame, excluding inline mapping
