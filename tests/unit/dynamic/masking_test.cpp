@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <thread>
+
 namespace sitepose::dynamic {
 namespace {
 
@@ -65,6 +68,23 @@ TEST(Masking, HierarchicalSegmentsOnlyAtOrAboveTau) {
   EXPECT_EQ(r->instance_labels.at<std::uint16_t>(5, 55), 0);
   EXPECT_EQ(r->instance_labels.at<std::uint16_t>(5, 13), 1);
   EXPECT_EQ(r->instance_labels.at<std::uint16_t>(5, 15), 0);
+}
+
+TEST(Masking, TimesTheDetectorsSegmentationApart) {
+  // The segmenter is the detector's work: its wall time is reported on its
+  // own (segment_ms), zero when it is not called.
+  FrameObjects objects{{{1, "truck", 1.0, cv::Rect(0, 0, 50, 50)}},
+                       [](const std::vector<ObjectBox>&) -> Expected<cv::Mat> {
+                         std::this_thread::sleep_for(std::chrono::milliseconds(20));
+                         return cv::Mat(cv::Mat::zeros(kImage, CV_16UC1));
+                       }};
+  auto r = build_mask(config::MaskingMode::kPixel, objects, kImage, default_config());
+  ASSERT_TRUE(r);
+  EXPECT_TRUE(r->pixel_mask_used);
+  EXPECT_GE(r->segment_ms, 20.0);
+  r = build_mask(config::MaskingMode::kBbox, objects, kImage, default_config());
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->segment_ms, 0.0);
 }
 
 TEST(Masking, NonDynamicClassesAreNotMaskedAndBboxNeverSegments) {
