@@ -257,8 +257,8 @@ Expected<std::vector<OrbFeatures>> OrbExtractor::extract_sides(const cv::Mat& im
   return finish(std::move(x));
 }
 
-Expected<OrbExtraction> OrbExtractor::begin(const cv::Mat& image, const cv::Mat& mask,
-                                            int inside_features) const {
+Expected<OrbExtraction> OrbExtractor::begin(const cv::Mat& image, const cv::Mat& mask, int inside_features,
+                                            std::vector<CornerHint> hints) const {
   SITEPOSE_TRY_STATUS(check_extract_inputs(image, mask));
   if (inside_features < 0 || inside_features > 100000) {
     return make_error(
@@ -268,6 +268,7 @@ Expected<OrbExtraction> OrbExtractor::begin(const cv::Mat& image, const cv::Mat&
   OrbExtraction x;
   x.image_ = image;
   x.mask_ = mask;
+  x.hints_ = std::move(hints);
   x.budgets_.push_back(features_per_level_);
   if (inside_features > 0) {
     x.budgets_.push_back(level_budgets(inside_features, config_.scale_factor, config_.n_levels));
@@ -307,9 +308,15 @@ void OrbExtractor::select(OrbExtraction& x) const {
       if (budget <= 0) continue;
       const cv::Rect area = keypoint_area(x.pyramid_.levels[level]);
       const std::vector<cv::KeyPoint>& candidates = x.candidates_[level][side];
-      const std::vector<int> picked = detail::distribute_quadtree(
-          candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)),
-          budget);
+      std::vector<cv::Point2f> level_hints;
+      for (const CornerHint& hint : x.hints_) {
+        if (hint.octave != level) continue;
+        const cv::Point2d p = x.pyramid_.from_level0(level, cv::Point2d(hint.uv_px.x, hint.uv_px.y));
+        level_hints.emplace_back(float(p.x), float(p.y));
+      }
+      const std::vector<int> picked = detail::keep_hinted_then_distribute(
+          candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)), budget,
+          level_hints);
       if (picked.empty()) continue;
       carried_budget = budget - static_cast<int>(picked.size());
       std::vector<cv::KeyPoint>& kept = x.picked_[level][side];

@@ -51,7 +51,8 @@ Expected<StereoExtractor> StereoExtractor::create(const config::OrbConfig& orb,
 }
 
 Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv::Mat& right,
-                                                  const cv::Mat& left_mask) {
+                                                  const cv::Mat& left_mask,
+                                                  std::vector<CornerHint> left_hints) {
   if (left.size() != right.size() || left.type() != right.type()) {
     return make_error(ErrorCode::kInvalidArgument,
                       "stereo extraction: left " + std::to_string(left.cols) + "x" +
@@ -61,7 +62,7 @@ Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv:
   }
   const bool both_sides = masked_area_features_ > 0 && !left_mask.empty();
   SITEPOSE_TRY(OrbExtraction left_extraction,
-               left_.begin(left, left_mask, both_sides ? masked_area_features_ : 0));
+               left_.begin(left, left_mask, both_sides ? masked_area_features_ : 0, std::move(left_hints)));
   SITEPOSE_TRY(OrbExtraction right_extraction, right_.begin(right, cv::Mat()));
   // The two images' steps go into shared batches (both pyramids, then all
   // levels' FAST of both, ...), so the threads stay busy until a step is

@@ -69,6 +69,10 @@ struct TrackingConfig {
   // the reference keyframe's viewpoint (tracking/pose_refinement.hpp,
   // docs/tracking/standing.md). Off: three mode-full regression bounds move.
   bool trust_established_map = false;
+  // Extraction keeps the corners the last frame matched, found again near
+  // their predicted projections (features::CornerHint), before spreading
+  // the rest of the budget (docs/tracking/extraction.md).
+  bool keep_tracked_corners = false;
 
   bool operator==(const TrackingConfig&) const = default;
 };

@@ -68,6 +68,15 @@ struct MaskSideFeatures {
   OrbFeatures inside;   // the masked area with its own budget; its pyramid is left empty
 };
 
+// Where a corner the tracker matched in the last frame should be now (its
+// map point projected with the predicted pose): the extractor keeps the
+// strongest candidate near it before spreading the rest of the budget, so
+// tracked corners are found again instead of a neighbour the spread picked.
+struct CornerHint {
+  cv::Point2f uv_px;  // level-0 pixels
+  int octave = 0;     // the level it was matched at
+};
+
 // One extraction in progress, for OrbExtractor's steps (see
 // OrbExtractor::begin). Only the extractor that began it reads or writes it.
 class OrbExtraction {
@@ -78,7 +87,8 @@ class OrbExtraction {
   friend class OrbExtractor;
   cv::Mat image_;
   cv::Mat mask_;
-  cv::Mat mask_integral_;                  // masked-pixel counts (empty without a mask)
+  cv::Mat mask_integral_;  // masked-pixel counts (empty without a mask)
+  std::vector<CornerHint> hints_;
   std::vector<std::vector<int>> budgets_;  // [side][level]
   ImagePyramid pyramid_;
   using Sides = std::vector<std::vector<cv::KeyPoint>>;
@@ -123,7 +133,9 @@ class OrbExtractor {
   // The same inputs give the same result, however the steps are spread.
   // begin checks the inputs; inside_features = 0 extracts the unmasked
   // area only (extract), >= 1 both sides (extract_both_sides).
-  Expected<OrbExtraction> begin(const cv::Mat& image, const cv::Mat& mask, int inside_features = 0) const;
+  // hints: corners to keep (CornerHint), at most half of a level's budget.
+  Expected<OrbExtraction> begin(const cv::Mat& image, const cv::Mat& mask, int inside_features = 0,
+                                std::vector<CornerHint> hints = {}) const;
   void build_pyramid(OrbExtraction& x) const;
   void detect_level(OrbExtraction& x, int level) const;
   void select(OrbExtraction& x) const;

@@ -79,10 +79,13 @@ class StereoExtractor {
   // left/right: rectified CV_8UC1 images of equal size; left_mask: empty or
   // CV_8UC1 of the image size, nonzero = masked (applied to the left only;
   // an all-zero mask is the same as none).
+  // left_hints: corners of the left image to keep (CornerHint).
   Expected<StereoFeatures> extract(const cv::Mat& left, const cv::Mat& right,
-                                   const cv::Mat& left_mask = cv::Mat());
-  Expected<StereoFeatures> extract(const StereoFrame& frame, const cv::Mat& left_mask = cv::Mat()) {
-    return extract(frame.left, frame.right, left_mask);
+                                   const cv::Mat& left_mask = cv::Mat(),
+                                   std::vector<CornerHint> left_hints = {});
+  Expected<StereoFeatures> extract(const StereoFrame& frame, const cv::Mat& left_mask = cv::Mat(),
+                                   std::vector<CornerHint> left_hints = {}) {
+    return extract(frame.left, frame.right, left_mask, std::move(left_hints));
   }
 
   // Per-level scale tables (identical for both images).

@@ -270,4 +270,71 @@ std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates
   return strongest_of_final_nodes(tree, final_nodes, std::move(last_children), n_nodes - target, candidates);
 }
 
+std::vector<int> keep_hinted_then_distribute(const std::vector<cv::KeyPoint>& candidates,
+                                             const cv::Rect2f& area, int target,
+                                             const std::vector<cv::Point2f>& hints) {
+  if (hints.empty() || candidates.empty() || target <= 0)
+    return distribute_quadtree(candidates, area, target);
+  // Candidates bucketed by cells of the hint radius: a hint looks at the
+  // 3 x 3 cells around its own.
+  const float cell = kHintRadiusPx;
+  const int n_cols = std::max(1, static_cast<int>(std::ceil(area.width / cell)) + 1);
+  const int n_rows = std::max(1, static_cast<int>(std::ceil(area.height / cell)) + 1);
+  auto cell_of = [&](const cv::Point2f& p, int& c, int& r) {
+    c = static_cast<int>(std::floor((p.x - area.x) / cell));
+    r = static_cast<int>(std::floor((p.y - area.y) / cell));
+    return c >= 0 && r >= 0 && c < n_cols && r < n_rows;
+  };
+  std::vector<int> first(static_cast<size_t>(n_cols) * n_rows, -1);
+  std::vector<int> next(candidates.size(), -1);
+  for (int i = static_cast<int>(candidates.size()) - 1; i >= 0; --i) {
+    int c = 0;
+    int r = 0;
+    if (!cell_of(candidates[i].pt, c, r)) continue;
+    next[i] = first[r * n_cols + c];
+    first[r * n_cols + c] = i;
+  }
+  const int max_kept = target / 2;
+  std::vector<char> taken(candidates.size(), 0);
+  std::vector<int> kept;
+  for (const cv::Point2f& hint : hints) {
+    if (static_cast<int>(kept.size()) >= max_kept) break;
+    int hc = 0;
+    int hr = 0;
+    cell_of(hint, hc, hr);
+    int best = -1;
+    for (int r = hr - 1; r <= hr + 1; ++r) {
+      for (int c = hc - 1; c <= hc + 1; ++c) {
+        if (r < 0 || c < 0 || r >= n_rows || c >= n_cols) continue;
+        for (int i = first[r * n_cols + c]; i >= 0; i = next[i]) {
+          if (taken[i]) continue;
+          const cv::Point2f d = candidates[i].pt - hint;
+          if (d.x * d.x + d.y * d.y > kHintRadiusPx * kHintRadiusPx) continue;
+          if (best < 0 || candidates[i].response > candidates[best].response ||
+              (candidates[i].response == candidates[best].response && i < best)) {
+            best = i;
+          }
+        }
+      }
+    }
+    if (best < 0) continue;
+    taken[best] = 1;
+    kept.push_back(best);
+  }
+  std::vector<cv::KeyPoint> rest;
+  std::vector<int> rest_index;
+  rest.reserve(candidates.size() - kept.size());
+  for (int i = 0; i < static_cast<int>(candidates.size()); ++i) {
+    if (taken[i]) continue;
+    rest.push_back(candidates[i]);
+    rest_index.push_back(i);
+  }
+  std::vector<int> picked = kept;
+  for (const int j : distribute_quadtree(rest, area, target - static_cast<int>(kept.size()))) {
+    picked.push_back(rest_index[j]);
+  }
+  std::sort(picked.begin(), picked.end());
+  return picked;
+}
+
 }  // namespace sitepose::features::detail

@@ -42,4 +42,14 @@ std::vector<std::vector<cv::KeyPoint>> detect_fast_per_cell(const cv::Mat& level
 std::vector<int> distribute_quadtree(const std::vector<cv::KeyPoint>& candidates, const cv::Rect2f& area,
                                      int target);
 
+// First, for each hint (level pixels, in order), the strongest candidate
+// within kHintRadiusPx not taken yet, up to half of `target`; then
+// distribute_quadtree over the other candidates for the rest of `target`.
+// Returns indices into `candidates`, sorted. Without hints it is
+// distribute_quadtree.
+inline constexpr float kHintRadiusPx = 2.0f;
+std::vector<int> keep_hinted_then_distribute(const std::vector<cv::KeyPoint>& candidates,
+                                             const cv::Rect2f& area, int target,
+                                             const std::vector<cv::Point2f>& hints);
+
 }  // namespace sitepose::features::detail

@@ -115,6 +115,59 @@ TEST(Quadtree, StrongestPerNodeAndAllWhenFew) {
   EXPECT_TRUE(distribute_quadtree(same, cv::Rect2f(0, 0, 10, 10), 0).empty());
 }
 
+// A 20 x 20 lattice of candidates 2.5 px apart with responses that vary
+// from point to point.
+std::vector<cv::KeyPoint> lattice() {
+  std::vector<cv::KeyPoint> out;
+  for (int i = 0; i < 400; ++i) {
+    out.push_back(candidate(10.0f + (i % 20) * 2.5f, 10.0f + (i / 20) * 2.5f, float((i * 37) % 101)));
+  }
+  return out;
+}
+
+TEST(HintedSelection, WithoutHintsItIsTheQuadtree) {
+  const auto candidates = lattice();
+  const cv::Rect2f area(0, 0, 70, 70);
+  EXPECT_EQ(keep_hinted_then_distribute(candidates, area, 25, {}), distribute_quadtree(candidates, area, 25));
+}
+
+TEST(HintedSelection, KeepsTheCandidateAtEachHintThenSpreadsTheRest) {
+  const auto candidates = lattice();
+  const cv::Rect2f area(0, 0, 70, 70);
+  const std::vector<int> plain = distribute_quadtree(candidates, area, 20);
+  // Hint at candidates the spread did not pick, 0.3 px off each way (the
+  // lattice neighbours are then more than the 2-px radius away).
+  std::vector<int> wanted;
+  std::vector<cv::Point2f> hints;
+  for (int i = 0; i < static_cast<int>(candidates.size()) && wanted.size() < 5; i += 41) {
+    if (std::binary_search(plain.begin(), plain.end(), i)) continue;
+    wanted.push_back(i);
+    hints.push_back(candidates[i].pt + cv::Point2f(0.3f, 0.3f));
+  }
+  ASSERT_EQ(wanted.size(), 5u);
+  const std::vector<int> picked = keep_hinted_then_distribute(candidates, area, 20, hints);
+  EXPECT_EQ(picked.size(), 20u);
+  EXPECT_TRUE(std::is_sorted(picked.begin(), picked.end()));
+  EXPECT_EQ(std::set<int>(picked.begin(), picked.end()).size(), picked.size());
+  for (const int i : wanted) EXPECT_TRUE(std::binary_search(picked.begin(), picked.end(), i)) << i;
+  // A hint with no candidate within the radius keeps nothing.
+  const std::vector<int> far = keep_hinted_then_distribute(candidates, area, 20, {cv::Point2f(65.0f, 65.0f)});
+  EXPECT_EQ(far, plain);
+}
+
+TEST(HintedSelection, HintsTakeAtMostHalfTheBudget) {
+  const auto candidates = lattice();
+  std::vector<cv::Point2f> hints;
+  for (const auto& kp : candidates) hints.push_back(kp.pt);  // a hint at every candidate
+  const std::vector<int> picked =
+      keep_hinted_then_distribute(candidates, cv::Rect2f(0, 0, 70, 70), 30, hints);
+  EXPECT_EQ(picked.size(), 30u);
+  // The first 15 hints are kept (in hint order); the spread adds 15 more.
+  int first_fifteen = 0;
+  for (int i = 0; i < 15; ++i) first_fifteen += std::binary_search(picked.begin(), picked.end(), i) ? 1 : 0;
+  EXPECT_EQ(first_fifteen, 15);
+}
+
 TEST(Parabola, VertexAndDegenerateCases) {
   EXPECT_NEAR(*parabola_vertex_offset(4.0, 1.0, 4.0), 0.0, 1e-12);
   // Samples of (x - 0.3)^2 at -1, 0, 1.
