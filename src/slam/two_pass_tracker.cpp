@@ -19,7 +19,8 @@ TwoPassTracker::TwoPassTracker(tracking::Tracker& tracker, const StereoCamera& c
       trace_(trace),
       classifier_(camera, config.dynamic, fps, config.orb.scale_factor, config.orb.n_levels) {}
 
-Expected<FrameReport> TwoPassTracker::process(const StereoFrame& frame, const dynamic::FrameObjects& objects) {
+Expected<FrameReport> TwoPassTracker::process(const StereoFrame& frame,
+                                              const dynamic::FrameObjects& objects) {
   const auto start = SteadyClock::now();
   FrameReport report;
   report.dynamic_layer = true;
@@ -67,7 +68,8 @@ Expected<dynamic::MaskResult> TwoPassTracker::build_mask(const StereoFrame& fram
                                                          const dynamic::FrameObjects& objects,
                                                          FrameReport& report) const {
   const auto start = SteadyClock::now();
-  SITEPOSE_TRY(dynamic::MaskResult mask, dynamic::build_mask(config_.mode, objects, frame.left.size(), config_));
+  SITEPOSE_TRY(dynamic::MaskResult mask,
+               dynamic::build_mask(config_.mode, objects, frame.left.size(), config_));
   report.timings.mask_ms = ms_since(start);
   report.timings.segment_ms = mask.segment_ms;
   report.mar = mask.mar;
@@ -97,9 +99,9 @@ TwoPassTracker::Passes TwoPassTracker::track_pass1(const tracking::PreparedFrame
 dynamic::ObjectFeatures TwoPassTracker::classify(const tracking::PreparedFrame& prepared,
                                                  const dynamic::MaskResult& mask,
                                                  const tracking::PassResult& pass1, FrameReport& report) {
-  dynamic::ObjectFeatures current =
-      dynamic::make_object_features(prepared, mask.dynamic_boxes, pass1.T_cam_world.inverse(),
-                                    pass1.covariance_world_cam, pass1.variance_factor, classifier_.max_depth_m());
+  dynamic::ObjectFeatures current = dynamic::make_object_features(
+      prepared, mask.dynamic_boxes, pass1.T_cam_world.inverse(), pass1.covariance_world_cam,
+      pass1.variance_factor, classifier_.max_depth_m());
   report.objects = classifier_.classify(current);
   return current;
 }
@@ -119,8 +121,9 @@ dynamic::InstanceSet TwoPassTracker::check_against_map(const tracking::PreparedF
   return static_objects;
 }
 
-void TwoPassTracker::track_pass2(const tracking::PreparedFrame& prepared, const dynamic::InstanceSet& static_objects,
-                                 Passes& passes, FrameReport& report) const {
+void TwoPassTracker::track_pass2(const tracking::PreparedFrame& prepared,
+                                 const dynamic::InstanceSet& static_objects, Passes& passes,
+                                 FrameReport& report) const {
   passes.static_objects = static_objects.size();
   if (static_objects.empty()) return;
   const auto start = SteadyClock::now();
@@ -140,7 +143,8 @@ void TwoPassTracker::track_pass2(const tracking::PreparedFrame& prepared, const 
   report.timings.pass2_ms = ms_since(start);
 }
 
-void TwoPassTracker::commit(const tracking::PreparedFrame& prepared, const Passes& passes, FrameReport& report) {
+void TwoPassTracker::commit(const tracking::PreparedFrame& prepared, const Passes& passes,
+                            FrameReport& report) {
   report.pose = tracker_.commit(prepared, passes.final_pass(), passes.final_usable());
   report.pose.counters.features_used_pass1 = passes.pass1.n_inliers;
   report.pose.counters.features_used = passes.final_pass().n_inliers;
@@ -149,8 +153,8 @@ void TwoPassTracker::commit(const tracking::PreparedFrame& prepared, const Passe
 }
 
 void TwoPassTracker::remember(const tracking::PreparedFrame& prepared, const dynamic::MaskResult& mask,
-                              const tracking::PassResult& final_pass, std::optional<dynamic::ObjectFeatures> current,
-                              const PoseEstimate& pose) {
+                              const tracking::PassResult& final_pass,
+                              std::optional<dynamic::ObjectFeatures> current, const PoseEstimate& pose) {
   if (pose.state == TrackingState::kLost) return;
   if (!current) {
     current = dynamic::make_object_features(prepared, mask.dynamic_boxes, pose.T_world_cam, pose.covariance,

@@ -120,23 +120,7 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
   out.seq = frame.seq;
   out.t_ns = frame.t_ns();
   // The background gets the full budget, the masked area a share of its own.
-  std::vector<features::CornerHint> hints;
-  if (config_.tracking.keep_tracked_corners && has_last_ && state_ != TrackingState::kLost &&
-      !last_matches_.empty()) {
-    const SE3 predicted = has_velocity_ ? velocity_ * last_T_cam_world_ : last_T_cam_world_;
-    map_.read([&](const map::MapData& map) {
-      for (const auto& [pid, octave] : last_matches_) {
-        const map::MapPoint* p = map.good_point(pid);
-        if (p == nullptr) continue;
-        const Eigen::Vector3d p_cam = predicted * p->p_world;
-        if (p_cam.z() <= 0.0) continue;
-        const Eigen::Vector2d uv = camera_.project(p_cam);
-        if (!camera_.in_image(uv)) continue;
-        hints.push_back({cv::Point2f(float(uv.x()), float(uv.y())), octave});
-      }
-    });
-  }
-  SITEPOSE_TRY(out.features, extractor_.extract(frame, extraction_mask, std::move(hints)));
+  SITEPOSE_TRY(out.features, extractor_.extract(frame, extraction_mask, corner_hints()));
   out.timings.extract_left_ms = out.features.timings.extract_left_ms;
   out.timings.extract_right_ms = out.features.timings.extract_right_ms;
   out.timings.stereo_match_ms = out.features.timings.stereo_match_ms;
@@ -144,6 +128,28 @@ Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat
   out.grid = map::KeypointGrid(camera_.width, camera_.height, out.uv_px, out.octave);
   out.timings.total_ms = ms_since(start);
   return out;
+}
+
+SE3 Tracker::predicted_T_cam_world() const {
+  return has_velocity_ ? velocity_ * last_T_cam_world_ : last_T_cam_world_;
+}
+
+std::vector<features::CornerHint> Tracker::corner_hints() const {
+  std::vector<features::CornerHint> hints;
+  if (!config_.tracking.keep_tracked_corners || !has_last_ || state_ == TrackingState::kLost) return hints;
+  const SE3 predicted = predicted_T_cam_world();
+  map_.read([&](const map::MapData& map) {
+    for (const auto& [pid, octave] : last_matches_) {
+      const map::MapPoint* p = map.good_point(pid);
+      if (p == nullptr) continue;
+      const Eigen::Vector3d p_cam = predicted * p->p_world;
+      if (p_cam.z() <= 0.0) continue;
+      const Eigen::Vector2d uv = camera_.project(p_cam);
+      if (!camera_.in_image(uv)) continue;
+      hints.push_back({cv::Point2f(float(uv.x()), float(uv.y())), octave});
+    }
+  });
+  return hints;
 }
 
 PointView Tracker::point_view(const map::MapData& map, const map::MapPoint& point) const {
@@ -320,7 +326,7 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     result.relocalised = anchor->relocalised;
     tracked = true;
   } else if (has_last_ && state_ != TrackingState::kLost) {
-    const SE3 predicted = has_velocity_ ? velocity_ * last_T_cam_world_ : last_T_cam_world_;
+    const SE3 predicted = predicted_T_cam_world();
     tracked = track_motion_model(frame, usable, predicted, result);
     // Too few of the last frame's points re-found (e.g. a machine passing
     // close hides most of them): the reference keyframe's map from the

@@ -22,12 +22,12 @@
 namespace sitepose::dynamic {
 
 struct MaskResult {
-  cv::Mat instance_labels;            // CV_16UC1, 0 = unmasked; empty for mode none
+  cv::Mat instance_labels;               // CV_16UC1, 0 = unmasked; empty for mode none
   std::vector<ObjectBox> dynamic_boxes;  // boxes of a-priori dynamic classes, clipped
-  double mar = 0.0;                   // union of dynamic boxes / image area (Algorithm 1)
-  double masked_ratio = 0.0;          // pixels actually masked / image area
-  bool pixel_mask_used = false;       // the segmenter was called this frame
-  double segment_ms = 0.0;            // wall time of that call (the detector's work)
+  double mar = 0.0;                      // union of dynamic boxes / image area (Algorithm 1)
+  double masked_ratio = 0.0;             // pixels actually masked / image area
+  bool pixel_mask_used = false;          // the segmenter was called this frame
+  double segment_ms = 0.0;               // wall time of that call (the detector's work)
 };
 
 // True when `class_name` is in the a-priori dynamic classes (exact, case-
@@ -60,8 +60,8 @@ bool wants_pixel_mask(config::MaskingMode mode, double mar, const config::Dynami
 // Errors: kUnsupported when a pixel mask is needed and `objects.segment` is
 // empty; the segmenter's own error; kInvalidArgument when it returns an
 // image of the wrong type or size.
-Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& objects,
-                                cv::Size image_size, const config::DynamicConfig& config);
+Expected<MaskResult> build_mask(config::MaskingMode mode, const FrameObjects& objects, cv::Size image_size,
+                                const config::DynamicConfig& config);
 
 // The tracker's extraction mask for `mask` (Tracker::prepare): nonzero where
 // an object is masked; empty when the mode masks nothing.

@@ -5,18 +5,22 @@
 // Pipeline per pyramid level: FAST at the initial threshold, and at the
 // minimum threshold in grid cells left without candidates (the ini -> min
 // fallback); candidates whose level-0 pixel is masked are dropped before
-// that judgement -> quadtree selection of the level's budget,
+// that judgement -> the candidates nearest the caller's hints, if any
+// (CornerHint) -> quadtree selection of the rest of the level's budget,
 // strongest candidate per node -> orientation by intensity centroid ->
 // steered BRIEF (OpenCV's ORB descriptor on the Gaussian-blurred level).
+// With extract_both_sides the masked area is a second side with a budget of
+// its own, judged on its own candidates from the same FAST pass.
 //
 // Coordinates: keypoints are returned in level-0 pixels (x right, y down,
 // pixel centres at integers), with octave = pyramid level, angle in degrees
 // [0, 360) in image axes, response = FAST score, size = 31 * level scale.
 // Threads: with a TaskPool, the levels' FAST and their descriptors run as
 // one job per level on the pool (the result does not depend on it; the
-// budget carried from level to level is settled in order in between).
-// One extract() at a time per instance (it owns OpenCV state); separate
-// instances are independent (StereoExtractor runs two at once).
+// budget carried from level to level is settled in order in between); a
+// caller can also run the steps itself (begin ... finish). One extraction
+// at a time per instance (it owns OpenCV state); separate instances are
+// independent (StereoExtractor runs two at once).
 
 #include <functional>
 #include <opencv2/core.hpp>
@@ -80,9 +84,6 @@ struct CornerHint {
 // One extraction in progress, for OrbExtractor's steps (see
 // OrbExtractor::begin). Only the extractor that began it reads or writes it.
 class OrbExtraction {
- public:
-  int n_levels() const { return static_cast<int>(budgets_.empty() ? 0 : budgets_[0].size()); }
-
  private:
   friend class OrbExtractor;
   cv::Mat image_;

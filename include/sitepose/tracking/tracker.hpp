@@ -174,6 +174,12 @@ class Tracker {
   bool update_state(const PassResult& result, bool precise, bool confirmed);
   std::string state_reason(const PassResult& result) const;  // empty when OK
   bool initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable);
+  // The motion model's pose for the next frame (the last pose without a
+  // velocity).
+  SE3 predicted_T_cam_world() const;
+  // Where the points the last frame matched should be in the next one
+  // (tracking.keep_tracked_corners; empty when off or lost).
+  std::vector<features::CornerHint> corner_hints() const;
   bool need_keyframe(const PreparedFrame& frame, const PassResult& result,
                      const std::vector<std::uint8_t>& usable) const;
   void remember_centre(std::int64_t t_ns, const Eigen::Vector3d& centre_world);

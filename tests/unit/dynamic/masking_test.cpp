@@ -90,8 +90,9 @@ TEST(Masking, TimesTheDetectorsSegmentationApart) {
 TEST(Masking, NonDynamicClassesAreNotMaskedAndBboxNeverSegments) {
   CountingSegmenter seg;
   seg.mask = cv::Mat::zeros(kImage, CV_16UC1);
-  FrameObjects objects{{{1, "cone", 1.0, cv::Rect(0, 0, 100, 50)}, {2, "roller", 1.0, cv::Rect(0, 0, 80, 50)}},
-                       seg.segmenter()};
+  FrameObjects objects{
+      {{1, "cone", 1.0, cv::Rect(0, 0, 100, 50)}, {2, "roller", 1.0, cv::Rect(0, 0, 80, 50)}},
+      seg.segmenter()};
   auto r = build_mask(config::MaskingMode::kBbox, objects, kImage, default_config());
   ASSERT_TRUE(r);
   EXPECT_EQ(seg.calls, 0);
