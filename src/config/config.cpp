@@ -93,6 +93,7 @@ Section<TrackingConfig> tracking_section() {
       .key("keyframe_new_close_points", &T::keyframe_new_close_points, non_negative())
       .key("trust_established_map", &T::trust_established_map)
       .key("keep_tracked_corners", &T::keep_tracked_corners)
+      .key("keyframe_travel_depth_share", &T::keyframe_travel_depth_share, non_negative(), at_most(1.0))
       .check([](const ReadKeys& keys, const T& tracking) {
         if (keys.valid("min_inliers_recovering") &&
             tracking.min_inliers_recovering > tracking.min_inliers_ok) {

@@ -115,8 +115,17 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   const bool c1 =
       long_since_keyframe || mapper_idle || result.n_inliers < 0.25 * reference_matches || need_close;
   const bool background_thinning = background_inliers < ratio * reference_background_matches;
-  const bool c2 = (result.n_inliers < ratio * reference_matches || background_thinning || need_close) &&
-                  result.n_inliers > 15;
+  // The view changed by travel, whether or not points were lost (a tracker
+  // that keeps its points would otherwise make too few keyframes).
+  const double travel_share = config_.tracking.keyframe_travel_depth_share;
+  bool travelled = false;
+  if (travel_share > 0.0 && T_world_reference) {
+    const SE3 T_reference_cam = T_world_reference->inverse() * result.T_cam_world.inverse();
+    travelled = T_reference_cam.translation().norm() > travel_share * median_stereo_depth_m(frame);
+  }
+  const bool c2 =
+      (result.n_inliers < ratio * reference_matches || background_thinning || need_close || travelled) &&
+      result.n_inliers > 15;
   if (!(c1 && c2)) return false;
   // Tracked points fell while the camera stands where its reference keyframe
   // stood: something hides the view (a machine passing close). A keyframe

@@ -73,6 +73,10 @@ struct TrackingConfig {
   // their predicted projections (features::CornerHint), before spreading
   // the rest of the budget (docs/tracking/extraction.md).
   bool keep_tracked_corners = false;
+  // A keyframe also when the camera is this share of the frame's median
+  // stereo depth away from its reference keyframe; 0 = off (the ORB-SLAM2
+  // rules alone). keep_tracked_corners wants it (docs/tracking/extraction.md).
+  double keyframe_travel_depth_share = 0.0;
 
   bool operator==(const TrackingConfig&) const = default;
 };

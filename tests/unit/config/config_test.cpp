@@ -145,6 +145,10 @@ TEST(Config, OutOfRangeIsNamed) {
             "t.yaml:2: tracking.min_inliers_ok = -3: must be >= 10");
   EXPECT_EQ(load_error("dynamic: {tau_mar: 1.5}\n"), "t.yaml:1: dynamic.tau_mar = 1.5: must be in [0, 1]");
   EXPECT_EQ(load_error("orb: {scale_factor: 1.0}\n"), "t.yaml:1: orb.scale_factor = 1.0: must be > 1");
+  EXPECT_EQ(load_error("tracking: {keyframe_travel_depth_share: 1.5}\n"),
+            "t.yaml:1: tracking.keyframe_travel_depth_share = 1.5: must be <= 1");
+  EXPECT_EQ(load_error("tracking: {keyframe_travel_depth_share: -0.1}\n"),
+            "t.yaml:1: tracking.keyframe_travel_depth_share = -0.1: must be >= 0");
 }
 
 TEST(Config, BadEnumNamesTheChoices) {
