@@ -42,6 +42,34 @@ bool same_viewpoint(const SE3& T_world_reference, const SE3& T_cam_world, double
          rotation_angle_rad(T_reference_cam.rotation()) < kSameViewpointRad;
 }
 
+// The camera is more than `depth_share` of the frame's median stereo depth
+// from its reference keyframe (false when depth_share is 0).
+bool travelled_from(const SE3& T_world_reference, const SE3& T_cam_world, const PreparedFrame& frame,
+                    double depth_share) {
+  if (depth_share <= 0.0) return false;
+  const SE3 T_reference_cam = T_world_reference.inverse() * T_cam_world.inverse();
+  return T_reference_cam.translation().norm() > depth_share * median_stereo_depth_m(frame);
+}
+
+// Close points (reliable stereo depth): tracked vs could-be-created. Only
+// usable keypoints count: masked ones can never become map points.
+std::pair<int, int> count_close_points(const PreparedFrame& frame, const PassResult& result,
+                                       const std::vector<std::uint8_t>& usable, double close_depth_m) {
+  int tracked = 0;
+  int untracked = 0;
+  for (int k = 0; k < frame.size(); ++k) {
+    if (!usable[k]) continue;
+    const double depth = frame.features.depth_m[k];
+    if (depth <= 0.0 || depth >= close_depth_m) continue;
+    if (result.point_of_keypoint[k] != map::kNoPoint) {
+      ++tracked;
+    } else {
+      ++untracked;
+    }
+  }
+  return {tracked, untracked};
+}
+
 }  // namespace
 
 bool Tracker::initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable) {
@@ -88,21 +116,8 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   for (int k = 0; k < frame.size(); ++k) {
     if (frame.instance[k] == 0 && result.point_of_keypoint[k] != map::kNoPoint) ++background_inliers;
   }
-  // Close points (reliable stereo depth): tracked vs could-be-created. Only
-  // usable keypoints count: masked ones can never become map points.
-  const double close_depth_m = config_.tracking.close_depth_baselines * camera_.baseline_m;
-  int tracked_close = 0;
-  int untracked_close = 0;
-  for (int k = 0; k < frame.size(); ++k) {
-    if (!usable[k]) continue;
-    const double depth = frame.features.depth_m[k];
-    if (depth <= 0.0 || depth >= close_depth_m) continue;
-    if (result.point_of_keypoint[k] != map::kNoPoint) {
-      ++tracked_close;
-    } else {
-      ++untracked_close;
-    }
-  }
+  const auto [tracked_close, untracked_close] =
+      count_close_points(frame, result, usable, config_.tracking.close_depth_baselines * camera_.baseline_m);
   const bool need_close = tracked_close < config_.tracking.keyframe_min_close_points &&
                           untracked_close > config_.tracking.keyframe_new_close_points;
   const std::int64_t interval_ns =
@@ -117,12 +132,8 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   const bool background_thinning = background_inliers < ratio * reference_background_matches;
   // The view changed by travel, whether or not points were lost (a tracker
   // that keeps its points would otherwise make too few keyframes).
-  const double travel_share = config_.tracking.keyframe_travel_depth_share;
-  bool travelled = false;
-  if (travel_share > 0.0 && T_world_reference) {
-    const SE3 T_reference_cam = T_world_reference->inverse() * result.T_cam_world.inverse();
-    travelled = T_reference_cam.translation().norm() > travel_share * median_stereo_depth_m(frame);
-  }
+  const bool travelled = T_world_reference && travelled_from(*T_world_reference, result.T_cam_world, frame,
+                                                             config_.tracking.keyframe_travel_depth_share);
   const bool c2 =
       (result.n_inliers < ratio * reference_matches || background_thinning || need_close || travelled) &&
       result.n_inliers > 15;
