@@ -50,8 +50,8 @@ std::vector<int> level_budgets(int n_features, double scale_factor, int n_levels
 }  // namespace
 
 Status validate(const config::OrbConfig& c) {
-  if (c.n_features < 1 || c.n_features > 100000) {
-    return invalid("n_features", c.n_features, "must be in [1, 100000]");
+  if (c.n_features < 1 || c.n_features > kMaxFeatures) {
+    return invalid("n_features", c.n_features, fmt::format("must be in [1, {}]", kMaxFeatures));
   }
   if (!(c.scale_factor > 1.0 && c.scale_factor <= 2.0)) {
     return invalid("scale_factor", c.scale_factor, "must be in (1, 2]");
@@ -260,10 +260,10 @@ Expected<std::vector<OrbFeatures>> OrbExtractor::extract_sides(const cv::Mat& im
 Expected<OrbExtraction> OrbExtractor::begin(const cv::Mat& image, const cv::Mat& mask, int inside_features,
                                             std::vector<CornerHint> hints) const {
   SITEPOSE_TRY_STATUS(check_extract_inputs(image, mask));
-  if (inside_features < 0 || inside_features > 100000) {
-    return make_error(
-        ErrorCode::kInvalidArgument,
-        fmt::format("ORB extraction: inside_features = {}: must be in [0, 100000]", inside_features));
+  if (inside_features < 0 || inside_features > kMaxFeatures) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      fmt::format("ORB extraction: inside_features = {}: must be in [0, {}]", inside_features,
+                                  kMaxFeatures));
   }
   OrbExtraction x;
   x.image_ = image;

@@ -10,8 +10,6 @@
 namespace sitepose::features {
 namespace {
 
-constexpr int kMaxFeatures = 100000;  // validate(OrbConfig)'s bound
-
 // Appends b's keypoints and descriptor rows to a's.
 void append(OrbFeatures& a, const OrbFeatures& b) {
   if (b.keypoints.empty()) return;

@@ -40,6 +40,8 @@ inline constexpr int kEdgeMarginPx = 16;
 // Intensity-centroid patch radius (ORB paper: patch size 31).
 inline constexpr int kOrientationRadiusPx = 15;
 inline constexpr int kPatchSizePx = 2 * kOrientationRadiusPx + 1;
+// The most features one extraction (or the masked area's share) may ask for.
+inline constexpr int kMaxFeatures = 100000;
 
 // The levels of one image. Level 0 shares the input image's pixels.
 struct ImagePyramid {
