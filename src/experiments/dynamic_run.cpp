@@ -18,6 +18,10 @@ double DynamicRunResult::ate_m() const {
   return evaluation ? evaluation->ate_m.rmse : std::numeric_limits<double>::quiet_NaN();
 }
 
+double DynamicRunResult::ate_max_m() const {
+  return evaluation ? evaluation->ate_m.max : std::numeric_limits<double>::quiet_NaN();
+}
+
 Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const config::SiteposeConfig& config,
                                        const DynamicRunOptions& options) {
   slam::SlamOptions slam_options;

@@ -45,64 +45,60 @@ void write_meta(ByteWriter& out, const map::MapData& map, const MapFileMeta& met
   end_section(out, at);
 }
 
-void write_keyframes(ByteWriter& out, const std::vector<const map::KeyFrame*>& keyframes) {
-  const std::size_t at = begin_section(out, kKeyFramesTag);
-  out.u64(keyframes.size());
-  for (const map::KeyFrame* kf : keyframes) {
-    out.i64(kf->id);
-    out.i64(kf->frame_seq);
-    out.i64(kf->t_ns);
-    out.pose(kf->T_world_cam);
-    out.i64(kf->parent);
-    out.u64(kf->keypoints.size());
-    for (const map::KeyPointData& kp : kf->keypoints) {
-      out.f64(kp.uv_px.x());
-      out.f64(kp.uv_px.y());
-      out.u8(static_cast<std::uint8_t>(kp.octave));
-      out.f64(kp.u_right_px);
-      out.f64(kp.depth_m);
-      out.raw(kp.descriptor);
-      out.u16(kp.instance);
-    }
-  }
+// A section of records (map_decode.cpp's read_records): their count, then
+// each record as `write_one` writes it.
+template <typename Record>
+void write_records(ByteWriter& out, std::uint32_t tag, const std::vector<const Record*>& records,
+                   void (*write_one)(ByteWriter&, const Record&)) {
+  const std::size_t at = begin_section(out, tag);
+  out.u64(records.size());
+  for (const Record* record : records) write_one(out, *record);
   end_section(out, at);
 }
 
-void write_points(ByteWriter& out, const std::vector<const map::MapPoint*>& points) {
-  const std::size_t at = begin_section(out, kPointsTag);
-  out.u64(points.size());
-  for (const map::MapPoint* p : points) {
-    out.i64(p->id);
-    out.vec3(p->p_world);
-    out.raw(p->descriptor);
-    out.vec3(p->normal);
-    out.f64(p->min_distance_m);
-    out.f64(p->max_distance_m);
-    out.i64(p->reference_keyframe);
-    out.i64(p->first_keyframe);
-    out.i32(p->n_visible);
-    out.i32(p->n_found);
-    out.u64(p->observations.size());
-    for (const auto& [kf, index] : p->observations) {
-      out.i64(kf);
-      out.i32(index);
-    }
+void write_keyframe(ByteWriter& out, const map::KeyFrame& kf) {
+  out.i64(kf.id);
+  out.i64(kf.frame_seq);
+  out.i64(kf.t_ns);
+  out.pose(kf.T_world_cam);
+  out.i64(kf.parent);
+  out.u64(kf.keypoints.size());
+  for (const map::KeyPointData& kp : kf.keypoints) {
+    out.f64(kp.uv_px.x());
+    out.f64(kp.uv_px.y());
+    out.u8(static_cast<std::uint8_t>(kp.octave));
+    out.f64(kp.u_right_px);
+    out.f64(kp.depth_m);
+    out.raw(kp.descriptor);
+    out.u16(kp.instance);
   }
-  end_section(out, at);
 }
 
-void write_covisibility(ByteWriter& out, const std::vector<const map::KeyFrame*>& keyframes) {
-  const std::size_t at = begin_section(out, kCovisibilityTag);
-  out.u64(keyframes.size());
-  for (const map::KeyFrame* kf : keyframes) {
-    out.i64(kf->id);
-    out.u64(kf->covisibility.size());
-    for (const auto& [other, weight] : kf->covisibility) {
-      out.i64(other);
-      out.i32(weight);
-    }
+void write_point(ByteWriter& out, const map::MapPoint& p) {
+  out.i64(p.id);
+  out.vec3(p.p_world);
+  out.raw(p.descriptor);
+  out.vec3(p.normal);
+  out.f64(p.min_distance_m);
+  out.f64(p.max_distance_m);
+  out.i64(p.reference_keyframe);
+  out.i64(p.first_keyframe);
+  out.i32(p.n_visible);
+  out.i32(p.n_found);
+  out.u64(p.observations.size());
+  for (const auto& [kf, index] : p.observations) {
+    out.i64(kf);
+    out.i32(index);
   }
-  end_section(out, at);
+}
+
+void write_covisibility(ByteWriter& out, const map::KeyFrame& kf) {
+  out.i64(kf.id);
+  out.u64(kf.covisibility.size());
+  for (const auto& [other, weight] : kf.covisibility) {
+    out.i64(other);
+    out.i32(weight);
+  }
 }
 
 }  // namespace
@@ -114,9 +110,9 @@ std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta&
   ByteWriter out;
   out.raw(std::vector<std::uint8_t>(kHeaderBytes, 0));
   write_meta(out, map, meta);
-  write_keyframes(out, keyframes);
-  write_points(out, points);
-  write_covisibility(out, keyframes);
+  write_records(out, kKeyFramesTag, keyframes, write_keyframe);
+  write_records(out, kPointsTag, points, write_point);
+  write_records(out, kCovisibilityTag, keyframes, write_covisibility);
   write_frame_header(map_file_kind(), out.bytes());
   return std::move(out.bytes());
 }

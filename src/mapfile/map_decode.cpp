@@ -67,6 +67,12 @@ Expected<Meta> read_meta(std::span<const std::uint8_t> body) {
   return meta;
 }
 
+// Leaves the descriptor as it is when the bytes end early (in.ok() says so).
+void read_descriptor(ByteReader& in, map::Descriptor& descriptor) {
+  const auto d = in.raw(descriptor.size());
+  if (in.ok()) std::copy(d.begin(), d.end(), descriptor.begin());
+}
+
 map::KeyPointData read_keypoint(ByteReader& in) {
   map::KeyPointData kp;
   kp.uv_px.x() = in.f64();
@@ -74,53 +80,49 @@ map::KeyPointData read_keypoint(ByteReader& in) {
   kp.octave = in.u8();
   kp.u_right_px = in.f64();
   kp.depth_m = in.f64();
-  const auto d = in.raw(kp.descriptor.size());
-  if (in.ok()) std::copy(d.begin(), d.end(), kp.descriptor.begin());
+  read_descriptor(in, kp.descriptor);
   kp.instance = in.u16();
   return kp;
 }
 
-Expected<std::vector<map::KeyFrame>> read_keyframes(std::span<const std::uint8_t> body) {
-  ByteReader in(body);
-  std::vector<map::KeyFrame> keyframes(in.count(kKeyFrameBytes));
-  for (std::size_t i = 0; i < keyframes.size() && in.ok(); ++i) {
-    map::KeyFrame& kf = keyframes[i];
-    kf.id = in.i64();
-    kf.frame_seq = in.i64();
-    kf.t_ns = in.i64();
-    kf.T_world_cam = in.pose();
-    kf.parent = in.i64();
-    kf.keypoints.resize(in.count(kKeyPointBytes));
-    for (map::KeyPointData& kp : kf.keypoints) kp = read_keypoint(in);
-  }
-  if (!in.ok()) return refuse("section KFRM ends early or holds a broken keyframe");
-  return keyframes;
+void read_keyframe(ByteReader& in, map::KeyFrame& kf) {
+  kf.id = in.i64();
+  kf.frame_seq = in.i64();
+  kf.t_ns = in.i64();
+  kf.T_world_cam = in.pose();
+  kf.parent = in.i64();
+  kf.keypoints.resize(in.count(kKeyPointBytes));
+  for (map::KeyPointData& kp : kf.keypoints) kp = read_keypoint(in);
 }
 
-Expected<std::vector<map::MapPoint>> read_points(std::span<const std::uint8_t> body) {
-  ByteReader in(body);
-  std::vector<map::MapPoint> points(in.count(kPointBytes));
-  for (std::size_t i = 0; i < points.size() && in.ok(); ++i) {
-    map::MapPoint& p = points[i];
-    p.id = in.i64();
-    p.p_world = in.vec3();
-    const auto d = in.raw(p.descriptor.size());
-    if (in.ok()) std::copy(d.begin(), d.end(), p.descriptor.begin());
-    p.normal = in.vec3();
-    p.min_distance_m = in.f64();
-    p.max_distance_m = in.f64();
-    p.reference_keyframe = in.i64();
-    p.first_keyframe = in.i64();
-    p.n_visible = in.i32();
-    p.n_found = in.i32();
-    const std::size_t n_observations = in.count(kObservationBytes);
-    for (std::size_t k = 0; k < n_observations; ++k) {
-      const map::KeyFrameId kf = in.i64();
-      p.observations[kf] = in.i32();
-    }
+void read_point(ByteReader& in, map::MapPoint& p) {
+  p.id = in.i64();
+  p.p_world = in.vec3();
+  read_descriptor(in, p.descriptor);
+  p.normal = in.vec3();
+  p.min_distance_m = in.f64();
+  p.max_distance_m = in.f64();
+  p.reference_keyframe = in.i64();
+  p.first_keyframe = in.i64();
+  p.n_visible = in.i32();
+  p.n_found = in.i32();
+  const std::size_t n_observations = in.count(kObservationBytes);
+  for (std::size_t k = 0; k < n_observations; ++k) {
+    const map::KeyFrameId kf = in.i64();
+    p.observations[kf] = in.i32();
   }
-  if (!in.ok()) return refuse("section PNTS ends early or holds a broken point");
-  return points;
+}
+
+// A section of records (map_codec.cpp's write_records): their count, then
+// each record; `refusal` says what a short or broken section is.
+template <typename Record>
+Expected<std::vector<Record>> read_records(std::span<const std::uint8_t> body, std::size_t min_record_bytes,
+                                           void (*read_one)(ByteReader&, Record&), const char* refusal) {
+  ByteReader in(body);
+  std::vector<Record> records(in.count(min_record_bytes));
+  for (std::size_t i = 0; i < records.size() && in.ok(); ++i) read_one(in, records[i]);
+  if (!in.ok()) return refuse(refusal);
+  return records;
 }
 
 Status read_covisibility(std::span<const std::uint8_t> body, std::vector<map::KeyFrame>& keyframes) {
@@ -149,8 +151,12 @@ Expected<LoadedMap> decode_map(std::span<const std::uint8_t> bytes) {
   SITEPOSE_TRY(const auto payload, check_frame(map_file_kind(), bytes, version));
   SITEPOSE_TRY(const auto sections, split_sections(payload));
   SITEPOSE_TRY(Meta meta, read_meta(sections.at(kMetaTag)));
-  SITEPOSE_TRY(std::vector<map::KeyFrame> keyframes, read_keyframes(sections.at(kKeyFramesTag)));
-  SITEPOSE_TRY(std::vector<map::MapPoint> points, read_points(sections.at(kPointsTag)));
+  SITEPOSE_TRY(std::vector<map::KeyFrame> keyframes,
+               read_records(sections.at(kKeyFramesTag), kKeyFrameBytes, read_keyframe,
+                            "section KFRM ends early or holds a broken keyframe"));
+  SITEPOSE_TRY(std::vector<map::MapPoint> points,
+               read_records(sections.at(kPointsTag), kPointBytes, read_point,
+                            "section PNTS ends early or holds a broken point"));
   SITEPOSE_TRY_STATUS(read_covisibility(sections.at(kCovisibilityTag), keyframes));
   auto restored =
       map::MapData::restore(meta.pyramid, std::move(keyframes), std::move(points), meta.first, meta.last);

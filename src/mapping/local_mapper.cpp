@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <optional>
 #include <set>
 #include <unordered_set>
 
@@ -44,6 +45,76 @@ double thread_cpu_ms() {
   timespec ts{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
   return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
+
+// What triangulation and fusion work on outside the map's lock: the
+// keyframe, the keyframes it is matched with and the scale pyramid, copied
+// under the lock; the lock is taken again only to apply the results.
+struct KeyFramesCopy {
+  KeyFrameSnapshot current;
+  std::vector<KeyFrameSnapshot> others;  // triangulation partners or fusion targets
+  map::ScalePyramid pyramid;
+};
+
+KeyFramesCopy copy_keyframes(const map::MapData& m, map::KeyFrameId keyframe,
+                             const std::vector<map::KeyFrameId>& others) {
+  KeyFramesCopy c;
+  c.pyramid = m.pyramid();
+  c.current = snapshot_keyframe(*m.keyframe(keyframe));
+  for (map::KeyFrameId id : others) c.others.push_back(snapshot_keyframe(*m.keyframe(id)));
+  return c;
+}
+
+// The keyframes fused with: the best covisible ones, the best covisible of
+// those, and with `site` (site culling) the nearest of the site.
+std::vector<map::KeyFrameId> fusion_targets(const map::MapData& m, map::KeyFrameId keyframe,
+                                            const std::optional<SiteNeighbourhood>& site) {
+  std::vector<map::KeyFrameId> targets;
+  std::set<map::KeyFrameId> seen{keyframe};
+  for (map::KeyFrameId id : m.best_covisible(keyframe, kFuseNeighbours)) {
+    if (seen.insert(id).second) targets.push_back(id);
+  }
+  const std::size_t first_ring = targets.size();
+  for (std::size_t i = 0; i < first_ring; ++i) {
+    for (map::KeyFrameId id : m.best_covisible(targets[i], kFuseSecondNeighbours)) {
+      if (seen.insert(id).second) targets.push_back(id);
+    }
+  }
+  // A place driven again: its old keyframes need not be covisible with
+  // the new one yet (after a relocalisation they are not); fusing with
+  // them joins the duplicated points, so the site rule can cull.
+  if (site) {
+    for (map::KeyFrameId id : site_neighbours(m, keyframe, *site, kFuseSiteNeighbours)) {
+      if (seen.insert(id).second) targets.push_back(id);
+    }
+  }
+  return targets;
+}
+
+// The good points of the copied keyframes, each once: the keyframe's
+// (fused into the targets) and the targets' it lacks (fused into it).
+struct FusionPoints {
+  std::vector<PointSnapshot> current;
+  std::vector<PointSnapshot> targets;
+};
+
+FusionPoints fusion_points(const map::MapData& m, const KeyFramesCopy& keyframes) {
+  FusionPoints points;
+  std::unordered_set<map::PointId> in_current;
+  for (map::PointId pid : keyframes.current.point_of_keypoint) {
+    const map::MapPoint* p = m.good_point(pid);
+    if (p != nullptr && in_current.insert(pid).second) points.current.push_back(snapshot_point(*p));
+  }
+  std::unordered_set<map::PointId> in_targets;
+  for (const KeyFrameSnapshot& target : keyframes.others) {
+    for (map::PointId pid : target.point_of_keypoint) {
+      const map::MapPoint* p = m.good_point(pid);
+      if (p != nullptr && in_current.count(pid) == 0 && in_targets.insert(pid).second) {
+        points.targets.push_back(snapshot_point(*p));
+      }
+    }
+  }
+  return points;
 }
 
 }  // namespace
@@ -268,19 +339,8 @@ void LocalMapper::cull_recent_points(map::KeyFrameId keyframe) {
 }
 
 void LocalMapper::create_new_points(map::KeyFrameId keyframe) {
-  struct Copy {
-    KeyFrameSnapshot current;
-    std::vector<KeyFrameSnapshot> neighbours;
-    map::ScalePyramid pyramid;
-  };
-  const Copy copy = map_.read([&](const map::MapData& m) {
-    Copy c;
-    c.pyramid = m.pyramid();
-    c.current = snapshot_keyframe(*m.keyframe(keyframe));
-    for (map::KeyFrameId id : m.best_covisible(keyframe, kTriangulationNeighbours)) {
-      c.neighbours.push_back(snapshot_keyframe(*m.keyframe(id)));
-    }
-    return c;
+  const KeyFramesCopy copy = map_.read([&](const map::MapData& m) {
+    return copy_keyframes(m, keyframe, m.best_covisible(keyframe, kTriangulationNeighbours));
   });
 
   struct Created {
@@ -289,10 +349,10 @@ void LocalMapper::create_new_points(map::KeyFrameId keyframe) {
   };
   std::vector<Created> created;
   std::vector<bool> used_current(copy.current.keypoints.size(), false);
-  for (std::size_t n = 0; n < copy.neighbours.size(); ++n) {
+  for (std::size_t n = 0; n < copy.others.size(); ++n) {
     // Behind the tracker: the next keyframe matters more than more points.
     if (n > 0 && !queue_empty()) break;
-    const KeyFrameSnapshot& other = copy.neighbours[n];
+    const KeyFrameSnapshot& other = copy.others[n];
     // ORB-SLAM2 stereo rule: below one stereo baseline the pair adds nothing.
     if ((other.camera_center() - copy.current.camera_center()).norm() < camera_.baseline_m) continue;
     const std::vector<KeypointMatch> matches =
@@ -329,66 +389,25 @@ void LocalMapper::create_new_points(map::KeyFrameId keyframe) {
 }
 
 void LocalMapper::fuse_neighbours(map::KeyFrameId keyframe) {
-  struct Copy {
-    KeyFrameSnapshot current;
-    std::vector<KeyFrameSnapshot> targets;
-    std::vector<PointSnapshot> current_points;  // fused into the targets
-    std::vector<PointSnapshot> target_points;   // fused into the current keyframe
-    map::ScalePyramid pyramid;
-  };
-  const Copy copy = map_.read([&](const map::MapData& m) {
-    Copy c;
-    c.pyramid = m.pyramid();
-    c.current = snapshot_keyframe(*m.keyframe(keyframe));
-    std::vector<map::KeyFrameId> target_ids;
-    std::set<map::KeyFrameId> seen{keyframe};
-    for (map::KeyFrameId id : m.best_covisible(keyframe, kFuseNeighbours)) {
-      if (seen.insert(id).second) target_ids.push_back(id);
-    }
-    const std::size_t first_ring = target_ids.size();
-    for (std::size_t i = 0; i < first_ring; ++i) {
-      for (map::KeyFrameId id : m.best_covisible(target_ids[i], kFuseSecondNeighbours)) {
-        if (seen.insert(id).second) target_ids.push_back(id);
-      }
-    }
-    // A place driven again: its old keyframes need not be covisible with
-    // the new one yet (after a relocalisation they are not); fusing with
-    // them joins the duplicated points, so the site rule can cull.
-    if (mapping_.site_culling) {
-      for (map::KeyFrameId id : site_neighbours(m, keyframe, site_neighbourhood(), kFuseSiteNeighbours)) {
-        if (seen.insert(id).second) target_ids.push_back(id);
-      }
-    }
-    std::unordered_set<map::PointId> in_current;
-    for (map::PointId pid : c.current.point_of_keypoint) {
-      const map::MapPoint* p = m.good_point(pid);
-      if (p != nullptr && in_current.insert(pid).second) c.current_points.push_back(snapshot_point(*p));
-    }
-    std::unordered_set<map::PointId> in_targets;
-    for (map::KeyFrameId id : target_ids) {
-      const map::KeyFrame* kf = m.keyframe(id);
-      c.targets.push_back(snapshot_keyframe(*kf));
-      for (map::PointId pid : kf->point_of_keypoint) {
-        const map::MapPoint* p = m.good_point(pid);
-        if (p != nullptr && in_current.count(pid) == 0 && in_targets.insert(pid).second) {
-          c.target_points.push_back(snapshot_point(*p));
-        }
-      }
-    }
+  const std::optional<SiteNeighbourhood> site =
+      mapping_.site_culling ? std::optional(site_neighbourhood()) : std::nullopt;
+  FusionPoints points;
+  const KeyFramesCopy copy = map_.read([&](const map::MapData& m) {
+    KeyFramesCopy c = copy_keyframes(m, keyframe, fusion_targets(m, keyframe, site));
+    points = fusion_points(m, c);
     return c;
   });
 
   std::vector<FuseProposal> proposals;
-  for (const KeyFrameSnapshot& target : copy.targets) {
+  for (const KeyFrameSnapshot& target : copy.others) {
     const map::KeypointGrid grid = make_keypoint_grid(camera_, target);
-    const auto found =
-        fuse_into_keyframe(camera_, copy.pyramid, target, grid, copy.current_points, fuse_params_);
+    const auto found = fuse_into_keyframe(camera_, copy.pyramid, target, grid, points.current, fuse_params_);
     proposals.insert(proposals.end(), found.begin(), found.end());
   }
   {
     const map::KeypointGrid grid = make_keypoint_grid(camera_, copy.current);
     const auto found =
-        fuse_into_keyframe(camera_, copy.pyramid, copy.current, grid, copy.target_points, fuse_params_);
+        fuse_into_keyframe(camera_, copy.pyramid, copy.current, grid, points.targets, fuse_params_);
     proposals.insert(proposals.end(), found.begin(), found.end());
   }
 

@@ -4,12 +4,12 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
 #include "sitepose/io/json_file.hpp"
+#include "sitepose/io/text_file.hpp"
 #include "sitepose/io/trajectory.hpp"
 
 namespace sitepose::sim {
@@ -26,14 +26,6 @@ std::string frame_name(int k) {
 void write_3x4(std::ostream& out, const Eigen::Matrix<double, 3, 4>& M) {
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 4; ++c) out << (r || c ? " " : "") << M(r, c);
-}
-
-Status write_text(const fs::path& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text;
-  out.close();
-  if (!out) return make_error(ErrorCode::kIoError, "cannot write " + path.string());
-  return ok_status();
 }
 
 Status write_png(const fs::path& path, const cv::Mat& img) {
@@ -120,7 +112,8 @@ std::string calib_text(const Simulator& sim) {
         << cam.cy << " 0 0 0 1 0\n";
   if (sim.distorted()) {
     const DistortionSpec& d = sim.scenario().realism.distortion;
-    for (const char* key : {"D0: ", "D1: "}) calib << key << d.k1 << " " << d.k2 << " " << d.p1 << " " << d.p2 << "\n";
+    for (const char* key : {"D0: ", "D1: "})
+      calib << key << d.k1 << " " << d.k2 << " " << d.p1 << " " << d.p2 << "\n";
   }
   return calib.str();
 }
@@ -129,7 +122,7 @@ std::string calib_text(const Simulator& sim) {
 struct FrameTables {
   std::ostringstream times, poses, boxes;
   std::ostringstream parts;  // articulated machines: one row per visible part
-  io::Trajectory truth;  // the same poses, TUM
+  io::Trajectory truth;      // the same poses, TUM
   io::Json occlusion = io::Json::array();
   io::Json machine_occlusion = io::Json::array();
   io::Json gains = io::Json::array();
@@ -204,7 +197,7 @@ std::string meta_json(const Simulator& sim, int frames, bool partial, const Fram
 }
 
 Expected<WriteSummary> write_into(const Simulator& sim, const fs::path& dir, const WriteOptions& options) {
-  SITEPOSE_TRY_STATUS(write_text(dir / "calib.txt", calib_text(sim)));
+  SITEPOSE_TRY_STATUS(io::write_text_file(dir / "calib.txt", calib_text(sim)));
   if (sim.has_articulated()) {
     std::error_code ec;
     fs::create_directories(dir / "labels" / "parts", ec);
@@ -232,12 +225,14 @@ Expected<WriteSummary> write_into(const Simulator& sim, const fs::path& dir, con
     if (options.progress) options.progress(k + 1, n);
   }
   if (summary.frames > 0) summary.mean_occlusion_ratio /= summary.frames;
-  SITEPOSE_TRY_STATUS(write_text(dir / "times.txt", tables.times.str()));
-  SITEPOSE_TRY_STATUS(write_text(dir / "poses.txt", tables.poses.str()));
+  SITEPOSE_TRY_STATUS(io::write_text_file(dir / "times.txt", tables.times.str()));
+  SITEPOSE_TRY_STATUS(io::write_text_file(dir / "poses.txt", tables.poses.str()));
   SITEPOSE_TRY_STATUS(io::write_tum_trajectory((dir / "poses_tum.txt").string(), tables.truth));
-  SITEPOSE_TRY_STATUS(write_text(dir / "labels" / "boxes.csv", tables.boxes.str()));
-  if (sim.has_articulated()) SITEPOSE_TRY_STATUS(write_text(dir / "labels" / "parts.csv", tables.parts.str()));
-  SITEPOSE_TRY_STATUS(write_text(dir / "meta.json", meta_json(sim, summary.frames, summary.partial, tables)));
+  SITEPOSE_TRY_STATUS(io::write_text_file(dir / "labels" / "boxes.csv", tables.boxes.str()));
+  if (sim.has_articulated())
+    SITEPOSE_TRY_STATUS(io::write_text_file(dir / "labels" / "parts.csv", tables.parts.str()));
+  SITEPOSE_TRY_STATUS(
+      io::write_text_file(dir / "meta.json", meta_json(sim, summary.frames, summary.partial, tables)));
   return summary;
 }
 

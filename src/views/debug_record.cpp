@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "sitepose/core/stopwatch.hpp"
+#include "sitepose/io/text_file.hpp"
 
 // frames.txt: a header line, then per frame
 //   F seq t_ns state extracted inliers_pass1 inliers used_static mar masked_ratio
@@ -85,13 +86,6 @@ void append_frame_line(std::string& out, const slam::FrameReport& r) {
   out += '\n';
 }
 
-Status write_text(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream out(path);
-  out << text;
-  if (!out.flush()) return make_error(ErrorCode::kIoError, "cannot write " + path.string());
-  return ok_status();
-}
-
 }  // namespace
 
 std::vector<std::pair<std::string, double>> stage_times(const slam::FrameTimings& t) {
@@ -122,8 +116,8 @@ Expected<std::unique_ptr<DebugRecordWriter>> DebugRecordWriter::open(const std::
       << one_word(info.mode) << "\ndetector " << one_word(info.detector) << "\nwidth " << info.width
       << "\nheight " << info.height << "\nfps " << info.fps << "\n";
   const std::filesystem::path root(dir);
-  SITEPOSE_TRY_STATUS(write_text(root / "run.txt", run.str()));
-  SITEPOSE_TRY_STATUS(write_text(root / "config.yaml", config_yaml));
+  SITEPOSE_TRY_STATUS(io::write_text_file(root / "run.txt", run.str()));
+  SITEPOSE_TRY_STATUS(io::write_text_file(root / "config.yaml", config_yaml));
   const std::string frames = (root / "frames.txt").string();
   std::FILE* file = std::fopen(frames.c_str(), "w");
   if (file == nullptr)

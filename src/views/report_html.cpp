@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <map>
 #include <set>
@@ -12,6 +11,7 @@
 
 #include "sitepose/eval/evaluate.hpp"
 #include "sitepose/io/json_file.hpp"
+#include "sitepose/io/text_file.hpp"
 #include "sitepose/views/frame_view.hpp"
 
 // Charts are drawn here as SVG text (no plotting library, no script): a page
@@ -497,9 +497,7 @@ Expected<std::string> write_report(const DebugRecord& record, const GroundTruth*
   std::filesystem::create_directories(dir, ec);
   if (ec) return make_error(ErrorCode::kIoError, "cannot create " + dir + ": " + ec.message());
   const std::string path = (std::filesystem::path(dir) / "report.html").string();
-  std::ofstream out(path);
-  out << render_report_html(record, gt, generator);
-  if (!out.flush()) return make_error(ErrorCode::kIoError, "cannot write " + path);
+  SITEPOSE_TRY_STATUS(io::write_text_file(path, render_report_html(record, gt, generator)));
   return path;
 }
 

@@ -1,9 +1,7 @@
 // `sitepose ablate masks`: the paper's Table 2 — box, hierarchical and pixel
 // masking compared by ATE, the largest masked ratio and time per frame.
 
-#include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <sstream>
 
 #include <opencv2/core.hpp>
@@ -33,7 +31,7 @@ int run(const AblationArgs& args, config::SiteposeConfig& config, const experime
     const auto stages = result->recorder.stage_summaries();
     const double mask_ms = stages.count("mask") ? stages.at("mask").mean_ms : 0.0;
     const double whole_ms = stages.count("whole_frame") ? stages.at("whole_frame").mean_ms : 0.0;
-    const double max_m = result->evaluation ? result->evaluation->ate_m.max : NAN;
+    const double max_m = result->ate_max_m();
     csv << config::to_string(mode) << ',' << result->ate_m() << ',' << max_m << ',' << result->coverage_ok()
         << ',' << result->max_masked_ratio << ',' << result->max_mar << ','
         << result->recorder.pixel_mask_calls() << ',' << result->frames << ',' << mask_ms << ',' << whole_ms
@@ -51,7 +49,7 @@ int run(const AblationArgs& args, config::SiteposeConfig& config, const experime
   }
   experiments::ChartOptions chart;
   chart.height_px = 400;
-  chart.title = "Masking on " + std::filesystem::path(source.name()).filename().string() + ": ATE RMSE (m)";
+  chart.title = "Masking on " + source_title(source) + ": ATE RMSE (m)";
   cv::Mat a = experiments::render_bar_chart(labels, ates, chart);
   chart.title = "Largest masked ratio of a frame";
   cv::Mat b = experiments::render_bar_chart(labels, masked, chart);

@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <sstream>
 
 #include "ablation_command.hpp"
@@ -61,7 +60,7 @@ int run(const Args& args) {
     const int lost_frames = static_cast<int>(
         std::count_if(result->recorder.poses().begin(), result->recorder.poses().end(),
                       [](const PoseEstimate& p) { return p.state == TrackingState::kLost; }));
-    const double max_m = result->evaluation ? result->evaluation->ate_m.max : NAN;
+    const double max_m = result->ate_max_m();
     csv << ratio << ',' << result->ate_m() << ',' << max_m << ',' << result->frames << ',' << ok << ','
         << lost_frames << ',' << result->coverage_ok() << '\n';
     std::printf("occlusion %.2f (mask %.3f of the image): ATE %.4f m (max %.4f), OK %d/%d, lost %d\n", ratio,
@@ -78,15 +77,13 @@ int run(const Args& args) {
   if (auto st = experiments::write_text(csv_path, csv.str()); !st)
     return fail(kCommand, st.error().message, 1);
   experiments::ChartOptions chart;
-  chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() +
-                ": ATE vs centred masked ratio";
+  chart.title = "Occlusion sweep on " + source_title(*source) + ": ATE vs centred masked ratio";
   chart.x_label = "occlusion ratio";
   chart.y_label = "ATE RMSE (m)";
   if (auto st = experiments::write_png(png_ate, experiments::render_line_chart({ate}, chart)); !st) {
     return fail(kCommand, st.error().message, 1);
   }
-  chart.title = "Occlusion sweep on " + std::filesystem::path(source->name()).filename().string() +
-                ": lost frames vs centred masked ratio";
+  chart.title = "Occlusion sweep on " + source_title(*source) + ": lost frames vs centred masked ratio";
   chart.y_label = "share of frames LOST";
   if (auto st = experiments::write_png(png_lost, experiments::render_line_chart({lost}, chart)); !st) {
     return fail(kCommand, st.error().message, 1);

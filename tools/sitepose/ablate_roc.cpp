@@ -8,7 +8,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <set>
 #include <sstream>
 #include <string>
@@ -117,8 +116,7 @@ int run(const AblationArgs& args, config::SiteposeConfig& config, const experime
   if (auto st = experiments::write_text(summary_path, summary.str()); !st)
     return fail(kCommand, st.error().message, 1);
   experiments::ChartOptions chart;
-  chart.title = "Motion states on " + std::filesystem::path(source.name()).filename().string() +
-                ": ROC, static = positive";
+  chart.title = "Motion states on " + source_title(source) + ": ROC, static = positive";
   chart.x_label = "false positive rate (moving called static)";
   chart.y_label = "true positive rate";
   chart.draw_diagonal = true;

@@ -2,9 +2,7 @@
 // object masked (hierarchical, one pass) vs static objects unmasked (full:
 // motion states + two passes); bbox beside them for reference.
 
-#include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <numeric>
 #include <sstream>
 
@@ -40,7 +38,7 @@ int run(const AblationArgs& args, config::SiteposeConfig& config, const experime
       f2 += p.counters.features_used;
     }
     const double n = std::max(1, result->frames);
-    const double max_m = result->evaluation ? result->evaluation->ate_m.max : NAN;
+    const double max_m = result->ate_max_m();
     csv << name << ',' << config::to_string(mode) << ',' << result->ate_m() << ',' << max_m << ','
         << result->coverage_ok() << ',' << unmasked / n << ',' << f1 / n << ',' << f2 / n << '\n';
     std::printf(
@@ -52,8 +50,7 @@ int run(const AblationArgs& args, config::SiteposeConfig& config, const experime
     ates.push_back(result->ate_m());
   }
   experiments::ChartOptions chart;
-  chart.title = "Unmasking static objects on " + std::filesystem::path(source.name()).filename().string() +
-                ": ATE RMSE (m)";
+  chart.title = "Unmasking static objects on " + source_title(source) + ": ATE RMSE (m)";
   return write_csv_and_png(kCommand, args.out_dir, "unmask", csv.str(),
                            experiments::render_bar_chart(labels, ates, chart));
 }

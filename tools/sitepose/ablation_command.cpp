@@ -35,6 +35,10 @@ Expected<AblationInputs> open_ablation_inputs(const AblationArgs& args) {
   return inputs;
 }
 
+std::string source_title(const experiments::LabelledSource& source) {
+  return std::filesystem::path(source.name()).filename().string();
+}
+
 int write_csv_and_png(const std::string& command, const std::string& out_dir, const std::string& name,
                       const std::string& csv, const cv::Mat& png) {
   const std::string csv_path = out_dir + "/" + name + ".csv";

@@ -49,6 +49,9 @@ Expected<AblationInputs> open_ablation_inputs(const AblationArgs& args);
 using AblationRun = std::function<int(const AblationArgs& args, config::SiteposeConfig& config,
                                       const experiments::LabelledSource& source)>;
 
+// The source's last path component (a sequence folder's name), for chart titles.
+std::string source_title(const experiments::LabelledSource& source);
+
 // Writes <out_dir>/<name>.csv and <out_dir>/<name>.png and prints their
 // paths; exit status 0, or 1 with the message naming `command` when a write
 // fails.

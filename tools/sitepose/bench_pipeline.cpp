@@ -32,11 +32,10 @@
 #include "command_config.hpp"
 #include "command_registry.hpp"
 #include "interrupt.hpp"
+#include "pipeline_bench.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/drivers/aravis/aravis_source.hpp"
 #include "sitepose/drivers/aravis/fake_stereo_feed.hpp"
-#include "sitepose/io/sequence.hpp"
-#include "sitepose/pipeline/detect_stage.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"
 #include "sitepose/slam/run_recorder.hpp"
@@ -107,8 +106,7 @@ class LatencyOutput final : public pipeline::PoseOutput {
   std::string name() const override { return "latency"; }
   Status publish(const pipeline::PosePacket& p) override {
     if (!p.from_stall) {
-      r_.latencies_ms.push_back(
-          std::chrono::duration<double, std::milli>(SteadyClock::now() - p.captured).count());
+      r_.latencies_ms.push_back(publish_latency_ms(p));
       if (realtime_stamps_) {
         const auto now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
                                 std::chrono::system_clock::now().time_since_epoch())
@@ -131,12 +129,9 @@ Expected<RunResult> run_once(const std::vector<StereoFrame>& frames, const Stere
                              double recorded_fps, double fps) {
   RunResult r;
   SITEPOSE_TRY(auto tracker, pipeline::SlamPoseTracker::create(camera, config, recorded_fps));
-  SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config, {sequence_dir, camera}));
-  std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
-  outputs.push_back(std::make_unique<LatencyOutput>(r, false));
-  SITEPOSE_TRY(auto p, pipeline::Pipeline::create(
-                           pipeline::PipelineOptions{}, std::make_unique<MemorySource>(frames, camera, fps),
-                           std::move(detect_hook), std::move(tracker), std::move(outputs)));
+  SITEPOSE_TRY(auto p, make_bench_pipeline(config, camera, sequence_dir,
+                                           std::make_unique<MemorySource>(frames, camera, fps),
+                                           std::move(tracker), std::make_unique<LatencyOutput>(r, false)));
   const auto t0 = SteadyClock::now();
   p->start();
   SITEPOSE_TRY_STATUS(p->wait());
@@ -181,12 +176,8 @@ Expected<RunResult> run_aravis(const std::vector<StereoFrame>& frames, const Ste
   const a::AravisSource* raw = source->get();
   RunResult r;
   SITEPOSE_TRY(auto tracker, pipeline::SlamPoseTracker::create(camera, config, recorded_fps));
-  SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config, {sequence_dir, camera}));
-  std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
-  outputs.push_back(std::make_unique<LatencyOutput>(r, true));
-  SITEPOSE_TRY(auto p,
-               pipeline::Pipeline::create(pipeline::PipelineOptions{}, std::move(*source),
-                                          std::move(detect_hook), std::move(tracker), std::move(outputs)));
+  SITEPOSE_TRY(auto p, make_bench_pipeline(config, camera, sequence_dir, std::move(*source),
+                                           std::move(tracker), std::make_unique<LatencyOutput>(r, true)));
   const auto t0 = SteadyClock::now();
   p->start();
   feed.start();
@@ -217,18 +208,12 @@ int run_bench_pipeline(const BenchPipelineArgs& a) {
   // 0 keeps OpenCV's default pool, as siteposed does. (A/B on 2 cores at
   // 30 frames/s, 600 frames: 1 thread did not lower p99 beyond the noise.)
   if (a.opencv_threads > 0) cv::setNumThreads(a.opencv_threads);
-  auto sequence = io::open_sequence(a.sequence);
+  auto sequence = load_memory_sequence(a.sequence, static_cast<std::size_t>(a.frames));
   if (!sequence) return fail(kCommand, sequence.error().message, 2);
-  const std::size_t n =
-      a.frames > 0 ? std::min<std::size_t>(a.frames, (*sequence)->size()) : (*sequence)->size();
-  std::vector<StereoFrame> frames;
-  for (std::size_t i = 0; i < n; ++i) {
-    auto f = (*sequence)->read_frame(i);
-    if (!f) return fail(kCommand, f.error().message, 2);
-    frames.push_back(std::move(*f));
-  }
-  const StereoCamera camera = config.camera.stereo ? *config.camera.stereo : (*sequence)->camera();
-  const double recorded_fps = io::mean_frame_rate_hz(**sequence, n);
+  const std::vector<StereoFrame>& frames = sequence->frames;
+  const std::size_t n = frames.size();
+  const StereoCamera camera = config.camera.stereo ? *config.camera.stereo : sequence->camera;
+  const double recorded_fps = sequence->recorded_fps;
   std::printf("sequence %s: %zu frames %dx%d, %u hardware threads, dynamic.mode %s%s\n", a.sequence.c_str(),
               n, camera.width, camera.height, std::thread::hardware_concurrency(),
               config::to_string(config.dynamic.mode),

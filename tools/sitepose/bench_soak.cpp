@@ -29,10 +29,9 @@
 #include "command_config.hpp"
 #include "command_registry.hpp"
 #include "interrupt.hpp"
+#include "pipeline_bench.hpp"
 #include "sitepose/config/config.hpp"
 #include "sitepose/experiments/charts.hpp"
-#include "sitepose/io/sequence.hpp"
-#include "sitepose/pipeline/detect_stage.hpp"
 #include "sitepose/pipeline/pipeline.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"
 #include "sitepose/slam/run_recorder.hpp"
@@ -41,7 +40,6 @@ namespace sitepose::cli {
 namespace {
 
 constexpr const char* kCommand = "bench soak";
-using pipeline::SteadyClock;
 
 struct BenchSoakArgs {
   std::string sequence;
@@ -104,7 +102,7 @@ class WindowOutput final : public pipeline::PoseOutput {
   std::string name() const override { return "soak"; }
   Status publish(const pipeline::PosePacket& p) override {
     if (p.from_stall) return ok_status();
-    const double ms = std::chrono::duration<double, std::milli>(SteadyClock::now() - p.captured).count();
+    const double ms = publish_latency_ms(p);
     std::lock_guard lock(mutex_);
     window_ms_.push_back(ms);
     ++published_;
@@ -134,34 +132,18 @@ struct Sample {
   double p99_ms = 0.0;
 };
 
-Expected<std::vector<StereoFrame>> load_frames(const std::string& dir, StereoCamera& camera, double& fps) {
-  SITEPOSE_TRY(auto sequence, io::open_sequence(dir));
-  std::vector<StereoFrame> frames;
-  for (std::size_t i = 0; i < sequence->size(); ++i) {
-    SITEPOSE_TRY(auto f, sequence->read_frame(i));
-    frames.push_back(std::move(f));
-  }
-  if (frames.empty()) return make_error(ErrorCode::kInvalidArgument, dir + ": no frames");
-  camera = sequence->camera();
-  fps = io::mean_frame_rate_hz(*sequence, frames.size());
-  return frames;
-}
-
 Expected<std::vector<Sample>> soak(const BenchSoakArgs& a, const config::SiteposeConfig& config,
                                    const std::vector<StereoFrame>& frames, const StereoCamera& camera,
                                    double fps, std::FILE* csv) {
   SITEPOSE_TRY(auto tracker, pipeline::SlamPoseTracker::create(camera, config, fps));
   const pipeline::SlamPoseTracker* slam = tracker.get();
-  SITEPOSE_TRY(auto detect_hook, pipeline::make_detect_hook(config, {a.sequence, camera}));
   auto output = std::make_unique<WindowOutput>();
   WindowOutput* window = output.get();
-  std::vector<std::unique_ptr<pipeline::PoseOutput>> outputs;
-  outputs.push_back(std::move(output));
-  SITEPOSE_TRY(auto p, pipeline::Pipeline::create(
-                           pipeline::PipelineOptions{},
+  SITEPOSE_TRY(auto p, make_bench_pipeline(
+                           config, camera, a.sequence,
                            std::make_unique<LoopingSource>(frames, camera, static_cast<std::size_t>(a.frames),
                                                            static_cast<std::size_t>(a.loop_from)),
-                           std::move(detect_hook), std::move(tracker), std::move(outputs)));
+                           std::move(tracker), std::move(output)));
   std::vector<Sample> samples;
   auto take = [&](std::size_t published) {
     const auto h = p->health();
@@ -260,23 +242,23 @@ int run_bench_soak(const BenchSoakArgs& a) {
   auto loaded = load_pipeline_config(a.settings);
   if (!loaded) return fail(kCommand, loaded.error().message, 2);
   config::SiteposeConfig& config = *loaded;
-  StereoCamera camera;
-  double fps = 0.0;
-  auto frames = load_frames(a.sequence, camera, fps);
-  if (!frames) return fail(kCommand, frames.error().message, 2);
-  if (config.camera.stereo) camera = *config.camera.stereo;
-  if (static_cast<std::size_t>(a.loop_from) >= frames->size()) {
+  auto sequence = load_memory_sequence(a.sequence, 0);
+  if (!sequence) return fail(kCommand, sequence.error().message, 2);
+  const std::vector<StereoFrame>& frames = sequence->frames;
+  if (frames.empty()) return fail(kCommand, a.sequence + ": no frames", 2);
+  const StereoCamera camera = config.camera.stereo ? *config.camera.stereo : sequence->camera;
+  if (static_cast<std::size_t>(a.loop_from) >= frames.size()) {
     return fail(kCommand,
                 "--loop-from " + std::to_string(a.loop_from) + ": the sequence has " +
-                    std::to_string(frames->size()) + " frames",
+                    std::to_string(frames.size()) + " frames",
                 2);
   }
   std::FILE* csv = std::fopen(a.csv.c_str(), "w");
   if (csv == nullptr) return fail(kCommand, a.csv + ": cannot write", 2);
   std::fprintf(csv, "frames,rss_mb,keyframes,map_points,drops,track_errors,latency_p99_ms\n");
   std::printf("soak: %d frames, looping frames %d-%zu of %s, dynamic.mode %s\n", a.frames, a.loop_from,
-              frames->size() - 1, a.sequence.c_str(), config::to_string(config.dynamic.mode));
-  auto samples = soak(a, config, *frames, camera, fps, csv);
+              frames.size() - 1, a.sequence.c_str(), config::to_string(config.dynamic.mode));
+  auto samples = soak(a, config, frames, camera, sequence->recorded_fps, csv);
   const bool written = std::ferror(csv) == 0;
   if (std::fclose(csv) != 0 || !written) return fail(kCommand, a.csv + ": write failed", 1);
   if (!samples) return fail(kCommand, samples.error().message, 1);

@@ -66,6 +66,7 @@ struct DynamicRunResult {
 
   double coverage_ok() const;  // frames OK / frames
   double ate_m() const;        // RMSE, NaN without evaluation
+  double ate_max_m() const;    // largest error, NaN without evaluation
 };
 
 Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const config::SiteposeConfig& config,

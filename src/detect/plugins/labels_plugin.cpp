@@ -54,8 +54,8 @@ class LabelsPlugin final : public PluginImpl {
     return SP_DETECTOR_CAP_TRACKS_IDS | (sequence_->has_masks() ? SP_DETECTOR_CAP_SEGMENTATION : 0u);
   }
 
-  Expected<std::vector<sp_detection>> detect(const cv::Mat& left, const cv::Mat&,
-                                             std::int64_t, std::int64_t seq) override {
+  Expected<std::vector<sp_detection>> detect(const cv::Mat& left, const cv::Mat&, std::int64_t,
+                                             std::int64_t seq) override {
     SITEPOSE_TRY_STATUS(check_frame(left, seq));
     if (options_.latency_ms > 0.0) {
       std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(options_.latency_ms));
@@ -63,9 +63,9 @@ class LabelsPlugin final : public PluginImpl {
     std::vector<sp_detection> out;
     for (const io::LabelBox& b : sequence_->boxes_for_frame(static_cast<std::size_t>(seq))) {
       if (!classes_.empty() && classes_.count(b.class_name) == 0) continue;
-      std::mt19937_64 rng(mix(mix(static_cast<std::uint64_t>(options_.seed)) ^
-                              mix(static_cast<std::uint64_t>(seq) * 65537u +
-                                  static_cast<std::uint64_t>(b.instance))));
+      std::mt19937_64 rng(
+          mix(mix(static_cast<std::uint64_t>(options_.seed)) ^
+              mix(static_cast<std::uint64_t>(seq) * 65537u + static_cast<std::uint64_t>(b.instance))));
       if (options_.miss_probability > 0.0 &&
           std::uniform_real_distribution<double>(0.0, 1.0)(rng) < options_.miss_probability) {
         continue;
@@ -104,18 +104,16 @@ class LabelsPlugin final : public PluginImpl {
  private:
   Status check_frame(const cv::Mat& left, std::int64_t seq) const {
     if (seq < 0 || static_cast<std::size_t>(seq) >= sequence_->size()) {
-      return make_error(ErrorCode::kInvalidArgument,
-                        "labels: frame " + std::to_string(seq) + " is not in " +
-                            options_.sequence_dir + " (" + std::to_string(sequence_->size()) +
-                            " frames)");
+      return make_error(ErrorCode::kInvalidArgument, "labels: frame " + std::to_string(seq) + " is not in " +
+                                                         options_.sequence_dir + " (" +
+                                                         std::to_string(sequence_->size()) + " frames)");
     }
     const StereoCamera& cam = sequence_->camera();
     if (left.cols != cam.width || left.rows != cam.height) {
       return make_error(ErrorCode::kInvalidArgument,
-                        "labels: image " + std::to_string(left.cols) + "x" +
-                            std::to_string(left.rows) + " but the labels of " +
-                            options_.sequence_dir + " are for " + std::to_string(cam.width) +
-                            "x" + std::to_string(cam.height));
+                        "labels: image " + std::to_string(left.cols) + "x" + std::to_string(left.rows) +
+                            " but the labels of " + options_.sequence_dir + " are for " +
+                            std::to_string(cam.width) + "x" + std::to_string(cam.height));
     }
     return ok_status();
   }
@@ -137,15 +135,12 @@ Expected<std::unique_ptr<PluginImpl>> make_plugin(const YAML::Node& config) {
   SITEPOSE_TRY_STATUS(reader.read("jitter_px", o.jitter_px));
   SITEPOSE_TRY_STATUS(reader.read("seed", o.seed));
   SITEPOSE_TRY_STATUS(reader.finish());
-  if (!(o.latency_ms >= 0.0)) return reader.fail("latency_ms must be >= 0");
-  if (!(o.miss_probability >= 0.0 && o.miss_probability <= 1.0)) {
-    return reader.fail("miss_probability must be in [0, 1]");
-  }
-  if (!(o.jitter_px >= 0.0)) return reader.fail("jitter_px must be >= 0");
+  SITEPOSE_TRY_STATUS(reader.require_non_negative("latency_ms", o.latency_ms));
+  SITEPOSE_TRY_STATUS(reader.require_unit_interval("miss_probability", o.miss_probability));
+  SITEPOSE_TRY_STATUS(reader.require_non_negative("jitter_px", o.jitter_px));
   SITEPOSE_TRY(auto sequence, io::open_sequence(o.sequence_dir));
   if (!sequence->has_labels()) {
-    return make_error(ErrorCode::kNotFound,
-                      "labels: " + o.sequence_dir + " has no labels/boxes.csv");
+    return make_error(ErrorCode::kNotFound, "labels: " + o.sequence_dir + " has no labels/boxes.csv");
   }
   return std::unique_ptr<PluginImpl>(new LabelsPlugin(std::move(o), std::move(sequence)));
 }

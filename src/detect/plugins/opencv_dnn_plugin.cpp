@@ -144,9 +144,7 @@ Expected<std::unique_ptr<PluginImpl>> make_plugin(const YAML::Node& config) {
   if (o.input_width_px < 1 || o.input_height_px < 1) {
     return r.fail("input_width_px and input_height_px must be >= 1");
   }
-  if (!(o.score_threshold >= 0 && o.score_threshold <= 1)) {
-    return r.fail("score_threshold must be in [0, 1]");
-  }
+  SITEPOSE_TRY_STATUS(r.require_unit_interval("score_threshold", o.score_threshold));
   if (!(o.nms_iou > 0 && o.nms_iou <= 1)) return r.fail("nms_iou must be in (0, 1]");
   for (const std::string* f : {&o.model_weights, &o.model_config}) {
     if (ends_with(*f, ".onnx")) {

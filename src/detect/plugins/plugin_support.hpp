@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include <opencv2/core.hpp>
 #include <yaml-cpp/yaml.h>
+#include <opencv2/core.hpp>
 
 #include "sitepose/core/expected.hpp"
 #include "sitepose/detect/plugin_abi.h"
@@ -25,9 +25,8 @@ class PluginImpl {
   virtual Expected<std::vector<sp_detection>> detect(const cv::Mat& left, const cv::Mat& right,
                                                      std::int64_t t_ns, std::int64_t seq) = 0;
   // mask wraps the host's zeroed CV_16UC1 buffer.
-  virtual Status segment(const cv::Mat& left, const cv::Mat& right, std::int64_t t_ns,
-                         std::int64_t seq, const std::vector<sp_detection>& detections,
-                         cv::Mat& mask) = 0;
+  virtual Status segment(const cv::Mat& left, const cv::Mat& right, std::int64_t t_ns, std::int64_t seq,
+                         const std::vector<sp_detection>& detections, cv::Mat& mask) = 0;
 };
 
 // Defined by each plugin: parses the create() config (a YAML mapping).
@@ -70,6 +69,16 @@ class OptionReader {
   }
   Unexpected fail(const std::string& what) const {
     return make_error(ErrorCode::kInvalidArgument, plugin_ + " config: " + what);
+  }
+  // Bounds of a value read (after finish(), so that a typo is named first);
+  // NaN is outside both.
+  Status require_non_negative(const std::string& key, double value) const {
+    if (value >= 0.0) return ok_status();
+    return fail(key + " must be >= 0");
+  }
+  Status require_unit_interval(const std::string& key, double value) const {
+    if (value >= 0.0 && value <= 1.0) return ok_status();
+    return fail(key + " must be in [0, 1]");
   }
 
  private:

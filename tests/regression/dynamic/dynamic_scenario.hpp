@@ -100,9 +100,8 @@ class Scenario {
         "[figures] %-9s %-12s %-8s %s ATE %.4f m  max %.4f m  coverage %.1f %%  max masked %.2f  "
         "pixel-mask calls %d  pass 2 rejected %d  re-masked by the map check %d\n",
         source_->name().c_str(), config::to_string(mode), config::to_string(classifier),
-        detector.empty() ? "labels" : detector.c_str(), f.ate_m,
-        result->evaluation ? result->evaluation->ate_m.max : NAN, 100.0 * f.coverage, f.max_masked,
-        result->recorder.pixel_mask_calls(), result->recorder.pass2_rejections(),
+        detector.empty() ? "labels" : detector.c_str(), f.ate_m, result->ate_max_m(), 100.0 * f.coverage,
+        f.max_masked, result->recorder.pixel_mask_calls(), result->recorder.pass2_rejections(),
         result->recorder.map_check_remasks());
     f.run = std::move(*result);
     return f;
