@@ -412,20 +412,6 @@ const ObjectFeatures* MotionClassifier::select_reference(const ObjectFeatures& c
   return &ring_.front();
 }
 
-bool MotionClassifier::spans_static_evidence(const ObjectFeatures& reference,
-                                             const ObjectFeatures& current) const {
-  const double gap_s = static_cast<double>(current.t_ns - reference.t_ns) * 1e-9;
-  const double parallax_m = (current.T_world_cam.translation() - reference.T_world_cam.translation()).norm();
-  // Without parallax, a machine that starts with the camera (a roller
-  // alongside, both leaving together) has moved as little as the camera:
-  // centimetres, within the stereo noise at its range. Static then needs the
-  // standing reference's span.
-  if (parallax_m < config_.min_reference_parallax_m) {
-    return gap_s >= kStandingReferenceS;
-  }
-  return gap_s >= kMinStaticEvidenceS;
-}
-
 bool MotionClassifier::is_working(std::uint16_t instance, const std::string& class_name,
                                   std::int64_t t_ns) const {
   if (!is_articulated_class(class_name)) return false;
@@ -563,7 +549,9 @@ void MotionClassifier::judge(const Pairing& pairing,
       }
     }
   }
-  const bool long_enough = pairing.ref != nullptr && spans_static_evidence(*pairing.ref, pairing.current);
+  const bool long_enough =
+      pairing.ref != nullptr &&
+      static_cast<double>(pairing.current.t_ns - pairing.ref->t_ns) * 1e-9 >= kMinStaticEvidenceS;
   const StaticEvidence static_evidence = !long_enough ? StaticEvidence::kTooShort
                                          : may_resume_work(v.instance, v.class_name, pairing.current.t_ns)
                                              ? StaticEvidence::kPaused

@@ -237,10 +237,6 @@ class MotionClassifier {
   // one more sign of motion within kWorkingMemoryS before t_ns: it may
   // resume work at any moment.
   bool may_resume_work(std::uint16_t instance, const std::string& class_name, std::int64_t t_ns) const;
-  // Whether RF..CF is long enough for a static verdict to count: the
-  // parallax reference's kMinStaticEvidenceS, or without parallax (camera
-  // standing, creeping or just started) kStandingReferenceS.
-  bool spans_static_evidence(const ObjectFeatures& reference, const ObjectFeatures& current) const;
   // What a static raw verdict is worth to the hysteresis.
   enum class StaticEvidence {
     kCounts,
