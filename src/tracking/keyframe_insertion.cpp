@@ -90,6 +90,11 @@ bool Tracker::initialise(const PreparedFrame& frame, const std::vector<std::uint
 
 bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result,
                             const std::vector<std::uint8_t>& usable) const {
+  // ORB-SLAM2 asks only after its local-map tracking held (30 inliers). A
+  // frame that barely tracked may be anywhere (a camera moved 13 m matched
+  // 17 points at its old place by chance), and its keyframe would build a
+  // map where the tracker wrongly thinks it is.
+  if (result.n_inliers < config_.tracking.min_inliers_ok) return false;
   const int queued = mapper_.queue_size ? mapper_.queue_size() : 0;
   const bool mapper_idle = mapper_.is_idle ? mapper_.is_idle() : true;
   int reference_matches = 0;

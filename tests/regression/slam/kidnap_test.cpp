@@ -52,13 +52,15 @@ struct KidnapRun {
   long database_queries = 0;
 };
 
-void run_kidnap(const std::shared_ptr<const placerec::Vocabulary>& vocabulary, KidnapRun& out) {
+void run_kidnap(const std::shared_ptr<const placerec::Vocabulary>& vocabulary, KidnapRun& out,
+                const config::TrackingConfig& tracking = {}) {
   constexpr int kDrive = 114;  // 2 s standing, then 16 m at up to 1 m/s
   constexpr int kKidnapped = 24;
   auto source = open_simulated(kScenarioDir + "/backforth.yaml", kDrive + 1, std::nullopt, kWidth, kHeight);
   ASSERT_TRUE(source.has_value()) << source.error().message;
   config::SiteposeConfig config;
   config.dynamic.mode = config::MaskingMode::kNone;
+  config.tracking = tracking;
   slam::SlamOptions options;
   options.fps = (*source)->fps();
   options.vocabulary = vocabulary;
@@ -156,6 +158,20 @@ TEST(Kidnap, RelocalisesThroughTheExactVoteWithoutAVocabulary) {
   ASSERT_NO_FATAL_FAILURE(run_kidnap(nullptr, run));
   expect_relocalised_right(run);
   EXPECT_EQ(run.database_queries, 0);
+}
+
+// Keypoints kept at the last frame's predicted matches
+// (tracking.keep_tracked_corners) must not let the old place's points hold
+// the camera there: after the jump they gave the motion-model search 17
+// chance matches, and a keyframe from that frame made a map at the old
+// place that the next 23 frames tracked OK, 13.7 m off.
+TEST(Kidnap, KeptCornersDoNotHoldTheCameraAtItsOldPlace) {
+  config::TrackingConfig tracking;
+  tracking.keep_tracked_corners = true;
+  tracking.keyframe_travel_depth_share = 0.05;
+  KidnapRun run;
+  ASSERT_NO_FATAL_FAILURE(run_kidnap(nullptr, run, tracking));
+  expect_relocalised_right(run);
 }
 
 }  // namespace
