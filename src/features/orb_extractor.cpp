@@ -297,6 +297,14 @@ void OrbExtractor::detect_level(OrbExtraction& x, int level) const {
 }
 
 void OrbExtractor::select(OrbExtraction& x) const {
+  // The hints in each level's pixels, in the caller's order (both sides
+  // look at the same ones).
+  std::vector<std::vector<cv::Point2f>> hints_of_level(static_cast<std::size_t>(config_.n_levels));
+  for (const CornerHint& hint : x.hints_) {
+    if (hint.octave < 0 || hint.octave >= config_.n_levels) continue;
+    const cv::Point2d p = x.pyramid_.from_level0(hint.octave, cv::Point2d(hint.uv_px.x, hint.uv_px.y));
+    hints_of_level[static_cast<std::size_t>(hint.octave)].emplace_back(float(p.x), float(p.y));
+  }
   // The budget depends on the levels below (unused budget of a texture-poor
   // or masked level moves to the next level): in level order, each side on
   // its own.
@@ -308,15 +316,9 @@ void OrbExtractor::select(OrbExtraction& x) const {
       if (budget <= 0) continue;
       const cv::Rect area = keypoint_area(x.pyramid_.levels[level]);
       const std::vector<cv::KeyPoint>& candidates = x.candidates_[level][side];
-      std::vector<cv::Point2f> level_hints;
-      for (const CornerHint& hint : x.hints_) {
-        if (hint.octave != level) continue;
-        const cv::Point2d p = x.pyramid_.from_level0(level, cv::Point2d(hint.uv_px.x, hint.uv_px.y));
-        level_hints.emplace_back(float(p.x), float(p.y));
-      }
       const std::vector<int> picked = detail::keep_hinted_then_distribute(
           candidates, cv::Rect2f(float(area.x), float(area.y), float(area.width), float(area.height)), budget,
-          level_hints);
+          hints_of_level[static_cast<std::size_t>(level)]);
       if (picked.empty()) continue;
       carried_budget = budget - static_cast<int>(picked.size());
       std::vector<cv::KeyPoint>& kept = x.picked_[level][side];

@@ -275,9 +275,10 @@ std::vector<int> keep_hinted_then_distribute(const std::vector<cv::KeyPoint>& ca
                                              const std::vector<cv::Point2f>& hints) {
   if (hints.empty() || candidates.empty() || target <= 0)
     return distribute_quadtree(candidates, area, target);
-  // Candidates bucketed by cells of the hint radius: a hint looks at the
-  // 3 x 3 cells around its own.
-  const float cell = kHintRadiusPx;
+  // Candidates bucketed by cells of twice the hint radius: a hint looks at
+  // the 3 x 3 cells around its own (cells of one radius would do too, at
+  // four times the cells to clear each level and frame).
+  const float cell = 2.0f * kHintRadiusPx;
   const int n_cols = std::max(1, static_cast<int>(std::ceil(area.width / cell)) + 1);
   const int n_rows = std::max(1, static_cast<int>(std::ceil(area.height / cell)) + 1);
   auto cell_of = [&](const cv::Point2f& p, int& c, int& r) {
