@@ -39,7 +39,8 @@ void print_states(const DynamicRunResult& run) {
 // "none" is the ORB-SLAM2-class core the paper compares against: without
 // tracking.trust_established_map (which alone takes crowded's none from
 // 0.0149 to 0.0063 m; docs/tracking/standing.md) and with ORB-SLAM2's
-// extraction and keyframe rules (no kept corners, no keyframes by travel;
+// extraction, stereo matching and keyframe rules (no kept corners, its
+// stereo descriptor distance of 75, no keyframes by travel;
 // docs/tracking/extraction.md), whatever the defaults become.
 void expect_full_beats_none(const std::string& scenario, int frames) {
   Scenario s(scenario, frames_from_env(frames));
@@ -49,6 +50,7 @@ void expect_full_beats_none(const std::string& scenario, int frames) {
   orbslam2_class.tracking.trust_established_map = false;
   orbslam2_class.tracking.keep_tracked_corners = false;
   orbslam2_class.tracking.keyframe_travel_depth_share = 0.0;
+  orbslam2_class.stereo.max_descriptor_distance = 75;
   const ModeFigures none = only_full ? ModeFigures{} : s.run_with(orbslam2_class, config::MaskingMode::kNone);
   const ModeFigures full = s.run(config::MaskingMode::kFull);
   print_states(full.run);
