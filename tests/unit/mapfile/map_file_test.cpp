@@ -8,6 +8,7 @@
 
 #include "map_fixture.hpp"
 #include "sitepose/mapfile/atomic_file.hpp"
+#include "sitepose/mapfile/byte_io.hpp"
 #include "sitepose/mapfile/crc32.hpp"
 #include "sitepose/testing/file_size_limit.hpp"
 #include "sitepose/testing/files.hpp"
@@ -239,6 +240,25 @@ TEST(MapFile, NonFiniteValuesAreRefused) {
   meta.anchor->height_m = inf;
   EXPECT_NE(refusal(encoded_changed_map([](map::MapData&) {}, meta)).find("the site anchor is not finite"),
             std::string::npos);
+}
+
+// Found by fuzzing (corpus/map_file/anchor_quaternion_overflow): a
+// component near 1e268 overflows the norm, and the normalised rotation
+// came out as the zero quaternion.
+TEST(MapFile, QuaternionWhoseNormOverflowsIsRefused) {
+  ByteWriter out;
+  out.pose(SE3());
+  for (const double huge : {8.25e268, 1e300, std::numeric_limits<double>::max()}) {
+    Bytes bytes = out.bytes();
+    for (int i = 0; i < 8; ++i)
+      bytes[16 + i] = static_cast<std::uint8_t>(std::bit_cast<std::uint64_t>(huge) >> (8 * i));
+    ByteReader in(bytes);
+    in.pose();
+    EXPECT_FALSE(in.ok()) << huge;
+  }
+  ByteReader fine(out.bytes());
+  EXPECT_TRUE(fine.pose().rotation().isApprox(Eigen::Quaterniond::Identity()));
+  EXPECT_TRUE(fine.ok());
 }
 
 TEST(MapFile, SaveReplacesAndLoadNamesTheFile) {
