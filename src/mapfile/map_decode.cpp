@@ -38,7 +38,17 @@ Expected<std::map<std::uint32_t, std::span<const std::uint8_t>>> split_sections(
   return sections;
 }
 
-bool finite_pose(const SE3& T) { return T.rotation().coeffs().allFinite() && T.translation().allFinite(); }
+// Far beyond any site, and near enough that differences, squares and sums
+// of coordinates (path lengths, projections) stay finite.
+constexpr double kMaxCoordinateM = 1e9;
+
+bool finite_position(const Eigen::Vector3d& p) {
+  return p.allFinite() && p.cwiseAbs().maxCoeff() <= kMaxCoordinateM;
+}
+
+bool finite_pose(const SE3& T) {
+  return T.rotation().coeffs().allFinite() && finite_position(T.translation());
+}
 
 struct Meta {
   map::ScalePyramid pyramid;
@@ -70,7 +80,7 @@ Expected<Meta> read_meta(std::span<const std::uint8_t> body) {
   }
   if (has_anchor && (!std::isfinite(anchor.latitude_deg) || !std::isfinite(anchor.longitude_deg) ||
                      !std::isfinite(anchor.height_m) || !finite_pose(anchor.T_site_slam))) {
-    return refuse("section META: the site anchor is not finite");
+    return refuse("section META: the site anchor is not finite (or beyond 1e9 m)");
   }
   return meta;
 }
@@ -152,14 +162,15 @@ Status read_covisibility(std::span<const std::uint8_t> body, std::vector<map::Ke
   return ok_status();
 }
 
-// What the sections' bounds do not catch: a NaN or infinite pose,
-// position or measurement, or a keypoint on a level the pyramid lacks,
+// What the sections' bounds do not catch: a NaN, infinite or absurdly far
+// pose or position, a NaN or infinite measurement, or a keypoint on a level
+// the pyramid lacks,
 // would pass restore() and only go wrong in the tracker or the mapper.
 Status check_values(const map::ScalePyramid& pyramid, const std::vector<map::KeyFrame>& keyframes,
                     const std::vector<map::MapPoint>& points) {
   for (const map::KeyFrame& kf : keyframes) {
     const std::string name = "keyframe " + std::to_string(kf.id);
-    if (!finite_pose(kf.T_world_cam)) return refuse(name + ": the pose is not finite");
+    if (!finite_pose(kf.T_world_cam)) return refuse(name + ": the pose is not finite (or beyond 1e9 m)");
     for (std::size_t i = 0; i < kf.keypoints.size(); ++i) {
       const map::KeyPointData& kp = kf.keypoints[i];
       if (!kp.uv_px.allFinite() || !std::isfinite(kp.u_right_px) || !std::isfinite(kp.depth_m))
@@ -171,9 +182,10 @@ Status check_values(const map::ScalePyramid& pyramid, const std::vector<map::Key
     }
   }
   for (const map::MapPoint& p : points) {
-    if (!p.p_world.allFinite() || !p.normal.allFinite() || !std::isfinite(p.min_distance_m) ||
+    if (!finite_position(p.p_world) || !p.normal.allFinite() || !std::isfinite(p.min_distance_m) ||
         !std::isfinite(p.max_distance_m))
-      return refuse("point " + std::to_string(p.id) + ": position, normal or scale range is not finite");
+      return refuse("point " + std::to_string(p.id) +
+                    ": position, normal or scale range is not finite (or beyond 1e9 m)");
   }
   return ok_status();
 }

@@ -242,6 +242,28 @@ TEST(MapFile, NonFiniteValuesAreRefused) {
             std::string::npos);
 }
 
+// Found by fuzzing (corpus/map_file/far_keyframe): a keyframe 1e236 m
+// away is finite, but the path length to it is not.
+TEST(MapFile, CoordinatesBeyondAnySiteAreRefused) {
+  EXPECT_NE(refusal(encoded_changed_map([](map::MapData& m) {
+              m.keyframe(3)->T_world_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, -1e236, 0));
+            })).find("keyframe 3: the pose is not finite (or beyond 1e9 m)"),
+            std::string::npos);
+  EXPECT_NE(refusal(encoded_changed_map([](map::MapData& m) {
+              for (auto& [id, p] : m.points()) {
+                if (!p.bad) {
+                  m.point(id)->p_world.z() = 2e9;
+                  break;
+                }
+              }
+            })).find("position, normal or scale range is not finite (or beyond 1e9 m)"),
+            std::string::npos);
+  EXPECT_EQ(refusal(encoded_changed_map([](map::MapData& m) {
+              m.keyframe(3)->T_world_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, -1e9, 0));
+            })),
+            "accepted");
+}
+
 // Found by fuzzing (corpus/map_file/anchor_quaternion_overflow): a
 // component near 1e268 overflows the norm, and the normalised rotation
 // came out as the zero quaternion.
