@@ -72,7 +72,7 @@ Expected<Meta> read_meta(std::span<const std::uint8_t> body) {
   if (has_anchor) meta.file.anchor = anchor;
   meta.first = in.i64();
   meta.last = in.i64();
-  if (!in.ok()) return refuse("section META ends early");
+  if (!in.ok()) return refuse("section META ends early or holds a broken anchor pose");
   if (meta.pyramid.n_levels < 1 || meta.pyramid.n_levels > 32 || !(meta.pyramid.scale_factor > 1.0) ||
       !std::isfinite(meta.pyramid.scale_factor)) {
     return refuse("section META: scale pyramid " + std::to_string(meta.pyramid.n_levels) +
