@@ -1,3 +1,4 @@
+#include <cmath>
 #include <map>
 #include <string>
 
@@ -37,6 +38,18 @@ Expected<std::map<std::uint32_t, std::span<const std::uint8_t>>> split_sections(
   return sections;
 }
 
+// Far beyond any site, and near enough that differences, squares and sums
+// of coordinates (path lengths, projections) stay finite.
+constexpr double kMaxCoordinateM = 1e9;
+
+bool finite_position(const Eigen::Vector3d& p) {
+  return p.allFinite() && p.cwiseAbs().maxCoeff() <= kMaxCoordinateM;
+}
+
+bool finite_pose(const SE3& T) {
+  return T.rotation().coeffs().allFinite() && finite_position(T.translation());
+}
+
 struct Meta {
   map::ScalePyramid pyramid;
   MapFileMeta file;
@@ -59,10 +72,15 @@ Expected<Meta> read_meta(std::span<const std::uint8_t> body) {
   if (has_anchor) meta.file.anchor = anchor;
   meta.first = in.i64();
   meta.last = in.i64();
-  if (!in.ok()) return refuse("section META ends early");
-  if (meta.pyramid.n_levels < 1 || meta.pyramid.n_levels > 32 || !(meta.pyramid.scale_factor > 1.0)) {
+  if (!in.ok()) return refuse("section META ends early or holds a broken anchor pose");
+  if (meta.pyramid.n_levels < 1 || meta.pyramid.n_levels > 32 || !(meta.pyramid.scale_factor > 1.0) ||
+      !std::isfinite(meta.pyramid.scale_factor)) {
     return refuse("section META: scale pyramid " + std::to_string(meta.pyramid.n_levels) +
                   " levels, factor " + std::to_string(meta.pyramid.scale_factor) + " is out of range");
+  }
+  if (has_anchor && (!std::isfinite(anchor.latitude_deg) || !std::isfinite(anchor.longitude_deg) ||
+                     !std::isfinite(anchor.height_m) || !finite_pose(anchor.T_site_slam))) {
+    return refuse("section META: the site anchor is not finite (or beyond 1e9 m)");
   }
   return meta;
 }
@@ -144,6 +162,34 @@ Status read_covisibility(std::span<const std::uint8_t> body, std::vector<map::Ke
   return ok_status();
 }
 
+// What the sections' bounds do not catch: a NaN, infinite or absurdly far
+// pose or position, a NaN or infinite measurement, or a keypoint on a level
+// the pyramid lacks,
+// would pass restore() and only go wrong in the tracker or the mapper.
+Status check_values(const map::ScalePyramid& pyramid, const std::vector<map::KeyFrame>& keyframes,
+                    const std::vector<map::MapPoint>& points) {
+  for (const map::KeyFrame& kf : keyframes) {
+    const std::string name = "keyframe " + std::to_string(kf.id);
+    if (!finite_pose(kf.T_world_cam)) return refuse(name + ": the pose is not finite (or beyond 1e9 m)");
+    for (std::size_t i = 0; i < kf.keypoints.size(); ++i) {
+      const map::KeyPointData& kp = kf.keypoints[i];
+      if (!kp.uv_px.allFinite() || !std::isfinite(kp.u_right_px) || !std::isfinite(kp.depth_m))
+        return refuse(name + ": keypoint " + std::to_string(i) + " is not finite");
+      if (kp.octave >= pyramid.n_levels) {
+        return refuse(name + ": keypoint " + std::to_string(i) + " is on level " + std::to_string(kp.octave) +
+                      ", the pyramid has " + std::to_string(pyramid.n_levels));
+      }
+    }
+  }
+  for (const map::MapPoint& p : points) {
+    if (!finite_position(p.p_world) || !p.normal.allFinite() || !std::isfinite(p.min_distance_m) ||
+        !std::isfinite(p.max_distance_m))
+      return refuse("point " + std::to_string(p.id) +
+                    ": position, normal or scale range is not finite (or beyond 1e9 m)");
+  }
+  return ok_status();
+}
+
 }  // namespace
 
 Expected<LoadedMap> decode_map(std::span<const std::uint8_t> bytes) {
@@ -158,6 +204,7 @@ Expected<LoadedMap> decode_map(std::span<const std::uint8_t> bytes) {
                read_records(sections.at(kPointsTag), kPointBytes, read_point,
                             "section PNTS ends early or holds a broken point"));
   SITEPOSE_TRY_STATUS(read_covisibility(sections.at(kCovisibilityTag), keyframes));
+  SITEPOSE_TRY_STATUS(check_values(meta.pyramid, keyframes, points));
   auto restored =
       map::MapData::restore(meta.pyramid, std::move(keyframes), std::move(points), meta.first, meta.last);
   if (!restored) return refuse("inconsistent map: " + restored.error().message);

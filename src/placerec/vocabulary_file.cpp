@@ -65,6 +65,12 @@ Expected<Vocabulary> Vocabulary::decode(std::span<const std::uint8_t> bytes) {
     return mapfile::refuse_file(kind, "bad parameters (branching, levels or node count)");
   }
   v.nodes_.resize(n);
+  // An idf is ln(N / n) for 1 <= n <= N training images: 0, or between
+  // ln(N / (N - 1)) and ln(N). Outside that, one huge or subnormal idf
+  // turns the other words' normalised weights into 0, inf or NaN.
+  const auto images = static_cast<double>(v.training_images_);
+  const double max_idf = images > 1.0 ? std::log(images) * (1.0 + 1e-9) : 0.0;
+  const double min_idf = images > 1.0 ? std::log1p(1.0 / (images - 1.0)) * (1.0 - 1e-9) : 0.0;
   std::uint64_t next_child = 1;
   for (std::size_t i = 0; i < n; ++i) {
     Node& node = v.nodes_[i];
@@ -77,7 +83,7 @@ Expected<Vocabulary> Vocabulary::decode(std::span<const std::uint8_t> bytes) {
     next_child += node.children;
     // Children after their parent and inside the file: the tree walk ends.
     if (node.children > v.branching_ || next_child > n || (node.children > 0 && node.first_child <= i) ||
-        !std::isfinite(node.idf) || node.idf < 0.0) {
+        !(node.idf == 0.0 || (node.idf >= min_idf && node.idf <= max_idf))) {
       return mapfile::refuse_file(kind, "node " + std::to_string(i) + " is not part of a valid tree");
     }
   }

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <span>
@@ -113,8 +114,10 @@ class ByteReader {
     const double z = f64();
     const Eigen::Vector3d t = vec3();
     Eigen::Quaterniond q(w, x, y, z);
-    // A zero quaternion (only from a broken writer) would not normalise.
-    if (!(q.norm() > 0.5)) {
+    // A zero quaternion (only from a broken writer) would not normalise,
+    // nor would one whose norm overflows (normalized() then gives zero).
+    const double norm = q.norm();
+    if (!(norm > 0.5) || !std::isfinite(norm)) {
       ok_ = false;
       q = Eigen::Quaterniond::Identity();
     }

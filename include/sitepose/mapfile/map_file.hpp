@@ -14,8 +14,11 @@
 //
 // Reading checks, in order, and names the first that fails: size (a file
 // shorter than its header says is truncated), magic, header checksum,
-// version, payload checksum, then every section's bounds and the map's
-// consistency (map::MapData::restore). A file that fails is refused whole.
+// version, payload checksum, then every section's bounds, the values
+// (finite poses, positions, measurements and anchor, coordinates within
+// 1e9 m; keypoints on the
+// pyramid's levels) and the map's consistency (map::MapData::restore). A
+// file that fails is refused whole.
 //
 // Saving writes atomically (atomic_file.hpp): a failed or killed save
 // leaves the previous file as it was.

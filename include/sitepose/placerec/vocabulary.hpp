@@ -16,7 +16,9 @@
 //           per node in breadth-first order (root first): 32-byte centre,
 //           u8 children, f64 idf (0 for inner nodes). A node's children
 //           follow each other, after those of the nodes before it.
-// A truncated, corrupted or other-version file is refused naming why; saving
+// An idf is 0 or ln(N / n) for 1 <= n <= N training images; a file with
+// another is refused. A truncated, corrupted or other-version file is
+// refused naming why; saving
 // is atomic (mapfile/atomic_file.hpp). id() names the vocabulary in map
 // files: "orb-kmajority-<k>x<L>-<payload CRC-32 in hex>".
 //

@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <limits>
 #include <string>
 
 #include "map_fixture.hpp"
 #include "sitepose/mapfile/atomic_file.hpp"
+#include "sitepose/mapfile/byte_io.hpp"
 #include "sitepose/mapfile/crc32.hpp"
 #include "sitepose/testing/file_size_limit.hpp"
 #include "sitepose/testing/files.hpp"
@@ -194,6 +196,91 @@ TEST(MapFile, WrongVersionIsRefused) {
   for (int i = 0; i < 4; ++i) bytes[kHeaderBytes - 4 + i] = static_cast<std::uint8_t>(crc >> (8 * i));
   EXPECT_NE(refusal(bytes).find("format version 2, this build reads version 1"), std::string::npos)
       << refusal(bytes);
+}
+
+// The map the test changes one field of, encoded.
+template <typename Change>
+Bytes encoded_changed_map(Change change, MapFileMeta meta = anchored_meta()) {
+  map::SharedMap shared;
+  test::build_map(shared, 4);
+  shared.write(change);
+  return shared.read([&](const map::MapData& m) { return encode_map(m, meta); });
+}
+
+// Found by fuzzing (tests/fuzz/corpus/map_file/octave_off_pyramid,
+// infinite_pose): values the bounds checks let through.
+TEST(MapFile, KeypointOffThePyramidIsRefused) {
+  const Bytes bytes = encoded_changed_map(
+      [](map::MapData& m) { m.keyframe(1)->keypoints.at(3).octave = m.pyramid().n_levels; });
+  EXPECT_NE(refusal(bytes).find("keyframe 1: keypoint 3 is on level 8, the pyramid has 8"), std::string::npos)
+      << refusal(bytes);
+}
+
+TEST(MapFile, NonFiniteValuesAreRefused) {
+  const double inf = std::numeric_limits<double>::infinity();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(refusal(encoded_changed_map([&](map::MapData& m) {
+              m.keyframe(1)->T_world_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(inf, 0, 0));
+            })).find("keyframe 1: the pose is not finite"),
+            std::string::npos);
+  EXPECT_NE(refusal(encoded_changed_map([&](map::MapData& m) {
+              m.keyframe(0)->keypoints.at(0).depth_m = nan;
+            })).find("keyframe 0: keypoint 0 is not finite"),
+            std::string::npos);
+  EXPECT_NE(refusal(encoded_changed_map([&](map::MapData& m) {
+              for (auto& [id, p] : m.points()) {
+                if (!p.bad) {
+                  m.point(id)->p_world.y() = nan;
+                  break;
+                }
+              }
+            })).find("position, normal or scale range is not finite"),
+            std::string::npos);
+  MapFileMeta meta = anchored_meta();
+  meta.anchor->height_m = inf;
+  EXPECT_NE(refusal(encoded_changed_map([](map::MapData&) {}, meta)).find("the site anchor is not finite"),
+            std::string::npos);
+}
+
+// Found by fuzzing (corpus/map_file/far_keyframe): a keyframe 1e236 m
+// away is finite, but the path length to it is not.
+TEST(MapFile, CoordinatesBeyondAnySiteAreRefused) {
+  EXPECT_NE(refusal(encoded_changed_map([](map::MapData& m) {
+              m.keyframe(3)->T_world_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, -1e236, 0));
+            })).find("keyframe 3: the pose is not finite (or beyond 1e9 m)"),
+            std::string::npos);
+  EXPECT_NE(refusal(encoded_changed_map([](map::MapData& m) {
+              for (auto& [id, p] : m.points()) {
+                if (!p.bad) {
+                  m.point(id)->p_world.z() = 2e9;
+                  break;
+                }
+              }
+            })).find("position, normal or scale range is not finite (or beyond 1e9 m)"),
+            std::string::npos);
+  EXPECT_EQ(refusal(encoded_changed_map([](map::MapData& m) {
+              m.keyframe(3)->T_world_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, -1e9, 0));
+            })),
+            "accepted");
+}
+
+// Found by fuzzing (corpus/map_file/anchor_quaternion_overflow): a
+// component near 1e268 overflows the norm, and the normalised rotation
+// came out as the zero quaternion.
+TEST(MapFile, QuaternionWhoseNormOverflowsIsRefused) {
+  ByteWriter out;
+  out.pose(SE3());
+  for (const double huge : {8.25e268, 1e300, std::numeric_limits<double>::max()}) {
+    Bytes bytes = out.bytes();
+    for (int i = 0; i < 8; ++i)
+      bytes[16 + i] = static_cast<std::uint8_t>(std::bit_cast<std::uint64_t>(huge) >> (8 * i));
+    ByteReader in(bytes);
+    in.pose();
+    EXPECT_FALSE(in.ok()) << huge;
+  }
+  ByteReader fine(out.bytes());
+  EXPECT_TRUE(fine.pose().rotation().isApprox(Eigen::Quaterniond::Identity()));
+  EXPECT_TRUE(fine.ok());
 }
 
 TEST(MapFile, SaveReplacesAndLoadNamesTheFile) {

@@ -2,9 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include <unistd.h>
 
@@ -153,6 +155,38 @@ TEST(Vocabulary, FileRoundTripsAndRefusesTruncatedFlippedAndOtherVersions) {
             std::string::npos);
   EXPECT_FALSE(Vocabulary::load(dir / "missing.bin").has_value());
   std::filesystem::remove_all(dir);
+}
+
+// Found by fuzzing (tests/fuzz/corpus/vocabulary/idf_out_of_range): an idf
+// of 1.7e166 next to a subnormal one, and the bag of words held a weight of
+// 0 (vocabulary.hpp promises > 0).
+TEST(Vocabulary, AnIdfNoTrainingCouldGiveIsRefused) {
+  VocabularyParams params;
+  params.branching = 2;
+  params.levels = 2;
+  auto v = Vocabulary::train(random_images(8, 6, 3), params);
+  ASSERT_TRUE(v.has_value());
+  const std::vector<std::uint8_t> bytes = v->encode();
+  // The last node is a leaf; its idf is the file's last 8 bytes.
+  const auto with_last_idf = [&bytes](double idf) {
+    std::vector<std::uint8_t> b = bytes;
+    for (int i = 0; i < 8; ++i)
+      b[b.size() - 8 + i] = static_cast<std::uint8_t>(std::bit_cast<std::uint64_t>(idf) >> (8 * i));
+    const auto put_crc = [&b](std::size_t at, std::uint32_t crc) {
+      for (int i = 0; i < 4; ++i) b[at + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+    };
+    put_crc(24, mapfile::crc32(std::span<const std::uint8_t>(b).subspan(32)));
+    put_crc(28, mapfile::crc32(std::span<const std::uint8_t>(b).first(28)));
+    auto r = Vocabulary::decode(b);
+    return r.has_value() ? std::string("accepted") : r.error().message;
+  };
+  EXPECT_EQ(with_last_idf(0.0), "accepted");
+  EXPECT_EQ(with_last_idf(std::log(8.0)), "accepted");
+  EXPECT_EQ(with_last_idf(std::log(8.0 / 7.0)), "accepted");
+  for (const double idf : {1.6875e166, 3.1e-319, std::log(8.0) * 1.001, std::log(8.0 / 7.0) * 0.999, -1.0,
+                           std::numeric_limits<double>::infinity()}) {
+    EXPECT_NE(with_last_idf(idf).find("is not part of a valid tree"), std::string::npos) << idf;
+  }
 }
 
 // Few flipped bits move few descriptors to another word: a noisy view of a
