@@ -186,6 +186,11 @@ Status check_values(const map::ScalePyramid& pyramid, const std::vector<map::Key
         !std::isfinite(p.max_distance_m))
       return refuse("point " + std::to_string(p.id) +
                     ": position, normal or scale range is not finite (or beyond 1e9 m)");
+    // found_ratio() divides by n_visible; the mapper culls points by it.
+    if (p.n_visible < 1 || p.n_found < 0) {
+      return refuse("point " + std::to_string(p.id) + ": seen " + std::to_string(p.n_visible) +
+                    " and found " + std::to_string(p.n_found) + " times (seen must be >= 1, found >= 0)");
+    }
   }
   return ok_status();
 }

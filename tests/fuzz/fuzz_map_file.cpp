@@ -60,6 +60,7 @@ void check_points(const map::MapData& m) {
     fuzz::require(!p.bad, "no bad point");
     fuzz::require(p.p_world.allFinite() && p.normal.allFinite(), "finite point position and normal");
     fuzz::require(finite(p.min_distance_m) && finite(p.max_distance_m), "finite scale range");
+    fuzz::require(p.n_visible >= 1 && p.n_found >= 0 && finite(p.found_ratio()), "a found ratio");
     for (const auto& [kf_id, index] : p.observations) {
       const map::KeyFrame* kf = m.keyframe(kf_id);
       fuzz::require(kf != nullptr, "observation names an existing keyframe");

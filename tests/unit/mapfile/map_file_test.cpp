@@ -242,6 +242,25 @@ TEST(MapFile, NonFiniteValuesAreRefused) {
             std::string::npos);
 }
 
+// A point never seen would give found_ratio() 0 / 0, which the mapper's
+// culling reads.
+TEST(MapFile, PointNeverSeenIsRefused) {
+  const auto first_good = [](map::MapData& m) -> map::MapPoint* {
+    for (auto& [id, p] : m.points()) {
+      if (!p.bad) return m.point(id);
+    }
+    return nullptr;
+  };
+  EXPECT_NE(refusal(encoded_changed_map([&](map::MapData& m) {
+              first_good(m)->n_visible = 0;
+            })).find("seen 0 and found"),
+            std::string::npos);
+  EXPECT_NE(refusal(encoded_changed_map([&](map::MapData& m) {
+              first_good(m)->n_found = -1;
+            })).find("found -1 times"),
+            std::string::npos);
+}
+
 // Found by fuzzing (corpus/map_file/far_keyframe): a keyframe 1e236 m
 // away is finite, but the path length to it is not.
 TEST(MapFile, CoordinatesBeyondAnySiteAreRefused) {
