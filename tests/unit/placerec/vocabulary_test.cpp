@@ -23,8 +23,26 @@ using testing::repeat_row;
 std::vector<cv::Mat> random_images(int images, int per_image, unsigned seed) {
   std::mt19937 rng(seed);
   std::vector<cv::Mat> out;
+  out.reserve(static_cast<std::size_t>(images));
   for (int i = 0; i < images; ++i) out.push_back(random_descriptors(per_image, rng));
   return out;
+}
+
+Expected<Vocabulary> trained(int branching, int levels, const std::vector<cv::Mat>& images) {
+  VocabularyParams params;
+  params.branching = branching;
+  params.levels = levels;
+  return Vocabulary::train(images, params);
+}
+
+// The file's checksums rewritten to fit its bytes (payload CRC at 24, the
+// header's own at 28), so a test reaches the check behind them.
+void refit_checksums(std::vector<std::uint8_t>& b) {
+  const auto put_crc = [&b](std::size_t at, std::uint32_t crc) {
+    for (int i = 0; i < 4; ++i) b[at + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+  };
+  put_crc(24, mapfile::crc32(std::span<const std::uint8_t>(b).subspan(32)));
+  put_crc(28, mapfile::crc32(std::span<const std::uint8_t>(b).first(28)));
 }
 
 TEST(Vocabulary, ADescriptorsWordIsStableAcrossCallsTrainingRunsAndTheFile) {
@@ -120,10 +138,7 @@ TEST(Vocabulary, RefusesBadTrainingInput) {
 }
 
 TEST(Vocabulary, FileRoundTripsAndRefusesTruncatedFlippedAndOtherVersions) {
-  VocabularyParams params;
-  params.branching = 4;
-  params.levels = 3;
-  auto v = Vocabulary::train(random_images(8, 100, 5), params);
+  auto v = trained(4, 3, random_images(8, 100, 5));
   ASSERT_TRUE(v.has_value());
   const auto dir = std::filesystem::temp_directory_path() / ("placerec_vocab_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
@@ -146,8 +161,7 @@ TEST(Vocabulary, FileRoundTripsAndRefusesTruncatedFlippedAndOtherVersions) {
   EXPECT_NE(refused(flipped).find("payload checksum"), std::string::npos);
   std::vector<std::uint8_t> other_version = bytes;
   other_version[8] = 9;
-  const std::uint32_t crc = mapfile::crc32(std::span<const std::uint8_t>(other_version).first(28));
-  for (int i = 0; i < 4; ++i) other_version[28 + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+  refit_checksums(other_version);
   EXPECT_NE(refused(other_version).find("format version 9"), std::string::npos);
   std::vector<std::uint8_t> magic = bytes;
   magic[0] = 'X';
@@ -161,10 +175,7 @@ TEST(Vocabulary, FileRoundTripsAndRefusesTruncatedFlippedAndOtherVersions) {
 // of 1.7e166 next to a subnormal one, and the bag of words held a weight of
 // 0 (vocabulary.hpp promises > 0).
 TEST(Vocabulary, AnIdfNoTrainingCouldGiveIsRefused) {
-  VocabularyParams params;
-  params.branching = 2;
-  params.levels = 2;
-  auto v = Vocabulary::train(random_images(8, 6, 3), params);
+  auto v = trained(2, 2, random_images(8, 6, 3));
   ASSERT_TRUE(v.has_value());
   const std::vector<std::uint8_t> bytes = v->encode();
   // The last node is a leaf; its idf is the file's last 8 bytes.
@@ -172,11 +183,7 @@ TEST(Vocabulary, AnIdfNoTrainingCouldGiveIsRefused) {
     std::vector<std::uint8_t> b = bytes;
     for (int i = 0; i < 8; ++i)
       b[b.size() - 8 + i] = static_cast<std::uint8_t>(std::bit_cast<std::uint64_t>(idf) >> (8 * i));
-    const auto put_crc = [&b](std::size_t at, std::uint32_t crc) {
-      for (int i = 0; i < 4; ++i) b[at + i] = static_cast<std::uint8_t>(crc >> (8 * i));
-    };
-    put_crc(24, mapfile::crc32(std::span<const std::uint8_t>(b).subspan(32)));
-    put_crc(28, mapfile::crc32(std::span<const std::uint8_t>(b).first(28)));
+    refit_checksums(b);
     auto r = Vocabulary::decode(b);
     return r.has_value() ? std::string("accepted") : r.error().message;
   };
