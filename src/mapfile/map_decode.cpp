@@ -42,12 +42,10 @@ Expected<std::map<std::uint32_t, std::span<const std::uint8_t>>> split_sections(
 // of coordinates (path lengths, projections) stay finite.
 constexpr double kMaxCoordinateM = 1e9;
 
+// Rotations need no check here: ByteReader::pose() refuses a quaternion
+// that does not normalise.
 bool finite_position(const Eigen::Vector3d& p) {
   return p.allFinite() && p.cwiseAbs().maxCoeff() <= kMaxCoordinateM;
-}
-
-bool finite_pose(const SE3& T) {
-  return T.rotation().coeffs().allFinite() && finite_position(T.translation());
 }
 
 struct Meta {
@@ -79,7 +77,7 @@ Expected<Meta> read_meta(std::span<const std::uint8_t> body) {
                   " levels, factor " + std::to_string(meta.pyramid.scale_factor) + " is out of range");
   }
   if (has_anchor && (!std::isfinite(anchor.latitude_deg) || !std::isfinite(anchor.longitude_deg) ||
-                     !std::isfinite(anchor.height_m) || !finite_pose(anchor.T_site_slam))) {
+                     !std::isfinite(anchor.height_m) || !finite_position(anchor.T_site_slam.translation()))) {
     return refuse("section META: the site anchor is not finite (or beyond 1e9 m)");
   }
   return meta;
@@ -170,7 +168,8 @@ Status check_values(const map::ScalePyramid& pyramid, const std::vector<map::Key
                     const std::vector<map::MapPoint>& points) {
   for (const map::KeyFrame& kf : keyframes) {
     const std::string name = "keyframe " + std::to_string(kf.id);
-    if (!finite_pose(kf.T_world_cam)) return refuse(name + ": the pose is not finite (or beyond 1e9 m)");
+    if (!finite_position(kf.T_world_cam.translation()))
+      return refuse(name + ": the pose is not finite (or beyond 1e9 m)");
     for (std::size_t i = 0; i < kf.keypoints.size(); ++i) {
       const map::KeyPointData& kp = kf.keypoints[i];
       if (!kp.uv_px.allFinite() || !std::isfinite(kp.u_right_px) || !std::isfinite(kp.depth_m))

@@ -8,9 +8,9 @@
 #include <fstream>
 #include <random>
 
-#include "sitepose/mapfile/crc32.hpp"
 #include "sitepose/mapfile/map_file.hpp"
 #include "sitepose/placerec/vocabulary.hpp"
+#include "sitepose/testing/framed_bytes.hpp"
 
 namespace {
 
@@ -27,8 +27,7 @@ void write(const std::filesystem::path& path, const Bytes& bytes) {
 // The same file claiming another format version (header checksum fitting).
 Bytes other_version(Bytes bytes) {
   bytes[8] = 2;
-  const std::uint32_t crc = mapfile::crc32(std::span<const std::uint8_t>(bytes).first(28));
-  for (int i = 0; i < 4; ++i) bytes[28 + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+  testing::refit_frame(bytes);
   return bytes;
 }
 

@@ -12,6 +12,7 @@
 #include "sitepose/mapfile/crc32.hpp"
 #include "sitepose/testing/file_size_limit.hpp"
 #include "sitepose/testing/files.hpp"
+#include "sitepose/testing/framed_bytes.hpp"
 
 namespace sitepose::mapfile {
 namespace {
@@ -192,15 +193,14 @@ TEST(MapFile, FlippedBitIsRefused) {
 TEST(MapFile, WrongVersionIsRefused) {
   Bytes bytes = encoded_test_map();
   bytes[8] = 2;  // version, with a header checksum that matches it
-  const std::uint32_t crc = crc32(std::span<const std::uint8_t>(bytes).first(kHeaderBytes - 4));
-  for (int i = 0; i < 4; ++i) bytes[kHeaderBytes - 4 + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+  testing::refit_frame(bytes);
   EXPECT_NE(refusal(bytes).find("format version 2, this build reads version 1"), std::string::npos)
       << refusal(bytes);
 }
 
 // The map the test changes one field of, encoded.
 template <typename Change>
-Bytes encoded_changed_map(Change change, MapFileMeta meta = anchored_meta()) {
+Bytes encoded_changed_map(Change change, const MapFileMeta& meta = anchored_meta()) {
   map::SharedMap shared;
   test::build_map(shared, 4);
   shared.write(change);

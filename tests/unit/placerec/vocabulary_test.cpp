@@ -11,7 +11,7 @@
 #include <unistd.h>
 
 #include "descriptors.hpp"
-#include "sitepose/mapfile/crc32.hpp"
+#include "sitepose/testing/framed_bytes.hpp"
 
 namespace sitepose::placerec {
 namespace {
@@ -33,16 +33,6 @@ Expected<Vocabulary> trained(int branching, int levels, const std::vector<cv::Ma
   params.branching = branching;
   params.levels = levels;
   return Vocabulary::train(images, params);
-}
-
-// The file's checksums rewritten to fit its bytes (payload CRC at 24, the
-// header's own at 28), so a test reaches the check behind them.
-void refit_checksums(std::vector<std::uint8_t>& b) {
-  const auto put_crc = [&b](std::size_t at, std::uint32_t crc) {
-    for (int i = 0; i < 4; ++i) b[at + i] = static_cast<std::uint8_t>(crc >> (8 * i));
-  };
-  put_crc(24, mapfile::crc32(std::span<const std::uint8_t>(b).subspan(32)));
-  put_crc(28, mapfile::crc32(std::span<const std::uint8_t>(b).first(28)));
 }
 
 TEST(Vocabulary, ADescriptorsWordIsStableAcrossCallsTrainingRunsAndTheFile) {
@@ -161,7 +151,7 @@ TEST(Vocabulary, FileRoundTripsAndRefusesTruncatedFlippedAndOtherVersions) {
   EXPECT_NE(refused(flipped).find("payload checksum"), std::string::npos);
   std::vector<std::uint8_t> other_version = bytes;
   other_version[8] = 9;
-  refit_checksums(other_version);
+  sitepose::testing::refit_frame(other_version);
   EXPECT_NE(refused(other_version).find("format version 9"), std::string::npos);
   std::vector<std::uint8_t> magic = bytes;
   magic[0] = 'X';
@@ -183,7 +173,7 @@ TEST(Vocabulary, AnIdfNoTrainingCouldGiveIsRefused) {
     std::vector<std::uint8_t> b = bytes;
     for (int i = 0; i < 8; ++i)
       b[b.size() - 8 + i] = static_cast<std::uint8_t>(std::bit_cast<std::uint64_t>(idf) >> (8 * i));
-    refit_checksums(b);
+    sitepose::testing::refit_frame(b);
     auto r = Vocabulary::decode(b);
     return r.has_value() ? std::string("accepted") : r.error().message;
   };
