@@ -62,7 +62,14 @@ std::vector<MapCheck> MotionClassifier::check_against_map(
     if (check.moving) {
       // As after a moving verdict: unmasked again only after
       // hysteresis_frames static verdicts.
-      tracks_[instance].mask_as_moving(current.t_ns);
+      Track& track = tracks_[instance];
+      track.mask_as_moving(current.t_ns);
+      // A test against the map over kMinPoints points or more is not one
+      // frame pair's mismatch: it counts as a second sign of motion too, so
+      // the standing tracks of an articulated machine cannot unmask it while
+      // its house turns (may_resume_work(), which reads the signs of
+      // articulated machines only).
+      track.note_sign_of_motion(current.t_ns);
     }
     out.push_back(check);
   }

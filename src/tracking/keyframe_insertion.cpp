@@ -1,11 +1,13 @@
 #include "sitepose/tracking/tracker.hpp"
 
 #include <algorithm>
+#include <map>
 #include <numbers>
 #include <optional>
 #include <utility>
 
 #include "sitepose/core/log.hpp"
+#include "sitepose/tracking/pose_refinement.hpp"
 
 // Tracker, continued: the map's first keyframe and the keyframe decision
 // and insertion (part of commit(); estimation is in tracker.cpp).
@@ -70,6 +72,65 @@ std::pair<int, int> count_close_points(const PreparedFrame& frame, const PassRes
   return {tracked, untracked};
 }
 
+// The keyframe observing most of the frame's inlier matches (kNoKeyFrame
+// when none is matched).
+map::KeyFrameId keyframe_sharing_most(const map::MapData& map, const PassResult& result) {
+  std::map<map::KeyFrameId, int> votes;
+  for (map::PointId pid : result.point_of_keypoint) {
+    const map::MapPoint* p = map.good_point(pid);
+    if (p == nullptr) continue;
+    for (const auto& [kf, index] : p->observations) ++votes[kf];
+  }
+  const auto most = std::max_element(votes.begin(), votes.end(),
+                                     [](const auto& a, const auto& b) { return a.second < b.second; });
+  return most == votes.end() ? map::kNoKeyFrame : most->first;
+}
+
+// What the keyframe rules read from the map: the reference keyframe's pose
+// and its points observed often enough to count, and (for the travel rule)
+// the pose of the keyframe sharing most of the frame's matches.
+struct KeyframeContext {
+  std::optional<SE3> T_world_reference;
+  std::optional<SE3> T_world_most_shared;
+  int reference_matches = 0;
+  int reference_background_matches = 0;  // of those, on no detected object
+};
+
+KeyframeContext read_keyframe_context(const map::MapData& map, map::KeyFrameId reference,
+                                      const PassResult& result, bool with_most_shared) {
+  KeyframeContext context;
+  const map::KeyFrame* ref = map.keyframe(reference);
+  if (ref == nullptr) return context;
+  context.T_world_reference = ref->T_world_cam;
+  if (with_most_shared) {
+    if (const map::KeyFrame* most = map.keyframe(keyframe_sharing_most(map, result))) {
+      context.T_world_most_shared = most->T_world_cam;
+    }
+  }
+  const int min_observations = map.keyframe_count() <= 2 ? 2 : 3;
+  for (std::size_t k = 0; k < ref->point_of_keypoint.size(); ++k) {
+    const map::PointId pid = ref->point_of_keypoint[k];
+    const map::MapPoint* p = map.good_point(pid);
+    if (p != nullptr && map.observation_weight(pid) >= min_observations) {
+      ++context.reference_matches;
+      if (ref->keypoints[k].instance == 0) ++context.reference_background_matches;
+    }
+  }
+  return context;
+}
+
+// travelled_from() the reference keyframe and from the keyframe sharing most
+// of the frame's matches: on a strip driven again the reference keyframe
+// (the last one made) lies behind while an old keyframe of the strip stands
+// beside the camera.
+bool travelled_from_map(const KeyframeContext& context, const SE3& T_cam_world, const PreparedFrame& frame,
+                        double depth_share) {
+  return context.T_world_reference &&
+         travelled_from(*context.T_world_reference, T_cam_world, frame, depth_share) &&
+         (!context.T_world_most_shared ||
+          travelled_from(*context.T_world_most_shared, T_cam_world, frame, depth_share));
+}
+
 }  // namespace
 
 bool Tracker::initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable) {
@@ -95,25 +156,16 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   // 17 points at its old place by chance), and its keyframe would build a
   // map where the tracker wrongly thinks it is.
   if (result.n_inliers < config_.tracking.min_inliers_ok) return false;
+  // Nor from a hidden view: its new points would lie on whatever hides it.
+  if (established_map_hidden(result)) return false;
   const int queued = mapper_.queue_size ? mapper_.queue_size() : 0;
   const bool mapper_idle = mapper_.is_idle ? mapper_.is_idle() : true;
-  int reference_matches = 0;
-  int reference_background_matches = 0;
-  std::optional<SE3> T_world_reference;
-  map_.read([&](const map::MapData& map) {
-    const map::KeyFrame* ref = map.keyframe(reference_keyframe_);
-    if (ref == nullptr) return;
-    T_world_reference = ref->T_world_cam;
-    const int min_observations = map.keyframe_count() <= 2 ? 2 : 3;
-    for (std::size_t k = 0; k < ref->point_of_keypoint.size(); ++k) {
-      const map::PointId pid = ref->point_of_keypoint[k];
-      const map::MapPoint* p = map.good_point(pid);
-      if (p != nullptr && map.observation_weight(pid) >= min_observations) {
-        ++reference_matches;
-        if (ref->keypoints[k].instance == 0) ++reference_background_matches;
-      }
-    }
+  const KeyframeContext context = map_.read([&](const map::MapData& map) {
+    return read_keyframe_context(map, reference_keyframe_, result,
+                                 config_.tracking.keyframe_travel_depth_share > 0.0);
   });
+  const int reference_matches = context.reference_matches;
+  const std::optional<SE3>& T_world_reference = context.T_world_reference;
   // Background (no detected object) inliers: the dynamic layer's pass 1
   // tracks on them alone, so the map must renew them even while unmasked
   // static objects keep the total high. Without objects this is the total.
@@ -134,11 +186,11 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   const double ratio = config_.tracking.keyframe_tracked_ratio;
   const bool c1 =
       long_since_keyframe || mapper_idle || result.n_inliers < 0.25 * reference_matches || need_close;
-  const bool background_thinning = background_inliers < ratio * reference_background_matches;
+  const bool background_thinning = background_inliers < ratio * context.reference_background_matches;
   // The view changed by travel, whether or not points were lost (a tracker
   // that keeps its points would otherwise make too few keyframes).
-  const bool travelled = T_world_reference && travelled_from(*T_world_reference, result.T_cam_world, frame,
-                                                             config_.tracking.keyframe_travel_depth_share);
+  const bool travelled =
+      travelled_from_map(context, result.T_cam_world, frame, config_.tracking.keyframe_travel_depth_share);
   const bool c2 =
       (result.n_inliers < ratio * reference_matches || background_thinning || need_close || travelled) &&
       result.n_inliers > 15;
@@ -158,8 +210,8 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   spdlog::debug(
       "tracking: keyframe wanted at frame {}: inliers {} of reference {} (background {} of {}), close "
       "tracked {} untracked {}, mapper idle {}, queued {}",
-      frame.seq, result.n_inliers, reference_matches, background_inliers, reference_background_matches,
-      tracked_close, untracked_close, mapper_idle, queued);
+      frame.seq, result.n_inliers, reference_matches, background_inliers,
+      context.reference_background_matches, tracked_close, untracked_close, mapper_idle, queued);
   if (mapper_idle) return true;
   // Stereo: insert while the mapper is busy only if its queue is short.
   if (mapper_.interrupt) mapper_.interrupt();

@@ -60,6 +60,11 @@ void optimise_pose(const optim::MotionOnlyBa& motion_ba, const map::ScalePyramid
   }
 }
 
+bool established_map_hidden(const PassResult& result) {
+  return result.established_in_view >= kHiddenEstablishedPoints &&
+         result.established_matched < kMinMatchedEstablishedShare * result.established_in_view;
+}
+
 void optimise_pose_established_first(const optim::MotionOnlyBa& motion_ba, const StereoCamera& camera,
                                      const map::ScalePyramid& pyramid, const PreparedFrame& frame,
                                      const std::vector<PointView>& points,
@@ -70,12 +75,14 @@ void optimise_pose_established_first(const optim::MotionOnlyBa& motion_ba, const
     if (match_of_keypoint[k] < 0) continue;
     (established(points[match_of_keypoint[k]]) ? n_established : n_fresh) += 1;
   }
+  const int in_view = established_in_view(camera, points, result.T_cam_world);
+  result.established_matched = n_established;
+  result.established_in_view = in_view;
   if (3 * n_fresh < n_established + n_fresh) {
     optimise_pose(motion_ba, pyramid, frame, points, match_of_keypoint, result);
     return;
   }
   if (n_established < kMinEstablishedMatches) {
-    const int in_view = established_in_view(camera, points, result.T_cam_world);
     if (in_view < kHiddenEstablishedPoints) {
       optimise_pose(motion_ba, pyramid, frame, points, match_of_keypoint, result);
       return;

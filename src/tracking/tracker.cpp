@@ -417,7 +417,10 @@ Tracker::HoldVerdict Tracker::judge_hold(const PreparedFrame& frame, const PassR
   HoldVerdict v;
   const bool starts_hold = result.relocalised || state_ == TrackingState::kLost;
   const bool held = starts_hold || hold_.holding();
-  v.precise = result.valid && precise_pose(result, config_.tracking.min_inliers_ok);
+  // A pose on what is left of a hidden established map is kept for
+  // tracking, but not called OK (established_map_hidden()).
+  v.precise = result.valid && precise_pose(result, config_.tracking.min_inliers_ok) &&
+              !established_map_hidden(result);
   double map_sigma_m = 0.0;
   if (held && v.precise) {
     map_sigma_m = map_.read([&](const map::MapData& data) {
@@ -448,6 +451,9 @@ std::string Tracker::state_reason(const PassResult& result) const {
   if (!hold_.holding()) {
     if (result.n_inliers < config_.tracking.min_inliers_ok)
       return "only " + std::to_string(result.n_inliers) + " inliers";
+    if (established_map_hidden(result))
+      return "the established map is hidden: " + std::to_string(result.established_matched) + " of its " +
+             std::to_string(result.established_in_view) + " points in view matched";
     return "position sigma " + std::to_string(position_sigma_m(result)) + " m";
   }
   return "relocalised, held " + std::to_string(hold_.held_frames()) + " of " +

@@ -42,11 +42,13 @@ struct OrbConfig {
 
 // Stereo matching on rectified pairs.
 struct StereoMatchConfig {
-  double min_disparity_px = 0.5;     // ~ 1400 m at fx 700, b 1 m
-  double max_disparity_px = 250.0;   // ~ 2.8 m at fx 700, b 1 m
-  int max_descriptor_distance = 75;  // of 256 bits (ORB-SLAM2 TH_HIGH 100, tightened)
-  int sad_half_window_px = 5;        // 11x11 SAD patch for sub-pixel refinement
-  int row_band_px = 2;               // search +- rows around the epipolar row, scaled by level
+  double min_disparity_px = 0.5;    // ~ 1400 m at fx 700, b 1 m
+  double max_disparity_px = 250.0;  // ~ 2.8 m at fx 700, b 1 m
+  // Of 256 bits: ORB-SLAM2's TH_HIGH. Its stereo matcher's 75 left 70 % of
+  // the keypoints without depth at our 1 m baseline (docs/tracking/extraction.md).
+  int max_descriptor_distance = 100;
+  int sad_half_window_px = 5;  // 11x11 SAD patch for sub-pixel refinement
+  int row_band_px = 2;         // search +- rows around the epipolar row, scaled by level
 
   bool operator==(const StereoMatchConfig&) const = default;
 };
@@ -72,11 +74,11 @@ struct TrackingConfig {
   // Extraction keeps the corners the last frame matched, found again near
   // their predicted projections (features::CornerHint), before spreading
   // the rest of the budget (docs/tracking/extraction.md).
-  bool keep_tracked_corners = false;
+  bool keep_tracked_corners = true;
   // A keyframe also when the camera is this share of the frame's median
   // stereo depth away from its reference keyframe; 0 = off (the ORB-SLAM2
   // rules alone). keep_tracked_corners wants it (docs/tracking/extraction.md).
-  double keyframe_travel_depth_share = 0.0;
+  double keyframe_travel_depth_share = 0.05;
 
   bool operator==(const TrackingConfig&) const = default;
 };

@@ -29,6 +29,11 @@ struct PassResult {
   int n_inliers = 0;
   int n_usable_keypoints = 0;
   bool relocalised = false;
+  // With tracking.trust_established_map, the last solve's established map
+  // points (pose_refinement.hpp): matched, and projecting into the image at
+  // its starting pose. Both 0 without the option.
+  int established_matched = 0;
+  int established_in_view = 0;
   std::string failure;  // why valid == false or the state is degraded
   EstimateTimings timings;
 };

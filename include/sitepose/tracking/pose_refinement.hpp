@@ -39,6 +39,7 @@ inline constexpr double kEstablishedSpanS = 0.5;
 // - with fewer and no established map in view (a new map, new ground),
 //   optimise_pose() on all matches.
 // Otherwise (the usual case) it is optimise_pose() on all matches.
+// Records result.established_matched and result.established_in_view.
 // Why: with the camera standing, a machine passing close hides most of the
 // background; each keyframe then makes points on the machine, and a frame
 // later they outnumber the background's and drag the pose along with the
@@ -49,5 +50,15 @@ void optimise_pose_established_first(const optim::MotionOnlyBa& motion_ba, const
                                      const map::ScalePyramid& pyramid, const PreparedFrame& frame,
                                      const std::vector<PointView>& points,
                                      const std::vector<int>& match_of_keypoint, PassResult& result);
+
+// The established map is hidden when fewer than this share of its points
+// in view are matched (with at least kHiddenEstablishedPoints in view).
+// What is left of it (a strip beside a machine passing close, the ground
+// under its chassis) holds a pose whose stated sigma is small but whose
+// error is not: a rotation traded for a translation over a small patch.
+// The tracker keeps such a pose for tracking but does not call it OK and
+// makes no keyframe from it. Measured in docs/tracking/standing.md.
+inline constexpr double kMinMatchedEstablishedShare = 0.15;
+bool established_map_hidden(const PassResult& result);
 
 }  // namespace sitepose::tracking

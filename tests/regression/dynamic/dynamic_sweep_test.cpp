@@ -27,8 +27,29 @@ TEST(DynamicRegression, FastFullNotWorseThanNoneOnAverageOverFiveSeeds) {
     none_sum_m += none.ate_m;
     full_sum_m += full.ate_m;
   }
-  std::printf("[figures] fast over 5 seeds: mean none %.4f m, mean full %.4f m\n", none_sum_m / 5, full_sum_m / 5);
+  std::printf("[figures] fast over 5 seeds: mean none %.4f m, mean full %.4f m\n", none_sum_m / 5,
+              full_sum_m / 5);
   EXPECT_LE(full_sum_m, 1.1 * none_sum_m);
+}
+
+// Hierarchical masks not worse than boxes on parallel, on the mean ATE over
+// five renderings, the scenario's own (seed 6) first (the single-rendering
+// check is in dynamic_regression_test.cpp).
+TEST(DynamicRegression, ParallelHierarchicalNotWorseThanBboxOnAverageOverFiveSeeds) {
+  double bbox_sum_m = 0.0, hierarchical_sum_m = 0.0;
+  for (const int seed : {6, 1, 2, 3, 4}) {
+    Scenario s("parallel", frames_from_env(150), seed);
+    ASSERT_TRUE(s.error().empty()) << s.error();
+    const ModeFigures bbox = s.run(config::MaskingMode::kBbox);
+    const ModeFigures hierarchical = s.run(config::MaskingMode::kHierarchical);
+    std::printf("[figures] parallel seed %d: bbox %.4f m, hierarchical %.4f m\n", seed, bbox.ate_m,
+                hierarchical.ate_m);
+    bbox_sum_m += bbox.ate_m;
+    hierarchical_sum_m += hierarchical.ate_m;
+  }
+  std::printf("[figures] parallel over 5 seeds: mean bbox %.4f m, mean hierarchical %.4f m\n", bbox_sum_m / 5,
+              hierarchical_sum_m / 5);
+  EXPECT_LE(hierarchical_sum_m, bbox_sum_m);
 }
 
 }  // namespace

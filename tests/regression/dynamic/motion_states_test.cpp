@@ -180,17 +180,18 @@ int moving_called_static_once_seen_moving(const DynamicRunResult& run, const std
 // (docs/dynamic/motion_states.md), not on the default seed 7 alone. A
 // machine seen working stays masked between strokes: 0 such frames after
 // its first moving state on every seed (before: 30 / 40 / 4). What is left
-// is a machine's first stroke, before any moving verdict: 1 / 29 / 2
-// (seed 8: the moving house loses its matches and the standing tracks look
-// static; 26 of them more than 3 frames into the stroke). Balanced
-// accuracy 0.993 / 0.793 / 0.989; unknown 41.7 / 41.2 / 29.1 % (paused
-// working machines stay masked); EX 120 unmasked in 93-95 % of its
-// testable frames.
+// is a machine's first stroke, before any moving verdict: 32 / 17 / 1 with
+// the issue-24 tracking defaults, 28 / 14 / 0 of them more than 3 frames
+// into the stroke (before those defaults 1 / 29 / 2 and at most 26 late;
+// the moving house loses its matches and the standing tracks look static:
+// seed 7, excavator 2, frames 73-82 and 93-100 with 8-65 points at scores
+// under 3.3). Balanced accuracy 0.849 / 0.866 / 0.993; EX 120 unmasked in
+// 97 / 96 / 98 % of its testable frames.
 TEST(MotionStates, Slewing) {
   const Figures f = run_full("slewing", 150);
   EXPECT_EQ(moving_called_static_once_seen_moving(f.run, "excavator"), 0);
-  EXPECT_LE(late_moving_called_static(f.run, 3), 26);
-  EXPECT_LE(f.by_class.at("excavator").moving_called_static, 29);
+  EXPECT_LE(late_moving_called_static(f.run, 3), 28);
+  EXPECT_LE(f.by_class.at("excavator").moving_called_static, 32);
   EXPECT_GE(f.all.balanced_accuracy(), 0.79);
   EXPECT_LE(f.all.unknown_share(), 0.45);
   EXPECT_GE(unmasked_share(f.run, 3), 0.9);

@@ -107,6 +107,20 @@ TEST(EstablishedFirst, HiddenEstablishedMapGivesNoPose) {
   EXPECT_NE(result.failure.find("established map is hidden"), std::string::npos) << result.failure;
 }
 
+// Enough established matches to solve on (>= kMinEstablishedMatches), but
+// a small share of the established points in view: a pose, not an OK one.
+TEST(EstablishedFirst, FewOfTheEstablishedPointsInViewMatchedIsHidden) {
+  for (const int matched : {30, 60}) {  // of 300 in view: 10 %, 20 %
+    StandingScene s = machine_in_front(300, 100);
+    for (int k = matched; k < 300; ++k) s.match_of_keypoint[k] = -1;
+    const PassResult result = solve(s, true);
+    EXPECT_EQ(result.established_in_view, 300);
+    EXPECT_EQ(result.established_matched, matched);
+    EXPECT_GE(result.n_inliers, matched - 5) << matched;
+    EXPECT_EQ(established_map_hidden(result), matched < kMinMatchedEstablishedShare * 300) << matched;
+  }
+}
+
 TEST(EstablishedFirst, WithoutAnEstablishedMapInViewAllMatchesCount) {
   // A new map (or new ground): nothing established to judge by.
   std::mt19937 rng(5);
