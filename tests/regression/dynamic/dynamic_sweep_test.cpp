@@ -6,50 +6,58 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <initializer_list>
+#include <string>
 
 #include "dynamic_scenario.hpp"
 
 namespace sitepose::experiments {
 namespace {
 
+// Mean ATE of two modes over renderings (seeds) of a scenario; prints each
+// rendering and the means. `second` must cover at least the frames `first`
+// does on every rendering.
+struct MeanAte {
+  double first_m = 0.0;
+  double second_m = 0.0;
+};
+
+MeanAte mean_ate_over_seeds(const std::string& scenario, int frames, std::initializer_list<int> seeds,
+                            config::MaskingMode first, config::MaskingMode second) {
+  MeanAte mean;
+  for (const int seed : seeds) {
+    Scenario s(scenario, frames_from_env(frames), seed);
+    EXPECT_TRUE(s.error().empty()) << s.error();
+    if (!s.error().empty()) continue;
+    const ModeFigures a = s.run(first);
+    const ModeFigures b = s.run(second);
+    EXPECT_GE(b.coverage, a.coverage) << scenario << " seed " << seed;
+    std::printf("[figures] %s seed %d: %s %.4f m, %s %.4f m\n", scenario.c_str(), seed,
+                config::to_string(first), a.ate_m, config::to_string(second), b.ate_m);
+    mean.first_m += a.ate_m / static_cast<double>(seeds.size());
+    mean.second_m += b.ate_m / static_cast<double>(seeds.size());
+  }
+  std::printf("[figures] %s over %zu seeds: mean %s %.4f m, mean %s %.4f m\n", scenario.c_str(), seeds.size(),
+              config::to_string(first), mean.first_m, config::to_string(second), mean.second_m);
+  return mean;
+}
+
 // The same 10 % bound on fast over five renderings (seeds), on the mean ATE:
 // a systematic cost of masking shows here, one rendering's +-30 % does not
 // (seed 4 alone: full 0.0106 vs none 0.0084 m).
 TEST(DynamicRegression, FastFullNotWorseThanNoneOnAverageOverFiveSeeds) {
-  double none_sum_m = 0.0, full_sum_m = 0.0;
-  for (const int seed : {7, 1, 2, 3, 4}) {
-    Scenario s("fast", frames_from_env(120), seed);
-    ASSERT_TRUE(s.error().empty()) << s.error();
-    const ModeFigures none = s.run(config::MaskingMode::kNone);
-    const ModeFigures full = s.run(config::MaskingMode::kFull);
-    EXPECT_GE(full.coverage, none.coverage) << "seed " << seed;
-    std::printf("[figures] fast seed %d: none %.4f m, full %.4f m\n", seed, none.ate_m, full.ate_m);
-    none_sum_m += none.ate_m;
-    full_sum_m += full.ate_m;
-  }
-  std::printf("[figures] fast over 5 seeds: mean none %.4f m, mean full %.4f m\n", none_sum_m / 5,
-              full_sum_m / 5);
-  EXPECT_LE(full_sum_m, 1.1 * none_sum_m);
+  const MeanAte mean = mean_ate_over_seeds("fast", 120, {7, 1, 2, 3, 4}, config::MaskingMode::kNone,
+                                           config::MaskingMode::kFull);
+  EXPECT_LE(mean.second_m, 1.1 * mean.first_m);
 }
 
 // Hierarchical masks not worse than boxes on parallel, on the mean ATE over
 // five renderings, the scenario's own (seed 6) first (the single-rendering
 // check is in dynamic_regression_test.cpp).
 TEST(DynamicRegression, ParallelHierarchicalNotWorseThanBboxOnAverageOverFiveSeeds) {
-  double bbox_sum_m = 0.0, hierarchical_sum_m = 0.0;
-  for (const int seed : {6, 1, 2, 3, 4}) {
-    Scenario s("parallel", frames_from_env(150), seed);
-    ASSERT_TRUE(s.error().empty()) << s.error();
-    const ModeFigures bbox = s.run(config::MaskingMode::kBbox);
-    const ModeFigures hierarchical = s.run(config::MaskingMode::kHierarchical);
-    std::printf("[figures] parallel seed %d: bbox %.4f m, hierarchical %.4f m\n", seed, bbox.ate_m,
-                hierarchical.ate_m);
-    bbox_sum_m += bbox.ate_m;
-    hierarchical_sum_m += hierarchical.ate_m;
-  }
-  std::printf("[figures] parallel over 5 seeds: mean bbox %.4f m, mean hierarchical %.4f m\n", bbox_sum_m / 5,
-              hierarchical_sum_m / 5);
-  EXPECT_LE(hierarchical_sum_m, bbox_sum_m);
+  const MeanAte mean = mean_ate_over_seeds("parallel", 150, {6, 1, 2, 3, 4}, config::MaskingMode::kBbox,
+                                           config::MaskingMode::kHierarchical);
+  EXPECT_LE(mean.second_m, mean.first_m);
 }
 
 }  // namespace
