@@ -394,6 +394,16 @@ std::vector<KeyFrameId> MapData::best_covisible(KeyFrameId keyframe_id, int n) c
   return result;
 }
 
+std::map<KeyFrameId, int> MapData::keyframes_sharing(const std::vector<PointId>& points) const {
+  std::map<KeyFrameId, int> shared;
+  for (PointId id : points) {
+    const MapPoint* p = good_point(id);
+    if (p == nullptr) continue;
+    for (const auto& [kf, index] : p->observations) ++shared[kf];
+  }
+  return shared;
+}
+
 int MapData::observation_weight(PointId point_id) const {
   const MapPoint* p = good_point(point_id);
   if (p == nullptr) return 0;

@@ -72,41 +72,19 @@ std::pair<int, int> count_close_points(const PreparedFrame& frame, const PassRes
   return {tracked, untracked};
 }
 
-// The keyframe observing most of the frame's inlier matches (kNoKeyFrame
-// when none is matched).
-map::KeyFrameId keyframe_sharing_most(const map::MapData& map, const PassResult& result) {
-  std::map<map::KeyFrameId, int> votes;
-  for (map::PointId pid : result.point_of_keypoint) {
-    const map::MapPoint* p = map.good_point(pid);
-    if (p == nullptr) continue;
-    for (const auto& [kf, index] : p->observations) ++votes[kf];
-  }
-  const auto most = std::max_element(votes.begin(), votes.end(),
-                                     [](const auto& a, const auto& b) { return a.second < b.second; });
-  return most == votes.end() ? map::kNoKeyFrame : most->first;
-}
-
 // What the keyframe rules read from the map: the reference keyframe's pose
-// and its points observed often enough to count, and (for the travel rule)
-// the pose of the keyframe sharing most of the frame's matches.
+// and its points observed often enough to count.
 struct KeyframeContext {
   std::optional<SE3> T_world_reference;
-  std::optional<SE3> T_world_most_shared;
   int reference_matches = 0;
   int reference_background_matches = 0;  // of those, on no detected object
 };
 
-KeyframeContext read_keyframe_context(const map::MapData& map, map::KeyFrameId reference,
-                                      const PassResult& result, bool with_most_shared) {
+KeyframeContext read_keyframe_context(const map::MapData& map, map::KeyFrameId reference) {
   KeyframeContext context;
   const map::KeyFrame* ref = map.keyframe(reference);
   if (ref == nullptr) return context;
   context.T_world_reference = ref->T_world_cam;
-  if (with_most_shared) {
-    if (const map::KeyFrame* most = map.keyframe(keyframe_sharing_most(map, result))) {
-      context.T_world_most_shared = most->T_world_cam;
-    }
-  }
   const int min_observations = map.keyframe_count() <= 2 ? 2 : 3;
   for (std::size_t k = 0; k < ref->point_of_keypoint.size(); ++k) {
     const map::PointId pid = ref->point_of_keypoint[k];
@@ -119,16 +97,15 @@ KeyframeContext read_keyframe_context(const map::MapData& map, map::KeyFrameId r
   return context;
 }
 
-// travelled_from() the reference keyframe and from the keyframe sharing most
-// of the frame's matches: on a strip driven again the reference keyframe
-// (the last one made) lies behind while an old keyframe of the strip stands
-// beside the camera.
-bool travelled_from_map(const KeyframeContext& context, const SE3& T_cam_world, const PreparedFrame& frame,
-                        double depth_share) {
-  return context.T_world_reference &&
-         travelled_from(*context.T_world_reference, T_cam_world, frame, depth_share) &&
-         (!context.T_world_most_shared ||
-          travelled_from(*context.T_world_most_shared, T_cam_world, frame, depth_share));
+// The pose of the keyframe observing most of the frame's inlier matches
+// (none when nothing is matched).
+std::optional<SE3> most_shared_keyframe_pose(const map::MapData& map, const PassResult& result) {
+  const std::map<map::KeyFrameId, int> shared = map.keyframes_sharing(result.point_of_keypoint);
+  const auto most = std::max_element(shared.begin(), shared.end(),
+                                     [](const auto& a, const auto& b) { return a.second < b.second; });
+  if (most == shared.end()) return std::nullopt;
+  const map::KeyFrame* kf = map.keyframe(most->first);
+  return kf != nullptr ? std::optional<SE3>(kf->T_world_cam) : std::nullopt;
 }
 
 }  // namespace
@@ -160,10 +137,8 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   if (established_map_hidden(result)) return false;
   const int queued = mapper_.queue_size ? mapper_.queue_size() : 0;
   const bool mapper_idle = mapper_.is_idle ? mapper_.is_idle() : true;
-  const KeyframeContext context = map_.read([&](const map::MapData& map) {
-    return read_keyframe_context(map, reference_keyframe_, result,
-                                 config_.tracking.keyframe_travel_depth_share > 0.0);
-  });
+  const KeyframeContext context =
+      map_.read([&](const map::MapData& map) { return read_keyframe_context(map, reference_keyframe_); });
   const int reference_matches = context.reference_matches;
   const std::optional<SE3>& T_world_reference = context.T_world_reference;
   // Background (no detected object) inliers: the dynamic layer's pass 1
@@ -188,9 +163,20 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
       long_since_keyframe || mapper_idle || result.n_inliers < 0.25 * reference_matches || need_close;
   const bool background_thinning = background_inliers < ratio * context.reference_background_matches;
   // The view changed by travel, whether or not points were lost (a tracker
-  // that keeps its points would otherwise make too few keyframes).
-  const bool travelled =
-      travelled_from_map(context, result.T_cam_world, frame, config_.tracking.keyframe_travel_depth_share);
+  // that keeps its points would otherwise make too few keyframes): away from
+  // the reference keyframe and from the keyframe sharing most of the
+  // frame's matches. On a strip driven again the reference keyframe (the
+  // last one made) lies behind while an old keyframe of the strip stands
+  // beside the camera. The votes are counted only when the first test holds.
+  const double travel_share = config_.tracking.keyframe_travel_depth_share;
+  bool travelled =
+      T_world_reference && travelled_from(*T_world_reference, result.T_cam_world, frame, travel_share);
+  if (travelled) {
+    const auto T_world_most_shared =
+        map_.read([&](const map::MapData& map) { return most_shared_keyframe_pose(map, result); });
+    travelled =
+        !T_world_most_shared || travelled_from(*T_world_most_shared, result.T_cam_world, frame, travel_share);
+  }
   const bool c2 =
       (result.n_inliers < ratio * reference_matches || background_thinning || need_close || travelled) &&
       result.n_inliers > 15;

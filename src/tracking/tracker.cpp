@@ -219,12 +219,7 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
   std::vector<PointView> points;
   match.assign(frame.size(), -1);
   map_.read([&](const map::MapData& map) {
-    std::map<map::KeyFrameId, int> votes;
-    for (int k = 0; k < frame.size(); ++k) {
-      const map::MapPoint* p = map.good_point(tracked[k]);
-      if (p == nullptr) continue;
-      for (const auto& [kf, index] : p->observations) ++votes[kf];
-    }
+    std::map<map::KeyFrameId, int> votes = map.keyframes_sharing(tracked);
     if (votes.empty() && map.keyframe(reference_keyframe_) != nullptr) votes[reference_keyframe_] = 1;
     std::vector<std::pair<int, map::KeyFrameId>> ranked;
     ranked.reserve(votes.size());
@@ -544,15 +539,13 @@ void Tracker::record_in_map(const PassResult& result) {
     for (map::PointId pid : result.visible_points) {
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
     }
-    std::map<map::KeyFrameId, int> votes;
     for (map::PointId pid : result.point_of_keypoint) {
-      map::MapPoint* p = map.point(pid);
-      if (p == nullptr) continue;
-      ++p->n_found;
-      if (p->bad || !site_culling) continue;
-      for (const auto& [kf, index] : p->observations) ++votes[kf];
+      if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_found;
     }
-    if (site_culling) map.set_tracker_keyframes(tracker_keyframes(reference_keyframe_, votes));
+    if (site_culling) {
+      map.set_tracker_keyframes(
+          tracker_keyframes(reference_keyframe_, map.keyframes_sharing(result.point_of_keypoint)));
+    }
   });
 }
 

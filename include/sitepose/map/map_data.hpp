@@ -8,6 +8,7 @@
 // reach it.
 
 #include <functional>
+#include <map>
 #include <optional>
 #include <unordered_map>
 #include <utility>
@@ -79,6 +80,9 @@ class MapData {
 
   // Keyframes sharing most points with `keyframe`, best first (up to n).
   std::vector<KeyFrameId> best_covisible(KeyFrameId keyframe, int n) const;
+  // Per keyframe, how many of `points` it observes (kNoPoint, missing and
+  // bad points skipped): the keyframes a frame's matches share.
+  std::map<KeyFrameId, int> keyframes_sharing(const std::vector<PointId>& points) const;
 
   // ORB-SLAM2 MapPoint::Observations(): a stereo observation (keypoint with
   // u_right_px >= 0) counts 2, a monocular one 1. The culling thresholds of

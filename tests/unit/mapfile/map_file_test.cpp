@@ -198,6 +198,14 @@ TEST(MapFile, WrongVersionIsRefused) {
       << refusal(bytes);
 }
 
+// The first point of the map that is not bad: the one a test changes.
+map::MapPoint* first_good_point(map::MapData& m) {
+  for (auto& [id, p] : m.points()) {
+    if (!p.bad) return m.point(id);
+  }
+  return nullptr;
+}
+
 // The map the test changes one field of, encoded.
 template <typename Change>
 Bytes encoded_changed_map(Change change, const MapFileMeta& meta = anchored_meta()) {
@@ -228,12 +236,7 @@ TEST(MapFile, NonFiniteValuesAreRefused) {
             })).find("keyframe 0: keypoint 0 is not finite"),
             std::string::npos);
   EXPECT_NE(refusal(encoded_changed_map([&](map::MapData& m) {
-              for (auto& [id, p] : m.points()) {
-                if (!p.bad) {
-                  m.point(id)->p_world.y() = nan;
-                  break;
-                }
-              }
+              first_good_point(m)->p_world.y() = nan;
             })).find("position, normal or scale range is not finite"),
             std::string::npos);
   MapFileMeta meta = anchored_meta();
@@ -245,18 +248,12 @@ TEST(MapFile, NonFiniteValuesAreRefused) {
 // A point never seen would give found_ratio() 0 / 0, which the mapper's
 // culling reads.
 TEST(MapFile, PointNeverSeenIsRefused) {
-  const auto first_good = [](map::MapData& m) -> map::MapPoint* {
-    for (auto& [id, p] : m.points()) {
-      if (!p.bad) return m.point(id);
-    }
-    return nullptr;
-  };
   EXPECT_NE(refusal(encoded_changed_map([&](map::MapData& m) {
-              first_good(m)->n_visible = 0;
+              first_good_point(m)->n_visible = 0;
             })).find("seen 0 and found"),
             std::string::npos);
   EXPECT_NE(refusal(encoded_changed_map([&](map::MapData& m) {
-              first_good(m)->n_found = -1;
+              first_good_point(m)->n_found = -1;
             })).find("found -1 times"),
             std::string::npos);
 }
@@ -269,12 +266,7 @@ TEST(MapFile, CoordinatesBeyondAnySiteAreRefused) {
             })).find("keyframe 3: the pose is not finite (or beyond 1e9 m)"),
             std::string::npos);
   EXPECT_NE(refusal(encoded_changed_map([](map::MapData& m) {
-              for (auto& [id, p] : m.points()) {
-                if (!p.bad) {
-                  m.point(id)->p_world.z() = 2e9;
-                  break;
-                }
-              }
+              first_good_point(m)->p_world.z() = 2e9;
             })).find("position, normal or scale range is not finite (or beyond 1e9 m)"),
             std::string::npos);
   EXPECT_EQ(refusal(encoded_changed_map([](map::MapData& m) {
