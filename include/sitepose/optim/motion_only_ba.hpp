@@ -19,8 +19,15 @@
 // left_covariance_of_inverse(). It is the Gauss-Newton (Cramer-Rao)
 // covariance for pixel noise of exactly the assumed sigmas.
 //
-// Threads: solve() is const and allocates its own Ceres problem, so one
-// MotionOnlyBa may be used from several threads. Ceres runs single-threaded.
+// Solver: a Levenberg-Marquardt on the 6 unknowns written here, which follows
+// Ceres's trust-region LM (its default radius, Jacobi scaling and stopping
+// tolerances) step for step but without Ceres's per-residual virtual calls
+// and problem set-up: the same poses, about 3x faster (docs/tracking/
+// extraction.md, "The motion-only BA by hand"). Ceres stays the reference
+// in motion_only_ba_test.
+//
+// Threads: solve() is const and keeps its state on the stack, so one
+// MotionOnlyBa may be used from several threads.
 
 #include <cstdint>
 #include <optional>
