@@ -4,6 +4,7 @@
 #include <iterator>
 #include <map>
 #include <set>
+#include <unordered_set>
 
 #include "sitepose/core/stopwatch.hpp"
 #include "sitepose/optim/reprojection_costs.hpp"
@@ -234,7 +235,14 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
       if (static_cast<int>(local.size()) >= kMaxLocalKeyframes) break;
       for (auto neighbour : map.best_covisible(kf, 10)) local.insert(neighbour);
     }
-    std::set<map::PointId> seen;
+    // Tens of thousands of ids per frame: a hash set, not a tree (std::set
+    // was a third of the local-map stage). First occurrence wins either way.
+    std::unordered_set<map::PointId> seen;
+    std::size_t listed = 0;
+    for (map::KeyFrameId id : local) {
+      if (const map::KeyFrame* kf = map.keyframe(id); kf != nullptr) listed += kf->point_of_keypoint.size();
+    }
+    seen.reserve(listed);
     for (int k = 0; k < frame.size(); ++k) {
       if (tracked[k] == map::kNoPoint) continue;
       if (const map::MapPoint* p = map.good_point(tracked[k]); p != nullptr) {
