@@ -203,11 +203,13 @@ int levenberg_marquardt(const RoundProblem& problem, int max_iterations, SE3& T_
     const bool step_solved = solver.info() == Eigen::Success && step.allFinite() && model_decrease > 0.0;
     const SE3 candidate = step_solved ? SE3::exp(step) * T_cam_world : T_cam_world;
     const std::optional<double> candidate_cost = step_solved ? problem.cost(candidate) : std::nullopt;
+    // Converged: Ceres stops here without taking the (tiny) last step.
     if (candidate_cost) {
       if (step.norm() <= kParameterTolerance * (ambient_norm(T_cam_world) + kParameterTolerance)) break;
       if (std::abs(*cost - *candidate_cost) <= kFunctionTolerance * *cost) break;
     }
     const double quality = candidate_cost ? (*cost - *candidate_cost) / model_decrease : -1.0;
+    // linearise() cannot fail where cost() succeeded (same observations, same pose).
     if (quality > kMinRelativeDecrease && problem.linearise(candidate, H, g)) {
       T_cam_world = candidate;
       cost = candidate_cost;
