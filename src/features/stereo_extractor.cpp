@@ -100,7 +100,7 @@ Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv:
   timings.extract_right_ms = work_ms[1];
 
   const auto match_start = SteadyClock::now();
-  SITEPOSE_TRY(StereoMatches matches, matcher_.match(left_ok, right_ok));
+  SITEPOSE_TRY(StereoMatches matches, matcher_.match(left_ok, right_ok, pool_));
   timings.stereo_match_ms = ms_since(match_start);
   StereoFeatures out;
   out.keypoints = std::move(left_ok.keypoints);

@@ -103,6 +103,7 @@ Tracker::Tracker(const StereoCamera& camera, const config::SiteposeConfig& confi
       map_(map),
       mapper_(std::move(mapper)),
       extractor_(config.orb, config.stereo, camera, extraction_options(config.orb, pool)),
+      pool_(pool),
       motion_ba_(camera, config.tracking),
       pyramid_{config.orb.scale_factor, config.orb.n_levels},
       relocaliser_(camera, config.tracking, pyramid_),
@@ -269,7 +270,7 @@ std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
   std::vector<int> match;
   const std::vector<PointView> points = local_points(frame, anchor.point_of_keypoint, true, match);
   search_by_projection(frame, camera_, pyramid_, anchor.T_cam_world, points, usable,
-                       local_map_search(radius_px), match, nullptr);
+                       local_map_search(radius_px), match, nullptr, pool_);
   std::vector<map::PointId> out(frame.size(), map::kNoPoint);
   for (int k = 0; k < frame.size(); ++k) {
     if (match[k] >= 0 && usable[k]) out[k] = points[match[k]].id;
@@ -299,7 +300,7 @@ void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std:
                                             : local_points(frame, result.point_of_keypoint, true, match);
   std::vector<int> visible;
   search_by_projection(frame, camera_, pyramid_, result.T_cam_world, points, usable,
-                       local_map_search(kLocalMapRadiusPx), match, &visible);
+                       local_map_search(kLocalMapRadiusPx), match, &visible, pool_);
   result.visible_points.clear();
   for (int i : visible) result.visible_points.push_back(points[i].id);
   result.timings.local_map_ms += ms_since(start);  // BA time is counted in motion_ba_ms

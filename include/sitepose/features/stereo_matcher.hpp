@@ -20,6 +20,7 @@
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
 #include "sitepose/features/orb_extractor.hpp"
+#include "sitepose/features/task_pool.hpp"
 
 namespace sitepose::features {
 
@@ -53,8 +54,8 @@ struct StereoMatchStats {
 };
 
 struct StereoMatches {
-  std::vector<double> u_right;  // per left keypoint; kNoMatch (< 0) if none
-  std::vector<double> depth_m;  // per left keypoint; kNoMatch (< 0) if none
+  std::vector<double> u_right;          // per left keypoint; kNoMatch (< 0) if none
+  std::vector<double> depth_m;          // per left keypoint; kNoMatch (< 0) if none
   std::vector<std::uint8_t> ambiguous;  // per left keypoint; 1 = see kAmbiguityRatio
   StereoMatchStats stats;
 };
@@ -71,7 +72,10 @@ class StereoMatcher {
 
   // left/right: extractions of the two rectified images with the same
   // pyramid geometry (same image size and level count), else an error.
-  Expected<StereoMatches> match(const OrbFeatures& left, const OrbFeatures& right) const;
+  // pool: lent threads for runs of the left keypoints (nullptr = all on the
+  // caller's thread); the matches are the same either way.
+  Expected<StereoMatches> match(const OrbFeatures& left, const OrbFeatures& right,
+                                TaskPool* pool = nullptr) const;
 
   const config::StereoMatchConfig& config() const { return config_; }
   double bf_px_m() const { return bf_px_m_; }

@@ -7,6 +7,7 @@
 
 #include "sitepose/core/se3.hpp"
 #include "sitepose/core/stereo_camera.hpp"
+#include "sitepose/features/task_pool.hpp"
 #include "sitepose/map/map_data.hpp"
 #include "sitepose/tracking/prepared_frame.hpp"
 
@@ -41,10 +42,13 @@ struct SearchParams {
 // pick the best descriptor. `match_of_keypoint` (size frame.size(), -1 =
 // free) receives the point index; returns the number of new matches and
 // appends the indices of points that were inside the frustum to `visible`.
+// A point takes a keypoint an earlier point took only with a smaller
+// distance. pool: lent threads for the points' searches (nullptr = all on
+// the caller's thread); the result is the same either way.
 int search_by_projection(const PreparedFrame& frame, const StereoCamera& camera,
                          const map::ScalePyramid& pyramid, const SE3& T_cam_world,
                          const std::vector<PointView>& points, const std::vector<std::uint8_t>& usable,
                          const SearchParams& params, std::vector<int>& match_of_keypoint,
-                         std::vector<int>* visible);
+                         std::vector<int>* visible, features::TaskPool* pool = nullptr);
 
 }  // namespace sitepose::tracking

@@ -58,8 +58,9 @@ struct TrackerCounters {
 
 class Tracker {
  public:
-  // pool: worker threads for extraction, owned by the caller (SlamSystem)
-  // and outliving the tracker; nullptr = extraction on the caller's thread.
+  // pool: worker threads for extraction, stereo matching and the
+  // projection searches, owned by the caller (SlamSystem) and outliving the
+  // tracker; nullptr = all on the caller's thread (same results).
   Tracker(const StereoCamera& camera, const config::SiteposeConfig& config, map::SharedMap& map,
           MapperLink mapper = {}, features::TaskPool* pool = nullptr);
 
@@ -198,6 +199,7 @@ class Tracker {
   map::SharedMap& map_;
   MapperLink mapper_;
   features::StereoExtractor extractor_;  // the masked area with a smaller budget of its own
+  features::TaskPool* pool_;             // lent; may be nullptr
   optim::MotionOnlyBa motion_ba_;
   map::ScalePyramid pyramid_;
 

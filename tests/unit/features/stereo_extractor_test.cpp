@@ -53,6 +53,13 @@ void expect_identical(const StereoFeatures& a, const StereoFeatures& b) {
   EXPECT_EQ(a.u_right, b.u_right);
   EXPECT_EQ(a.depth_m, b.depth_m);
   EXPECT_EQ(a.stereo_ambiguous, b.stereo_ambiguous);
+  EXPECT_EQ(a.stats.n_matched, b.stats.n_matched);
+  EXPECT_EQ(a.stats.n_no_candidate, b.stats.n_no_candidate);
+  EXPECT_EQ(a.stats.n_descriptor_too_far, b.stats.n_descriptor_too_far);
+  EXPECT_EQ(a.stats.n_window_outside, b.stats.n_window_outside);
+  EXPECT_EQ(a.stats.n_refinement_failed, b.stats.n_refinement_failed);
+  EXPECT_EQ(a.stats.n_out_of_range, b.stats.n_out_of_range);
+  EXPECT_EQ(a.stats.n_sad_outlier, b.stats.n_sad_outlier);
   EXPECT_TRUE(same_keypoints(a.right_keypoints, b.right_keypoints));
   EXPECT_TRUE(same_rows(a.right_descriptors, b.right_descriptors));
 }

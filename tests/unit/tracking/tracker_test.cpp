@@ -63,6 +63,28 @@ TEST(Tracker, TracksASmallStaticSite) {
   EXPECT_GE(tracker.counters().keyframes_created, 1);
 }
 
+// The pool only spreads the work: extraction, stereo matching and the
+// projection searches split into jobs whose results are joined in a fixed
+// order, so a tracker with threads tracks exactly as one without.
+TEST(Tracker, PooledAndSerialTrackIdentically) {
+  const SmallSite site = SmallSite::make("static", 12);
+  features::TaskPool pool(1);
+  map::SharedMap pooled_map;
+  map::SharedMap serial_map;
+  Tracker pooled(site.simulator.camera(), small_config(), pooled_map, {}, &pool);
+  Tracker serial(site.simulator.camera(), small_config(), serial_map);
+  for (int i = 0; i < 12; ++i) {
+    const StereoFrame frame = site.frame(i);
+    auto a = pooled.track(frame);
+    auto b = serial.track(frame);
+    ASSERT_TRUE(a.has_value() && b.has_value());
+    EXPECT_EQ(a->state, b->state) << "frame " << i;
+    EXPECT_EQ(a->counters.features_used, b->counters.features_used) << "frame " << i;
+    EXPECT_EQ((a->T_world_cam.matrix() - b->T_world_cam.matrix()).norm(), 0.0) << "frame " << i;
+  }
+  EXPECT_EQ(pooled.counters().keyframes_created, serial.counters().keyframes_created);
+}
+
 // The blackout scenario covers the lens for frames 24-33 while the roller
 // drives 1.3 m. The tracker must come back by relocalisation, stay
 // RECOVERING until the new pose has held, and never call a wrong pose OK.
