@@ -12,6 +12,11 @@
 // synchronisation fault: they are counted apart (skipped_at_start).
 // The caller chooses the clock the times are on (the cameras' own when they
 // share one, e.g. PTP; else the host's), the same for both sides.
+// A side whose times come from an estimate still settling (a camera clock
+// mapped to the host's from its first few frames) may see them move: shift()
+// moves its waiting frames with the estimate, and while set_settling() says
+// they may still move earlier, the other side's frames are not dropped for
+// being older than them (they wait, up to max_pending).
 // Threads: one owner (the capture thread); no locking.
 
 #include <cstddef>
@@ -52,6 +57,14 @@ class StereoPairer {
     while (q.size() > max_pending_) drop_front(side);
   }
 
+  // The side's time estimate changed by delta_ns: its waiting frames move with it.
+  void shift(Side side, std::int64_t delta_ns) {
+    for (Waiting& w : queue(side)) w.t_ns += delta_ns;
+  }
+
+  // Whether the side's times may still move earlier (see the top).
+  void set_settling(Side side, bool settling) { settling_[static_cast<int>(side)] = settling; }
+
   // The oldest pair that can be formed now, dropping frames that never will.
   std::optional<StereoPair<Frame>> pop() {
     auto& left = queue(Side::kLeft);
@@ -59,8 +72,10 @@ class StereoPairer {
     while (!left.empty() && !right.empty()) {
       const std::int64_t dt = left.front().t_ns - right.front().t_ns;
       if (dt > tolerance_ns_) {
+        if (settling(Side::kLeft)) break;
         drop_front(Side::kRight);  // older than any left frame still to come
       } else if (dt < -tolerance_ns_) {
+        if (settling(Side::kRight)) break;
         drop_front(Side::kLeft);
       } else {
         StereoPair<Frame> pair{std::move(left.front().frame), std::move(right.front().frame)};
@@ -92,6 +107,7 @@ class StereoPairer {
   };
 
   std::deque<Waiting>& queue(Side side) { return queues_[static_cast<int>(side)]; }
+  bool settling(Side side) const { return settling_[static_cast<int>(side)]; }
 
   void drop_front(Side side) {
     queue(side).pop_front();
@@ -106,6 +122,7 @@ class StereoPairer {
   std::size_t max_pending_;
   std::deque<Waiting> queues_[2];
   bool paired_once_ = false;  // since construction or reset()
+  bool settling_[2] = {false, false};
   PairerCounts counts_;
 };
 
