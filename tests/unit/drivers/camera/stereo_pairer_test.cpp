@@ -161,6 +161,24 @@ TEST(StereoPairer, AFrameOlderThanASettlingSideWaitsForItsEstimate) {
   EXPECT_EQ(pairer.counts().pairs, 2u);
 }
 
+// The wait lasts until max_pending frames of the settling side wait: if they
+// do not bring the estimate down, the older frame is dropped.
+TEST(StereoPairer, AFrameWaitsForTheSettlingSideUpToMaxPending) {
+  Pairer pairer = tolerance_ms(2, 3);
+  pairer.set_settling(Side::kRight, true);
+  pairer.push(Side::kLeft, 101 * kMs, 0);
+  for (int i = 0; i < 2; ++i) {
+    pairer.push(Side::kRight, (130 + 50 * i) * kMs, i);
+    EXPECT_FALSE(pairer.pop()) << i;
+    EXPECT_EQ(pairer.pending(Side::kLeft), 1u) << i;
+  }
+  pairer.push(Side::kRight, 230 * kMs, 2);
+  EXPECT_FALSE(pairer.pop());
+  EXPECT_EQ(pairer.pending(Side::kLeft), 0u);
+  EXPECT_EQ(pairer.pending(Side::kRight), 3u);
+  EXPECT_EQ(pairer.counts().skipped_at_start, 1u);
+}
+
 TEST(StereoPairer, KeepsMoveOnlyFrames) {
   StereoPairer<std::unique_ptr<int>> pairer(kMs, 2);
   pairer.push(Side::kLeft, 0, std::make_unique<int>(1));

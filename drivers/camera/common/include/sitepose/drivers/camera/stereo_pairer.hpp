@@ -14,9 +14,11 @@
 // share one, e.g. PTP; else the host's), the same for both sides.
 // A side whose times come from an estimate still settling (a camera clock
 // mapped to the host's from its first few frames) may see them move: shift()
-// moves its waiting frames with the estimate, and while set_settling() says
-// they may still move earlier, the other side's frames are not dropped for
-// being older than them (they wait, up to max_pending).
+// moves its waiting frames with the estimate. While set_settling() says they
+// may still move earlier, a frame of the other side that looks older than
+// the settling side's waits for the settling side's next frames (which may
+// bring the estimate down), until max_pending of them wait; only then is it
+// dropped. Pairs behind it wait with it.
 // Threads: one owner (the capture thread); no locking.
 
 #include <cstddef>
@@ -72,10 +74,10 @@ class StereoPairer {
     while (!left.empty() && !right.empty()) {
       const std::int64_t dt = left.front().t_ns - right.front().t_ns;
       if (dt > tolerance_ns_) {
-        if (settling(Side::kLeft)) break;
+        if (may_move_earlier(Side::kLeft)) break;
         drop_front(Side::kRight);  // older than any left frame still to come
       } else if (dt < -tolerance_ns_) {
-        if (settling(Side::kRight)) break;
+        if (may_move_earlier(Side::kRight)) break;
         drop_front(Side::kLeft);
       } else {
         StereoPair<Frame> pair{std::move(left.front().frame), std::move(right.front().frame)};
@@ -107,7 +109,10 @@ class StereoPairer {
   };
 
   std::deque<Waiting>& queue(Side side) { return queues_[static_cast<int>(side)]; }
-  bool settling(Side side) const { return settling_[static_cast<int>(side)]; }
+  // Settling, with room for the frames that may refine its waiting frames' times.
+  bool may_move_earlier(Side side) const {
+    return settling_[static_cast<int>(side)] && queues_[static_cast<int>(side)].size() < max_pending_;
+  }
 
   void drop_front(Side side) {
     queue(side).pop_front();
