@@ -7,6 +7,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <utility>
 
@@ -68,6 +69,51 @@ Expected<std::unique_ptr<CameraDevice>> open_waiting(const CameraOpener& opener,
 }
 
 }  // namespace
+
+// Sends one camera's software trigger from a thread of its own while the
+// capture thread sends the other's: one after the other, the second camera
+// would be triggered a full round trip of the first trigger later
+// (milliseconds on a loaded host), and expose that much apart.
+class AravisSource::TriggerHelper {
+ public:
+  TriggerHelper() : thread_([this](const std::stop_token& stop) { run(stop); }) {}
+  TriggerHelper(const TriggerHelper&) = delete;
+  TriggerHelper& operator=(const TriggerHelper&) = delete;
+  ~TriggerHelper() = default;  // thread_ is stopped and joined first (declared last)
+
+  void start(CameraDevice& device) {
+    {
+      std::lock_guard lock(mutex_);
+      device_ = &device;
+      result_.reset();
+    }
+    cv_.notify_all();
+  }
+  Status wait() {
+    std::unique_lock lock(mutex_);
+    cv_.wait(lock, [this] { return result_.has_value(); });
+    return *std::exchange(result_, std::nullopt);
+  }
+
+ private:
+  void run(const std::stop_token& stop) {
+    std::unique_lock lock(mutex_);
+    while (cv_.wait(lock, stop, [this] { return device_ != nullptr; })) {
+      CameraDevice* device = std::exchange(device_, nullptr);
+      lock.unlock();
+      Status sent = device->trigger();
+      lock.lock();
+      result_ = std::move(sent);
+      cv_.notify_all();
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable_any cv_;
+  CameraDevice* device_ = nullptr;  // to trigger; null when idle
+  std::optional<Status> result_;
+  std::jthread thread_;
+};
 
 Status check_aravis_source_options(const AravisSourceOptions& o) {
   std::string bad;
@@ -143,6 +189,7 @@ AravisSource::AravisSource(const AravisSourceOptions& options, CameraOpener open
     c.last_frame = now;
     c.backoff_s = options.reconnect_min_s;
   }
+  if (options.camera.trigger == TriggerMode::kSoftware) trigger_helper_ = std::make_unique<TriggerHelper>();
   next_trigger_ = now;
 }
 
@@ -199,16 +246,31 @@ Status AravisSource::poll_camera(Camera& camera, std::chrono::microseconds timeo
   }
   const Clock::time_point now = Clock::now();
   if (polled->kind == PollKind::kFrame) {
-    CameraFrame& f = polled->frame;
-    f.host_t_ns = camera.clock.map(f.camera_t_ns, f.host_t_ns);
     camera.last_frame = now;
-    const std::int64_t pair_t_ns = options_.pair_clock == PairClock::kCamera ? f.camera_t_ns : f.host_t_ns;
-    pairer_.push(camera.side, pair_t_ns, std::move(f));
+    pair_frame(camera, std::move(polled->frame));
     warn_of_underruns(camera);
   } else if (expecting_frames() && now - camera.last_frame > seconds(options_.lost_timeout_s)) {
     lose(camera, "no frame for " + std::to_string(options_.lost_timeout_s) + " s");
   }
   return ok_status();
+}
+
+// Maps the frame to the host clock and queues it for pairing. On the host
+// clock, the waiting frames of this camera move with its offset estimate,
+// and while the estimate settles they may still move earlier.
+void AravisSource::pair_frame(Camera& camera, CameraFrame frame) {
+  const bool had_offset = !camera.clock.empty();
+  const std::int64_t offset_before_ns = camera.clock.offset_ns();
+  frame.host_t_ns = camera.clock.map(frame.camera_t_ns, frame.host_t_ns);
+  if (options_.pair_clock == PairClock::kCamera) {
+    const std::int64_t camera_t_ns = frame.camera_t_ns;
+    pairer_.push(camera.side, camera_t_ns, std::move(frame));
+    return;
+  }
+  if (had_offset) pairer_.shift(camera.side, camera.clock.offset_ns() - offset_before_ns);
+  pairer_.set_settling(camera.side, !camera.clock.settled());
+  const std::int64_t host_t_ns = frame.host_t_ns;
+  pairer_.push(camera.side, host_t_ns, std::move(frame));
 }
 
 // A frame lost to an empty pool leaves its partner unpaired (or both lost):
@@ -226,16 +288,19 @@ void AravisSource::warn_of_underruns(Camera& camera) {
 void AravisSource::trigger_if_due(Clock::time_point now) {
   if (options_.camera.trigger != TriggerMode::kSoftware || now < next_trigger_) return;
   if (!cameras_[0].device || !cameras_[1].device) return;
-  for (Camera& c : cameras_) {
-    if (auto st = c.device->trigger(); !st) lose(c, st.error().message);
-    if (!cameras_[0].device || !cameras_[1].device) return;
-  }
+  trigger_helper_->start(*cameras_[1].device);
+  const Clock::time_point sent = Clock::now();  // after waking the helper, which may have taken the CPU
+  const Status left = cameras_[0].device->trigger();
+  const Status right = trigger_helper_->wait();
+  if (!left) lose(cameras_[0], left.error().message);
+  if (!right) lose(cameras_[1], right.error().message);
+  if (!cameras_[0].device || !cameras_[1].device) return;
   // Never two triggers closer than a period: a camera still busy with the
   // last frame may drop a trigger, and the other camera of the pair may not
   // (unpaired frames). So a late trigger (a loaded host) delays the next one
   // instead of being made up for.
   const Clock::duration period = seconds(1.0 / options_.camera.frame_rate_hz);
-  next_trigger_ = std::max(next_trigger_ + period, now + period);
+  next_trigger_ = std::max(next_trigger_ + period, sent + period);
 }
 
 std::chrono::microseconds AravisSource::poll_timeout(Clock::time_point now) const {
@@ -251,8 +316,11 @@ Expected<StereoFrame> AravisSource::make_frame(const camera::StereoPair<CameraFr
   SITEPOSE_TRY_STATUS(rectifier_.rectify(pair.left.gray, pair.right.gray, frame.left, frame.right));
   frame.seq = next_seq_++;
   // Strictly increasing, whatever the clock mapping did across a reconnect.
-  frame.t_left_ns = std::max(pair.left.host_t_ns, last_t_ns_ + 1);
-  frame.t_right_ns = pair.right.host_t_ns + (frame.t_left_ns - pair.left.host_t_ns);
+  // On the offset known now, which may have come down since the frames arrived.
+  const std::int64_t left_ns = pair.left.camera_t_ns + cameras_[0].clock.offset_ns();
+  const std::int64_t right_ns = pair.right.camera_t_ns + cameras_[1].clock.offset_ns();
+  frame.t_left_ns = std::max(left_ns, last_t_ns_ + 1);
+  frame.t_right_ns = right_ns + (frame.t_left_ns - left_ns);
   last_t_ns_ = frame.t_left_ns;
   frame.source_id = cameras_[0].id + "+" + cameras_[1].id;
   return frame;

@@ -4,8 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <condition_variable>
 #include <deque>
+#include <functional>
 #include <map>
+#include <mutex>
 #include <vector>
 
 #include "sitepose/testing/files.hpp"
@@ -31,13 +34,16 @@ struct Rig {
     int triggers = 0;
     std::uint64_t underruns = 0;  // the open device's count
     std::vector<Clock::time_point> trigger_times;
+    std::function<void()> on_trigger;  // runs inside trigger(), on the thread that sends it
   };
   std::map<std::string, Camera> cameras;
 
-  void feed(const std::string& id, std::int64_t t_ms, std::uint8_t value) {
+  // Captured at t_ms, arriving on the host latency_ms later.
+  void feed(const std::string& id, std::int64_t t_ms, std::uint8_t value, std::int64_t latency_ms = 0) {
     CameraFrame f;
     f.gray = cv::Mat(kH, kW, CV_8UC1, cv::Scalar(value));
-    f.camera_t_ns = f.host_t_ns = t_ms * kMs;
+    f.camera_t_ns = t_ms * kMs;
+    f.host_t_ns = (t_ms + latency_ms) * kMs;
     cameras[id].frames.push_back(std::move(f));
   }
   // A pair at t_ms: left value v, right value v + 1.
@@ -47,9 +53,11 @@ struct Rig {
   }
 };
 
+// Holds its rig entry (std::map references stay valid), so that a trigger
+// sent from another thread looks nothing up in the map.
 class ScriptedCamera final : public CameraDevice {
  public:
-  ScriptedCamera(Rig& rig, std::string id) : rig_(rig), id_(std::move(id)) {}
+  ScriptedCamera(Rig& rig, std::string id) : rig_(rig), camera_(rig.cameras[id]), id_(std::move(id)) {}
   int width() const override { return kW; }
   int height() const override { return kH; }
   std::string describe() const override { return id_; }
@@ -65,8 +73,9 @@ class ScriptedCamera final : public CameraDevice {
     return p;
   }
   Status trigger() override {
-    ++rig_.cameras[id_].triggers;
-    rig_.cameras[id_].trigger_times.push_back(Clock::now());
+    ++camera_.triggers;
+    camera_.trigger_times.push_back(Clock::now());
+    if (camera_.on_trigger) camera_.on_trigger();
     return ok_status();
   }
   std::uint64_t failed_buffers() const override { return 0; }
@@ -74,6 +83,7 @@ class ScriptedCamera final : public CameraDevice {
 
  private:
   Rig& rig_;
+  Rig::Camera& camera_;
   std::string id_;
 };
 
@@ -171,6 +181,34 @@ TEST(AravisSource, DeliversPairedFramesInOrderOnTheHostClock) {
   ASSERT_TRUE(event);
   EXPECT_EQ(event->kind, SourceEventKind::kTimeout);
   EXPECT_EQ((*source)->stats().pairing.pairs, 5u);
+}
+
+// A loaded host delays the first frames by tens of milliseconds: here the
+// right camera's first frame arrives 30 ms after capture, every other frame
+// 1 ms. Until a camera's clock mapping has settled, its frames' host times
+// may still move earlier, so a frame that looks older than them is not
+// dropped yet: the first pair is made once the right mapping has come down.
+TEST(AravisSource, ALatencySpikeOnTheFirstFramesLosesNoPair) {
+  TempDir dir;
+  Rig rig;
+  auto source = AravisSource::open(options(dir), opener(rig));
+  ASSERT_TRUE(source) << source.error().message;
+  for (int i = 0; i < 5; ++i) {
+    const std::int64_t t_ms = 1000 + 50 * i;
+    rig.feed("L", t_ms, static_cast<std::uint8_t>(10 * i), 1);
+    rig.feed("R", t_ms, static_cast<std::uint8_t>(10 * i + 1), i == 0 ? 30 : 1);
+  }
+  for (int i = 0; i < 5; ++i) {
+    auto event = next_within(**source, 500ms);
+    ASSERT_TRUE(event) << event.error().message;
+    ASSERT_EQ(event->kind, SourceEventKind::kFrame) << i;
+    EXPECT_EQ(event->frame.left.at<std::uint8_t>(0, 0), 10 * i);
+    EXPECT_EQ(event->frame.right.at<std::uint8_t>(0, 0), 10 * i + 1);
+    EXPECT_EQ(event->frame.t_ns(), (1000 + 50 * i + 1) * kMs) << i;  // capture + the 1 ms minimum latency
+  }
+  const PairerCounts counts = (*source)->stats().pairing;
+  EXPECT_EQ(counts.pairs, 5u);
+  EXPECT_EQ(counts.unpaired_left + counts.unpaired_right + counts.skipped_at_start, 0u);
 }
 
 TEST(AravisSource, UnpluggedCameraStallsThenReconnectsWithBackoff) {
@@ -273,6 +311,41 @@ TEST(AravisSource, SoftwareTriggerFiresBothCamerasAtTheFrameRate) {
   const auto& times = rig.cameras["L"].trigger_times;
   EXPECT_GE(times.size(), 3u);
   for (std::size_t i = 1; i < times.size(); ++i) EXPECT_GE(times[i] - times[i - 1], 9500us) << i;
+  EXPECT_EQ(rig.cameras["L"].triggers, rig.cameras["R"].triggers);
+}
+
+// Sent one after the other, the second trigger would leave a full round trip
+// of the first after it: the cameras would expose that far apart (and a whole
+// frame apart where a camera serves triggers on its own clock's tick, as
+// Aravis's fake GigE camera does every 40 ms). Here the left camera's
+// trigger returns only once the right camera's has been sent, or after 2 s.
+TEST(AravisSource, SoftwareTriggersGoToBothCamerasTogether) {
+  TempDir dir;
+  Rig rig;
+  std::mutex mutex;
+  std::condition_variable cv;
+  bool right_sent = false;
+  std::vector<bool> right_sent_during_left;
+  rig.cameras["R"].on_trigger = [&] {
+    std::lock_guard lock(mutex);
+    right_sent = true;
+    cv.notify_all();
+  };
+  rig.cameras["L"].on_trigger = [&] {
+    std::unique_lock lock(mutex);
+    right_sent_during_left.push_back(cv.wait_for(lock, 2s, [&] { return right_sent; }));
+    right_sent = false;
+  };
+  AravisSourceOptions o = options(dir);
+  o.camera.trigger = TriggerMode::kSoftware;
+  o.camera.frame_rate_hz = 100.0;
+  o.lost_timeout_s = 10.0;
+  auto opened = AravisSource::open(o, opener(rig));
+  ASSERT_TRUE(opened);
+  const Clock::time_point give_up = Clock::now() + 5s;
+  while (rig.cameras["L"].triggers < 3 && Clock::now() < give_up) (void)next_within(**opened, 5ms);
+  ASSERT_GE(right_sent_during_left.size(), 3u);
+  for (std::size_t i = 0; i < right_sent_during_left.size(); ++i) EXPECT_TRUE(right_sent_during_left[i]) << i;
   EXPECT_EQ(rig.cameras["L"].triggers, rig.cameras["R"].triggers);
 }
 

@@ -42,6 +42,19 @@ TEST(ClockMapper, TheWindowFollowsDrift) {
   EXPECT_NEAR(static_cast<double>(error), static_cast<double>(kMs), 8 * 5000.0);
 }
 
+TEST(ClockMapper, SettlesAfterItsFramesAndAgainAfterAReset) {
+  ClockMapper mapper(16, 3);
+  EXPECT_TRUE(mapper.empty());
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_FALSE(mapper.settled()) << i;
+    mapper.map(i * 50 * kMs, kOffset + i * 50 * kMs + kMs);
+  }
+  EXPECT_TRUE(mapper.settled());
+  mapper.reset();
+  EXPECT_TRUE(mapper.empty());
+  EXPECT_FALSE(mapper.settled());
+}
+
 TEST(ClockMapper, ResetForgetsTheOldOffset) {
   ClockMapper mapper;
   mapper.map(0, kOffset);

@@ -132,6 +132,53 @@ TEST(StereoPairer, ResetCountsWaitingFramesAndStartsAfresh) {
   EXPECT_EQ(pairer.counts().unpaired_left, 1u);
 }
 
+// The right side's times come from an estimate still settling (its first
+// frame arrived 30 ms late): a left frame older than them waits instead of
+// being dropped, and pairs once the estimate has come down. Settled, the
+// same gap drops the older frame.
+TEST(StereoPairer, AFrameOlderThanASettlingSideWaitsForItsEstimate) {
+  Pairer pairer = tolerance_ms(2);
+  pairer.set_settling(Side::kRight, true);
+  pairer.push(Side::kLeft, 101 * kMs, 0);
+  pairer.push(Side::kRight, 130 * kMs, 0);
+  EXPECT_FALSE(pairer.pop());
+  EXPECT_EQ(pairer.pending(Side::kLeft), 1u);
+  pairer.shift(Side::kRight, -29 * kMs);  // a frame 1 ms late: the estimate falls by 29 ms
+  pairer.push(Side::kRight, 151 * kMs, 1);
+  pairer.push(Side::kLeft, 151 * kMs, 1);
+  for (int i = 0; i < 2; ++i) {
+    const auto pair = pairer.pop();
+    ASSERT_TRUE(pair) << i;
+    EXPECT_EQ(pair->left, i);
+    EXPECT_EQ(pair->right, i);
+  }
+  pairer.set_settling(Side::kRight, false);
+  pairer.push(Side::kLeft, 201 * kMs, 2);
+  pairer.push(Side::kRight, 230 * kMs, 2);
+  EXPECT_FALSE(pairer.pop());
+  EXPECT_EQ(pairer.pending(Side::kLeft), 0u);
+  EXPECT_EQ(pairer.counts().unpaired_left, 1u);
+  EXPECT_EQ(pairer.counts().pairs, 2u);
+}
+
+// The wait lasts until max_pending frames of the settling side wait: if they
+// do not bring the estimate down, the older frame is dropped.
+TEST(StereoPairer, AFrameWaitsForTheSettlingSideUpToMaxPending) {
+  Pairer pairer = tolerance_ms(2, 3);
+  pairer.set_settling(Side::kRight, true);
+  pairer.push(Side::kLeft, 101 * kMs, 0);
+  for (int i = 0; i < 2; ++i) {
+    pairer.push(Side::kRight, (130 + 50 * i) * kMs, i);
+    EXPECT_FALSE(pairer.pop()) << i;
+    EXPECT_EQ(pairer.pending(Side::kLeft), 1u) << i;
+  }
+  pairer.push(Side::kRight, 230 * kMs, 2);
+  EXPECT_FALSE(pairer.pop());
+  EXPECT_EQ(pairer.pending(Side::kLeft), 0u);
+  EXPECT_EQ(pairer.pending(Side::kRight), 3u);
+  EXPECT_EQ(pairer.counts().skipped_at_start, 1u);
+}
+
 TEST(StereoPairer, KeepsMoveOnlyFrames) {
   StereoPairer<std::unique_ptr<int>> pairer(kMs, 2);
   pairer.push(Side::kLeft, 0, std::make_unique<int>(1));

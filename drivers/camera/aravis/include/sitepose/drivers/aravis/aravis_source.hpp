@@ -7,7 +7,9 @@
 // Timing: free-run (each camera at frame_rate_hz; pair_tolerance must cover
 // the phase between the two), or software trigger (the source triggers both
 // cameras every 1 / frame_rate_hz, never faster: a late trigger delays the
-// rest; they expose within the trigger latency).
+// rest; both triggers go out together, the right camera's from a helper
+// thread, so the cameras expose within the trigger latency, not one trigger
+// round trip apart).
 // Hardware trigger and PTP with scheduled action commands are set up in the
 // cameras' feature files (firmware-config/), not here.
 // A lost camera (Aravis reports it, or it sends nothing for lost_timeout_s)
@@ -15,7 +17,9 @@
 // reconnect_max_s; meanwhile next() returns kTimeout at its deadline, so the
 // pipeline reports a stall (LOST poses) and the daemon stays up. Waiting
 // frames are dropped (counted) and pairing starts afresh when it is back.
-// Threads: next() and the accessors from the capture thread only.
+// Threads: next() and the accessors from the capture thread only; the
+// helper thread uses the right camera only while the capture thread waits
+// for its trigger.
 
 #include <array>
 #include <chrono>
@@ -92,6 +96,7 @@ class AravisSource final : public pipeline::FrameSource {
 
  private:
   using Clock = std::chrono::steady_clock;
+  class TriggerHelper;
   struct Camera {
     Side side = Side::kLeft;
     std::string id;
@@ -111,6 +116,7 @@ class AravisSource final : public pipeline::FrameSource {
   void lose(Camera& camera, const std::string& why);
   Status try_reconnect(Camera& camera, Clock::time_point now);
   Status poll_camera(Camera& camera, std::chrono::microseconds timeout);
+  void pair_frame(Camera& camera, CameraFrame frame);
   void trigger_if_due(Clock::time_point now);
   std::chrono::microseconds poll_timeout(Clock::time_point now) const;
   void warn_of_underruns(Camera& camera);
@@ -126,6 +132,7 @@ class AravisSource final : public pipeline::FrameSource {
   calib::StereoRectifier rectifier_;
   std::array<Camera, 2> cameras_;
   camera::StereoPairer<CameraFrame> pairer_;
+  std::unique_ptr<TriggerHelper> trigger_helper_;  // software trigger only
   Clock::time_point next_trigger_{};
   bool started_ = false;  // next() called once
   std::int64_t next_seq_ = 0;

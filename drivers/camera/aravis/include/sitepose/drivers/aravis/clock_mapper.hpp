@@ -9,10 +9,13 @@
 // delayed on the wire does not move the estimate. What remains is the
 // pair's minimum transfer latency (exposure end to buffer complete, about a
 // millisecond on GigE), common to every frame.
+// Until a few frames have been seen (settled()), the estimate may still fall
+// by tens of milliseconds: the first frames of a loaded host all arrive late.
 // The host clock is CLOCK_REALTIME (system time, disciplined by NTP/PTP), so
 // that pose times line up with GNSS fixes and other machines' messages.
 // Threads: one owner; no locking.
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -21,16 +24,21 @@ namespace sitepose::drivers::aravis {
 
 class ClockMapper {
  public:
-  explicit ClockMapper(std::size_t window = 64) : window_(window == 0 ? 1 : window) {}
+  explicit ClockMapper(std::size_t window = 64, std::size_t settle_frames = 8)
+      : window_(window == 0 ? 1 : window), settle_frames_(std::min(settle_frames, window_)) {}
 
   // Records one frame and returns its capture time on the host clock.
   std::int64_t map(std::int64_t camera_t_ns, std::int64_t host_arrival_ns);
   // After a reconnect the camera's counter starts again.
   void reset() { offsets_.clear(); }
   std::int64_t offset_ns() const;
+  bool empty() const { return offsets_.empty(); }
+  // Seen settle_frames frames since construction or reset().
+  bool settled() const { return offsets_.size() >= settle_frames_; }
 
  private:
   std::size_t window_;
+  std::size_t settle_frames_;
   std::deque<std::int64_t> offsets_;  // host arrival - camera time, newest last
 };
 

@@ -12,6 +12,13 @@
 // synchronisation fault: they are counted apart (skipped_at_start).
 // The caller chooses the clock the times are on (the cameras' own when they
 // share one, e.g. PTP; else the host's), the same for both sides.
+// A side whose times come from an estimate still settling (a camera clock
+// mapped to the host's from its first few frames) may see them move: shift()
+// moves its waiting frames with the estimate. While set_settling() says they
+// may still move earlier, a frame of the other side that looks older than
+// the settling side's waits for the settling side's next frames (which may
+// bring the estimate down), until max_pending of them wait; only then is it
+// dropped. Pairs behind it wait with it.
 // Threads: one owner (the capture thread); no locking.
 
 #include <cstddef>
@@ -52,6 +59,14 @@ class StereoPairer {
     while (q.size() > max_pending_) drop_front(side);
   }
 
+  // The side's time estimate changed by delta_ns: its waiting frames move with it.
+  void shift(Side side, std::int64_t delta_ns) {
+    for (Waiting& w : queue(side)) w.t_ns += delta_ns;
+  }
+
+  // Whether the side's times may still move earlier (see the top).
+  void set_settling(Side side, bool settling) { settling_[static_cast<int>(side)] = settling; }
+
   // The oldest pair that can be formed now, dropping frames that never will.
   std::optional<StereoPair<Frame>> pop() {
     auto& left = queue(Side::kLeft);
@@ -59,8 +74,10 @@ class StereoPairer {
     while (!left.empty() && !right.empty()) {
       const std::int64_t dt = left.front().t_ns - right.front().t_ns;
       if (dt > tolerance_ns_) {
+        if (may_move_earlier(Side::kLeft)) break;
         drop_front(Side::kRight);  // older than any left frame still to come
       } else if (dt < -tolerance_ns_) {
+        if (may_move_earlier(Side::kRight)) break;
         drop_front(Side::kLeft);
       } else {
         StereoPair<Frame> pair{std::move(left.front().frame), std::move(right.front().frame)};
@@ -92,6 +109,10 @@ class StereoPairer {
   };
 
   std::deque<Waiting>& queue(Side side) { return queues_[static_cast<int>(side)]; }
+  // Settling, with room for the frames that may refine its waiting frames' times.
+  bool may_move_earlier(Side side) const {
+    return settling_[static_cast<int>(side)] && queues_[static_cast<int>(side)].size() < max_pending_;
+  }
 
   void drop_front(Side side) {
     queue(side).pop_front();
@@ -106,6 +127,7 @@ class StereoPairer {
   std::size_t max_pending_;
   std::deque<Waiting> queues_[2];
   bool paired_once_ = false;  // since construction or reset()
+  bool settling_[2] = {false, false};
   PairerCounts counts_;
 };
 
