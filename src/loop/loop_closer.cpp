@@ -7,6 +7,7 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <unordered_set>
 
@@ -284,6 +285,14 @@ Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
     return copy_group(m, keyframe);
   });
   const GroupCorrection plan = plan_group_correction(camera_, pyramid, group, loop, loop_points);
+  if (!group.keyframes.empty()) {
+    const SE3& before = group.keyframes.front().T_world_cam;
+    spdlog::info(
+        "loop closing: keyframe={} moves {:.3f} m, {:.2f} deg with its {} covisible keyframes", keyframe,
+        (loop.T_world_cam.translation() - before.translation()).norm(),
+        rotation_angle_rad(before.rotation().conjugate() * loop.T_world_cam.rotation()) * 180.0 / M_PI,
+        group.keyframes.size() - 1);
+  }
   const auto lock_start = std::chrono::steady_clock::now();
   const GroupApplied applied =
       map_.write([&](map::MapData& m) { return apply_group_correction(m, group, plan); });

@@ -217,9 +217,10 @@ EssentialGraph build_essential_graph(const map::MapData& map,
     if (add_edge(e.first, e.second, false)) ++g.loop_edges;
   }
   for (map::KeyFrameId id : ids) {
-    const map::KeyFrame& kf = *map.keyframe(id);
-    if (add_edge(kf.parent, id, false)) ++g.tree_edges;
-    for (const auto& [other, weight] : kf.covisibility) {
+    if (add_edge(map.keyframe(id)->parent, id, false)) ++g.tree_edges;
+  }
+  for (map::KeyFrameId id : ids) {
+    for (const auto& [other, weight] : map.keyframe(id)->covisibility) {
       if (weight >= min_weight && add_edge(id, other, false)) ++g.covisibility_edges;
     }
   }
