@@ -296,7 +296,12 @@ Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
   const auto lock_start = std::chrono::steady_clock::now();
   const GroupApplied applied =
       map_.write([&](map::MapData& m) { return apply_group_correction(m, group, plan); });
-  note_write_lock(elapsed_ms(lock_start));
+  const double group_lock_ms = elapsed_ms(lock_start);
+  note_write_lock(group_lock_ms);
+  spdlog::info(
+      "loop closing: keyframe={} group applied in {:.1f} ms under the write lock: {} points moved, {} "
+      "fused, {} observations added",
+      keyframe, group_lock_ms, applied.points_moved, applied.points_fused, applied.observations_added);
   const double correction_ms = elapsed_ms(start);
   const Status status = optimise_essential_graph(keyframe, group, plan, applied);
   if (mapper_.resume) mapper_.resume();
@@ -340,13 +345,14 @@ Status LoopCloser::optimise_essential_graph(map::KeyFrameId keyframe, const Grou
   const auto lock_start = std::chrono::steady_clock::now();
   const GraphApplied moved = map_.write(
       [&](map::MapData& m) { return apply_essential_graph(m, graph, result->T_world_node, corrected_by); });
-  note_write_lock(elapsed_ms(lock_start));
+  const double graph_lock_ms = elapsed_ms(lock_start);
+  note_write_lock(graph_lock_ms);
   spdlog::info(
       "loop closing: keyframe={} essential graph {} nodes, {} edges ({} tree, {} covisibility, {} loop), "
-      "cost {:.4g} -> {:.4g}, {:.1f} ms; {} keyframes, {} points moved",
+      "cost {:.4g} -> {:.4g}, {:.1f} ms; {} keyframes, {} points moved in {:.1f} ms under the write lock",
       keyframe, graph.ids.size(), graph.input.edges.size(), graph.tree_edges, graph.covisibility_edges,
       graph.loop_edges, result->initial_cost, result->final_cost, solve_ms, moved.keyframes_moved,
-      moved.points_moved);
+      moved.points_moved, graph_lock_ms);
   std::lock_guard lock(mutex_);
   stats_.last_optimisation_ms = solve_ms;
   stats_.last_graph_nodes = static_cast<int>(graph.ids.size());

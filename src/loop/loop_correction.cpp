@@ -17,7 +17,9 @@ KeyFramePair ordered(map::KeyFrameId a, map::KeyFrameId b) {
   return a < b ? KeyFramePair{a, b} : KeyFramePair{b, a};
 }
 
-// Fuses one proposal keeping the loop side's point; true when the map changed.
+// Fuses one proposal keeping the loop side's point; true when the map
+// changed. `touched`: points that gained a view and need their appearance
+// refreshed.
 bool fuse_loop_point(map::MapData& map, const mapping::FuseProposal& f, GroupApplied& out,
                      std::unordered_set<map::PointId>& touched) {
   const map::MapPoint* loop_point = map.good_point(f.point);
@@ -27,13 +29,13 @@ bool fuse_loop_point(map::MapData& map, const mapping::FuseProposal& f, GroupApp
   }
   const map::PointId existing = kf->point_of_keypoint[static_cast<std::size_t>(f.index)];
   if (map.good_point(existing) != nullptr) {
-    map.replace_point(existing, f.point);
+    map.replace_point(existing, f.point);  // refreshes the loop point's appearance itself
     ++out.points_fused;
   } else {
     map.add_observation(f.point, f.keyframe, f.index);
     ++out.observations_added;
+    touched.insert(f.point);
   }
-  touched.insert(f.point);
   return true;
 }
 
@@ -148,14 +150,14 @@ GroupApplied apply_group_correction(map::MapData& map, const GroupCopy& group, c
     }
   }
   move_new_keyframes(map, group, plan, out);
-  std::unordered_set<map::PointId> touched;
   for (const auto& [pid, p] : plan.p_world) {
     if (map::MapPoint* point = map.point(pid); point != nullptr && !point->bad) {
       point->p_world = p;
-      touched.insert(pid);
+      map.update_point_geometry(pid);  // moved with its views: descriptor unchanged
       ++out.points_moved;
     }
   }
+  std::unordered_set<map::PointId> touched;
   for (const mapping::FuseProposal& f : plan.fusions) fuse_loop_point(map, f, out, touched);
   for (map::PointId pid : touched) {
     if (map.good_point(pid) != nullptr) map.update_point_appearance(pid);
