@@ -185,7 +185,7 @@ Status LoopCloser::process_keyframe(map::KeyFrameId keyframe) {
       "refined, {} in all of {} loop points in view",
       keyframe, loop->candidate, loop->descriptor_matches, loop->ransac_inliers, loop->refined_inliers,
       loop->matches.size(), loop->visible_loop_points);
-  const Status status = correct(keyframe, *loop, loop_points);
+  Status status = correct(keyframe, *loop, loop_points);
   consistency_.reset();
   last_loop_keyframe_ = keyframe;
   return status;
@@ -303,7 +303,7 @@ Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
       "fused, {} observations added",
       keyframe, group_lock_ms, applied.points_moved, applied.points_fused, applied.observations_added);
   const double correction_ms = elapsed_ms(start);
-  const Status status = optimise_essential_graph(keyframe, group, plan, applied);
+  Status status = optimise_essential_graph(keyframe, group, plan, applied);
   if (mapper_.resume) mapper_.resume();
   std::lock_guard lock(mutex_);
   stats_.last_correction_ms = correction_ms;

@@ -197,6 +197,7 @@ std::vector<std::pair<int, int>> match_keyframe_points(const LoopView& current, 
     if (it == best_of.end() || best < it->second.second) best_of[best_j] = {static_cast<int>(i), best};
   }
   std::vector<std::pair<int, int>> out;
+  out.reserve(best_of.size());
   for (const auto& [j, m] : best_of) out.emplace_back(m.first, j);
   std::sort(out.begin(), out.end());
   return out;

@@ -64,8 +64,8 @@ Status check_input(const PoseGraphInput& input) {
 
 Vector6d pose_graph_residual(const SE3& T_world_from, const SE3& T_world_to, const PoseGraphEdge& edge) {
   const RelativePoseCost cost(edge.T_from_to, edge.weight);
-  const Eigen::Quaterniond q_from = T_world_from.rotation();
-  const Eigen::Quaterniond q_to = T_world_to.rotation();
+  const Eigen::Quaterniond& q_from = T_world_from.rotation();
+  const Eigen::Quaterniond& q_to = T_world_to.rotation();
   Vector6d r;
   cost(q_from.coeffs().data(), T_world_from.translation().data(), q_to.coeffs().data(),
        T_world_to.translation().data(), r.data());

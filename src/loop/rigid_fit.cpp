@@ -51,12 +51,12 @@ Expected<SE3> fit_rigid(const std::vector<Eigen::Vector3d>& p_a, const std::vect
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
   for (std::size_t i = 0; i < p_a.size(); ++i) H += (p_b[i] - c_b) * (p_a[i] - c_a).transpose();
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::Vector3d s = svd.singularValues();
+  const Eigen::Vector3d& s = svd.singularValues();
   if (!(s(0) > 0.0) || s(1) < kMinSingularRatio * s(0)) {
     return make_error(ErrorCode::kInvalidArgument, "rigid fit: the points are (nearly) collinear");
   }
-  const Eigen::Matrix3d U = svd.matrixU();
-  const Eigen::Matrix3d V = svd.matrixV();
+  const Eigen::Matrix3d& U = svd.matrixU();
+  const Eigen::Matrix3d& V = svd.matrixV();
   Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
   D(2, 2) = (V * U.transpose()).determinant() < 0.0 ? -1.0 : 1.0;
   const Eigen::Matrix3d R = V * D * U.transpose();
