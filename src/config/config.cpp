@@ -113,7 +113,8 @@ Section<MappingConfig> mapping_section() {
       .key("min_point_observations", &MappingConfig::min_point_observations, in_range(1, 20))
       .key("site_culling", &MappingConfig::site_culling)
       .key("site_radius_m", &MappingConfig::site_radius_m, positive(), at_most(100.0))
-      .key("site_angle_deg", &MappingConfig::site_angle_deg, positive(), at_most(180.0));
+      .key("site_angle_deg", &MappingConfig::site_angle_deg, positive(), at_most(180.0))
+      .key("loop_closing", &MappingConfig::loop_closing);
   return s;
 }
 

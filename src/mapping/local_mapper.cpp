@@ -210,7 +210,7 @@ void LocalMapper::run(const std::stop_token& stop_token) {
     map::KeyFrameId id = map::kNoKeyFrame;
     {
       std::unique_lock lock(mutex_);
-      if (!queue_cv_.wait(lock, stop_token, [this] { return !queue_.empty(); })) break;
+      if (!queue_cv_.wait(lock, stop_token, [this] { return !queue_.empty() && !paused_; })) break;
       id = queue_.front();
       queue_.pop_front();
       busy_ = true;
@@ -223,6 +223,21 @@ void LocalMapper::run(const std::stop_token& stop_token) {
     }
     idle_cv_.notify_all();
   }
+}
+
+void LocalMapper::pause() {
+  std::unique_lock lock(mutex_);
+  paused_ = true;
+  abort_ba_.store(true);
+  idle_cv_.wait(lock, [this] { return !running_.load() || !busy_; });
+}
+
+void LocalMapper::resume() {
+  {
+    std::lock_guard lock(mutex_);
+    paused_ = false;
+  }
+  queue_cv_.notify_one();
 }
 
 void LocalMapper::wait_until_idle() {
@@ -286,6 +301,10 @@ Status LocalMapper::process_keyframe(map::KeyFrameId keyframe) {
     if (mapping_.site_culling) cull_site_keyframes(keyframe);
   }
   const std::size_t purged = map_.write([](map::MapData& m) { return m.purge_bad_points(); });
+  if (listener_.processed &&
+      map_.read([&](const map::MapData& m) { return m.keyframe(keyframe) != nullptr; })) {
+    listener_.processed(keyframe);
+  }
   const double ms = elapsed_ms(start);
   {
     std::lock_guard lock(mutex_);
@@ -431,9 +450,9 @@ void LocalMapper::fuse_neighbours(map::KeyFrameId keyframe) {
 
 Status LocalMapper::local_bundle_adjustment(map::KeyFrameId keyframe) {
   {
-    // Cleared under the queue lock: an enqueue after this point aborts the solve.
+    // Cleared under the queue lock: an enqueue (or a pause) after this point aborts the solve.
     std::lock_guard lock(mutex_);
-    if (!queue_.empty()) return ok_status();
+    if (!queue_.empty() || paused_) return ok_status();  // paused: the loop closer waits
     abort_ba_.store(false);
   }
   const LocalBaProblem problem = map_.read([&](const map::MapData& m) {

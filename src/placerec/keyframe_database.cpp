@@ -79,6 +79,37 @@ std::vector<ScoredKeyFrame> KeyFrameDatabase::score(const BowVector& query,
   return out;
 }
 
+std::vector<ScoredKeyFrame> KeyFrameDatabase::score_excluding(
+    const BowVector& query, const std::unordered_set<map::KeyFrameId>& exclude, double min_score,
+    const CandidateQuery& params) const {
+  std::lock_guard lock(mutex_);
+  std::unordered_map<map::KeyFrameId, int> shared;
+  for (const BowEntry& e : query) {
+    if (e.word >= inverted_.size()) continue;
+    for (map::KeyFrameId kf : inverted_[e.word]) {
+      if (exclude.count(kf) == 0) ++shared[kf];
+    }
+  }
+  int most = 0;
+  for (const auto& [kf, n] : shared) most = std::max(most, n);
+  const double min_shared = params.min_shared_words_of_best * most;
+  std::vector<ScoredKeyFrame> out;
+  for (const auto& [kf, n] : shared) {
+    if (n <= min_shared && n < most) continue;
+    const double s = score_l1(query, bows_.at(kf));
+    if (s >= min_score) out.push_back({kf, n, s});
+  }
+  std::sort(out.begin(), out.end(),
+            [](const ScoredKeyFrame& a, const ScoredKeyFrame& b) { return a.keyframe < b.keyframe; });
+  return out;
+}
+
+BowVector KeyFrameDatabase::bow(map::KeyFrameId keyframe) const {
+  std::lock_guard lock(mutex_);
+  const auto it = bows_.find(keyframe);
+  return it == bows_.end() ? BowVector{} : it->second;
+}
+
 std::vector<PlaceCandidateGroup> group_candidates(
     const std::vector<ScoredKeyFrame>& scored,
     const std::function<std::vector<map::KeyFrameId>(map::KeyFrameId, int)>& covisible,

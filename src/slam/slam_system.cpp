@@ -42,9 +42,19 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
   mapper_ = std::make_unique<mapping::LocalMapper>(camera, config.mapping, config.tracking, map_);
   if (options.vocabulary) {
     database_ = std::make_unique<placerec::KeyFrameDatabase>(options.vocabulary);
-    mapper_->set_keyframe_listener(
-        {[this](map::KeyFrameId id, const std::vector<map::Descriptor>& d) { database_->add(id, d); },
-         [this](map::KeyFrameId id) { database_->erase(id); }});
+    mapping::KeyFrameListener listener{
+        [this](map::KeyFrameId id, const std::vector<map::Descriptor>& d) { database_->add(id, d); },
+        [this](map::KeyFrameId id) { database_->erase(id); }, nullptr};
+    if (config.mapping.loop_closing) {
+      loop::MapperPause pause;
+      if (options_.mapper_thread) {
+        pause.pause = [this] { mapper_->pause(); };
+        pause.resume = [this] { mapper_->resume(); };
+      }
+      closer_ = std::make_unique<loop::LoopCloser>(camera, map_, *database_, std::move(pause));
+      listener.processed = [this](map::KeyFrameId id) { closer_->enqueue(id); };
+    }
+    mapper_->set_keyframe_listener(std::move(listener));
   }
   tracking::MapperLink link;
   if (config.mapping.enabled) {
@@ -69,7 +79,10 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
     });
   }
   two_pass_ = std::make_unique<TwoPassTracker>(*tracker_, camera, config, options.fps, options.trace);
-  if (options_.mapper_thread && config.mapping.enabled) mapper_->start();
+  if (options_.mapper_thread && config.mapping.enabled) {
+    mapper_->start();
+    if (closer_) closer_->start();
+  }
 }
 
 SlamSystem::~SlamSystem() { finish(); }
@@ -77,11 +90,26 @@ SlamSystem::~SlamSystem() { finish(); }
 void SlamSystem::finish() {
   if (mapper_->running()) {
     mapper_->wait_until_idle();
+    if (closer_) closer_->wait_until_idle();  // it may pause the mapper: stopped after it
     mapper_->stop();
+  }
+  if (closer_ && closer_->running()) closer_->stop();
+}
+
+std::optional<loop::LoopClosingStats> SlamSystem::loop_stats() const {
+  if (!closer_) return std::nullopt;
+  return closer_->stats();
+}
+
+void SlamSystem::take_loop_correction() {
+  if (!closer_) return;
+  if (const std::optional<SE3> correction = closer_->take_tracker_correction(); correction) {
+    tracker_->apply_map_correction(*correction);
   }
 }
 
 Expected<FrameReport> SlamSystem::process(const StereoFrame& frame) {
+  take_loop_correction();
   const auto start = SteadyClock::now();
   SITEPOSE_TRY(tracking::PreparedFrame prepared, tracker_->prepare(frame));
   const std::vector<std::uint8_t> usable(prepared.size(), 1);
@@ -113,6 +141,10 @@ Status SlamSystem::run_inline_mapping(FrameReport& report) {
   if (!options_.mapper_thread && config_.mapping.enabled) {
     const auto mapping_start = SteadyClock::now();
     if (auto st = mapper_->process_pending(); !st) return Unexpected{st.error()};
+    if (closer_) {
+      if (auto st = closer_->process_pending(); !st) return Unexpected{st.error()};
+      take_loop_correction();
+    }
     report.timings.mapping_inline_ms = ms_since(mapping_start);
   }
   return ok_status();
@@ -130,6 +162,7 @@ Expected<FrameReport> SlamSystem::process(const StereoFrame& frame, const dynami
     if (options_.trace) report.trace.boxes = mask.dynamic_boxes;
     return report;
   }
+  take_loop_correction();
   SITEPOSE_TRY(FrameReport report, two_pass_->process(frame, objects));
   SITEPOSE_TRY_STATUS(run_inline_mapping(report));
   fill_map_trace(report);

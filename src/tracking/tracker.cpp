@@ -114,6 +114,11 @@ std::optional<SE3> Tracker::last_T_world_cam() const {
   return last_T_cam_world_.inverse();
 }
 
+void Tracker::apply_map_correction(const SE3& correction) {
+  if (has_last_) last_T_cam_world_ = last_T_cam_world_ * correction.inverse();
+  for (auto& [t_ns, centre] : recent_centres_) centre = correction * centre;
+}
+
 Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat& instance_labels,
                                          const cv::Mat& extraction_mask) {
   const auto start = SteadyClock::now();

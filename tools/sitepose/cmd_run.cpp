@@ -158,6 +158,25 @@ int track(const RunArgs& args, const io::Sequence& sequence, std::size_t first, 
   return 0;
 }
 
+// The loop closer's counters and times for --stats-out.
+io::Json loop_stats_json(const loop::LoopClosingStats& s) {
+  return io::Json{{"keyframes_checked", s.keyframes_checked},
+                  {"consistent_candidates", s.consistent_candidates},
+                  {"loops_refused", s.loops_refused},
+                  {"loops_closed", s.loops_closed},
+                  {"total_detection_ms", s.total_detection_ms},
+                  {"max_detection_ms", s.max_detection_ms},
+                  {"total_verification_ms", s.total_verification_ms},
+                  {"max_verification_ms", s.max_verification_ms},
+                  {"last_correction_ms", s.last_correction_ms},
+                  {"last_optimisation_ms", s.last_optimisation_ms},
+                  {"total_correction_ms", s.total_correction_ms},
+                  {"max_write_lock_ms", s.max_write_lock_ms},
+                  {"last_graph_nodes", s.last_graph_nodes},
+                  {"last_graph_edges", s.last_graph_edges},
+                  {"last_matches", s.last_matches}};
+}
+
 // Writes the trajectory and the optional stats and states of the frames
 // tracked; `partial`: the run was interrupted before its last frame.
 int write_outputs(const RunArgs& args, const config::SiteposeConfig& config, bool with_detector,
@@ -174,17 +193,18 @@ int write_outputs(const RunArgs& args, const config::SiteposeConfig& config, boo
   if (!args.stats_out.empty()) {
     const auto& counters = system.tracker_counters();
     const auto mapping = system.mapping_stats();
-    const io::Json extra{{"mode", config::to_string(config.dynamic.mode)},
-                         {"detector", with_detector ? config.detector.name : std::string()},
-                         {"classifier", config::to_string(config.dynamic.classifier)},
-                         {"detector_failures", tracked.detector_failures},
-                         {"keyframes_created", counters.keyframes_created},
-                         {"relocalisations", counters.relocalisations},
-                         {"keyframes_in_map", system.keyframe_count()},
-                         {"points_in_map", system.point_count()},
-                         {"keyframes_culled", mapping.keyframes_culled},
-                         {"keyframes_culled_by_site", mapping.keyframes_culled_by_site},
-                         {"partial", partial}};
+    io::Json extra{{"mode", config::to_string(config.dynamic.mode)},
+                   {"detector", with_detector ? config.detector.name : std::string()},
+                   {"classifier", config::to_string(config.dynamic.classifier)},
+                   {"detector_failures", tracked.detector_failures},
+                   {"keyframes_created", counters.keyframes_created},
+                   {"relocalisations", counters.relocalisations},
+                   {"keyframes_in_map", system.keyframe_count()},
+                   {"points_in_map", system.point_count()},
+                   {"keyframes_culled", mapping.keyframes_culled},
+                   {"keyframes_culled_by_site", mapping.keyframes_culled_by_site},
+                   {"partial", partial}};
+    if (const auto loops = system.loop_stats(); loops) extra["loop_closing"] = loop_stats_json(*loops);
     if (auto st = recorder.write_stats_json(args.stats_out, extra); !st)
       return fail(kCommand, st.error().message, 1);
   }
@@ -339,6 +359,20 @@ int finish_run(const RunArgs& args, const config::SiteposeConfig& config, bool w
       tracked.recorder.frames(), tracked.recorder.frames_ok(),
       tracked.recorder.frames() ? 100.0 * tracked.recorder.frames_ok() / tracked.recorder.frames() : 0.0,
       tracked.recorder.frames_per_second(), system.keyframe_count(), system.point_count());
+  if (const auto loops = system.loop_stats(); loops) {
+    std::printf(
+        "loop closing: keyframes checked %lld, consistent candidates %lld, refused %lld, loops closed %lld; "
+        "detection %.2f ms mean (max %.2f), verification max %.1f ms, last correction %.1f ms, last "
+        "pose-graph solve %.1f ms (%d keyframes, %d edges), longest write lock %.1f ms\n",
+        static_cast<long long>(loops->keyframes_checked),
+        static_cast<long long>(loops->consistent_candidates), static_cast<long long>(loops->loops_refused),
+        static_cast<long long>(loops->loops_closed),
+        loops->keyframes_checked ? loops->total_detection_ms / static_cast<double>(loops->keyframes_checked)
+                                 : 0.0,
+        loops->max_detection_ms, loops->max_verification_ms, loops->last_correction_ms,
+        loops->last_optimisation_ms, loops->last_graph_nodes, loops->last_graph_edges,
+        loops->max_write_lock_ms);
+  }
   return 0;
 }
 

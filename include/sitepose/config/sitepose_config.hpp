@@ -96,6 +96,9 @@ struct MappingConfig {
   bool site_culling = false;
   double site_radius_m = 1.0;
   double site_angle_deg = 15.0;
+  // Loop closing (loop/loop_closer.hpp): only with a place-recognition
+  // vocabulary (slam::SlamOptions::vocabulary).
+  bool loop_closing = false;
 
   bool operator==(const MappingConfig&) const = default;
 };

@@ -98,6 +98,9 @@ struct MappingStats {
 struct KeyFrameListener {
   std::function<void(map::KeyFrameId, const std::vector<map::Descriptor>&)> added;
   std::function<void(map::KeyFrameId)> removed;
+  // After all steps, when the keyframe is still in the map (the loop
+  // closer's hand-over, ORB-SLAM2 LoopCloser::InsertKeyFrame).
+  std::function<void(map::KeyFrameId)> processed;
 };
 
 class LocalMapper {
@@ -127,6 +130,13 @@ class LocalMapper {
   void start();
   void stop();
   bool running() const;
+
+  // The loop closer's hold (ORB-SLAM2 RequestStop / Release): pause()
+  // aborts a running local BA and returns once the keyframe in progress is
+  // finished; no further keyframe is taken from the queue until resume().
+  // The tracker may still enqueue. No effect on process_pending().
+  void pause();
+  void resume();
 
   // Blocks until the queue is empty and no keyframe is in progress; returns
   // at once when the thread is not running.
@@ -177,6 +187,7 @@ class LocalMapper {
   std::condition_variable idle_cv_;       // guarded by mutex_: became idle
   std::deque<map::KeyFrameId> queue_;     // guarded by mutex_
   bool busy_ = false;                     // guarded by mutex_
+  bool paused_ = false;                   // guarded by mutex_
   MappingStats stats_;                    // guarded by mutex_
   std::atomic<bool> abort_ba_{false};     // read by the Ceres callback
   std::atomic<bool> running_{false};

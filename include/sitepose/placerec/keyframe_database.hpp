@@ -21,6 +21,7 @@
 #include <memory>
 #include <mutex>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "sitepose/map/shared_map.hpp"
@@ -64,6 +65,15 @@ class KeyFrameDatabase {
   bool contains(map::KeyFrameId keyframe) const;
   // Steps 1-2 of the query, sorted by keyframe id.
   std::vector<ScoredKeyFrame> score(const BowVector& query, const CandidateQuery& params = {}) const;
+  // Steps 1-2 for loop detection (ORB-SLAM2 DetectLoopCandidates): the
+  // keyframes in `exclude` (the query keyframe and its covisible ones) are
+  // left out before the most shared words are counted, and only scores
+  // >= min_score are kept. Sorted by keyframe id.
+  std::vector<ScoredKeyFrame> score_excluding(const BowVector& query,
+                                              const std::unordered_set<map::KeyFrameId>& exclude,
+                                              double min_score, const CandidateQuery& params = {}) const;
+  // The stored bag of words of a keyframe; empty when it is not in the database.
+  BowVector bow(map::KeyFrameId keyframe) const;
 
  private:
   std::shared_ptr<const Vocabulary> vocabulary_;

@@ -31,6 +31,7 @@
 // reproducible (tests, regression thresholds, ablations).
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,7 @@
 #include "sitepose/dynamic/masking.hpp"
 #include "sitepose/dynamic/motion_classifier.hpp"
 #include "sitepose/features/task_pool.hpp"
+#include "sitepose/loop/loop_closer.hpp"
 #include "sitepose/map/shared_map.hpp"
 #include "sitepose/mapping/local_mapper.hpp"
 #include "sitepose/placerec/keyframe_database.hpp"
@@ -68,6 +70,9 @@ struct SlamOptions {
   // (create() refuses it otherwise): keyframes enter the database when the
   // mapper has processed them.
   std::shared_ptr<const placerec::Vocabulary> vocabulary;
+  // Loop closing runs when config.mapping.loop_closing is set and there is
+  // a vocabulary (its keyframe database); on its own thread with
+  // mapper_thread, else inline after the mapper (reproducible runs).
 };
 
 class SlamSystem {
@@ -122,6 +127,8 @@ class SlamSystem {
 
   const tracking::TrackerCounters& tracker_counters() const { return tracker_->counters(); }
   mapping::MappingStats mapping_stats() const { return mapper_->stats(); }
+  // nullopt when loop closing is off.
+  std::optional<loop::LoopClosingStats> loop_stats() const;
   std::size_t keyframe_count() const;
   std::size_t point_count() const;
 
@@ -129,6 +136,8 @@ class SlamSystem {
   SlamSystem(const StereoCamera& camera, const config::SiteposeConfig& config, const SlamOptions& options);
 
   Status run_inline_mapping(FrameReport& report);
+  // Moves the tracker's last pose with a map the loop closer corrected.
+  void take_loop_correction();
   void fill_map_trace(FrameReport& report) const;
 
   config::SiteposeConfig config_;
@@ -136,6 +145,7 @@ class SlamSystem {
   map::SharedMap map_;
   std::unique_ptr<placerec::KeyFrameDatabase> database_;  // before the mapper, which feeds it
   PlaceQueries place_queries_;                            // the tracker's thread
+  std::unique_ptr<loop::LoopCloser> closer_;              // fed by the mapper: stopped after it (finish())
   std::unique_ptr<mapping::LocalMapper> mapper_;
   std::unique_ptr<features::TaskPool> own_pool_;  // when options.extraction_pool is nullptr
   std::unique_ptr<tracking::Tracker> tracker_;

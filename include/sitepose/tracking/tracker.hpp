@@ -122,6 +122,12 @@ class Tracker {
   TrackingState state() const { return state_; }
   std::optional<SE3> last_T_world_cam() const;
 
+  // The map around the camera was moved by `correction` (a loop closure:
+  // p_world' = correction * p_world); the last pose and the recent centres
+  // move with it, the velocity (a relative motion) stays. Call between
+  // frames, on the tracking thread.
+  void apply_map_correction(const SE3& correction);
+
  private:
   // The motion model (relocaliser_ when it fails), then the local map; see
   // estimate().

@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <random>
 #include <set>
+#include <thread>
 
 #include "sitepose/mapping/site_culling.hpp"
 #include "sitepose/testing/map_world.hpp"
@@ -448,6 +450,8 @@ TEST(LocalMapper, TellsItsListenerOfEveryKeyframeAddedAndCulled) {
   std::set<map::KeyFrameId> held;
   int added = 0;
   int removed = 0;
+  int processed = 0;
+  int still_in_map = 0;  // keyframes in the map after their own processing
   mapper.set_keyframe_listener({[&](map::KeyFrameId id, const std::vector<map::Descriptor>& descriptors) {
                                   EXPECT_TRUE(held.insert(id).second) << "keyframe " << id << " added twice";
                                   EXPECT_FALSE(descriptors.empty());
@@ -456,11 +460,19 @@ TEST(LocalMapper, TellsItsListenerOfEveryKeyframeAddedAndCulled) {
                                 [&](map::KeyFrameId id) {
                                   EXPECT_EQ(held.erase(id), 1U) << "keyframe " << id << " removed unknown";
                                   ++removed;
+                                },
+                                [&](map::KeyFrameId id) {
+                                  // Handed on (the loop closer) only while still in the map.
+                                  EXPECT_EQ(held.count(id), 1U) << "keyframe " << id << " processed unknown";
+                                  ++processed;
                                 }});
   for (int k = 0; k < 60; ++k) {
     const SE3 T = pose_at_x(back_and_forth_x(k, 10.0, 0.5));
-    mapper.enqueue(tracker.insert_keyframe(T, T, 0.85));
+    const map::KeyFrameId id = tracker.insert_keyframe(T, T, 0.85);
+    mapper.enqueue(id);
     ASSERT_TRUE(mapper.process_pending().has_value());
+    if (map.read([&](const map::MapData& m) { return m.keyframe(id) != nullptr; })) ++still_in_map;
+    EXPECT_EQ(processed, still_in_map);
   }
   EXPECT_EQ(added, 60);
   EXPECT_EQ(removed, mapper.stats().keyframes_culled);
@@ -472,6 +484,33 @@ TEST(LocalMapper, TellsItsListenerOfEveryKeyframeAddedAndCulled) {
     }
     EXPECT_EQ(held, good);
   });
+}
+
+// The loop closer's hold: while paused the thread takes no keyframe from
+// the queue, whatever the timing; after resume() it catches up.
+TEST(LocalMapper, PausedThreadTakesNoKeyFrame) {
+  const StereoCamera camera = test_camera();
+  const testing::World world = make_world(250, 8);
+  map::SharedMap map;
+  SimTracker tracker(world, camera, map, SimTrackerOptions{});
+  LocalMapper mapper(camera, config::MappingConfig{}, config::TrackingConfig{}, map);
+  mapper.start();
+  for (int k = 0; k < 3; ++k) {
+    const SE3 T = pose_at_x(0.5 * k);
+    mapper.enqueue(tracker.insert_keyframe(T, T));
+    mapper.wait_until_idle();
+  }
+  mapper.pause();
+  const SE3 T = pose_at_x(1.5);
+  mapper.enqueue(tracker.insert_keyframe(T, T));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(mapper.queue_size(), 1U);
+  EXPECT_EQ(mapper.stats().keyframes_processed, 3);
+  mapper.resume();
+  mapper.wait_until_idle();
+  EXPECT_EQ(mapper.queue_size(), 0U);
+  EXPECT_EQ(mapper.stats().keyframes_processed, 4);
+  mapper.stop();
 }
 
 TEST(LocalMapper, ThreadedRunGivesAConsistentMap) {

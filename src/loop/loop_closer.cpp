@@ -1,0 +1,366 @@
+#include "sitepose/loop/loop_closer.hpp"
+
+#include <pthread.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <unordered_set>
+
+#include "sitepose/core/log.hpp"
+
+namespace sitepose::loop {
+namespace {
+
+// As the local mapper's: background work yields to tracking on 2 cores.
+constexpr int kLoopThreadNice = 5;
+
+double elapsed_ms(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+}
+
+LoopView view_of(const map::MapData& m, const map::KeyFrame& kf) {
+  LoopView v;
+  v.keyframe = mapping::snapshot_keyframe(kf);
+  for (map::PointId pid : kf.point_of_keypoint) {
+    if (const map::MapPoint* p = m.good_point(pid); p != nullptr) v.p_world[pid] = p->p_world;
+  }
+  return v;
+}
+
+// The good points of a keyframe and all its covisible keyframes, once each.
+std::vector<mapping::PointSnapshot> loop_side_points(const map::MapData& m, const map::KeyFrame& kf) {
+  std::vector<mapping::PointSnapshot> out;
+  std::unordered_set<map::PointId> seen;
+  std::vector<const map::KeyFrame*> side{&kf};
+  for (const auto& [id, weight] : kf.covisibility) {
+    if (const map::KeyFrame* k = m.keyframe(id); k != nullptr && !k->bad) side.push_back(k);
+  }
+  for (const map::KeyFrame* k : side) {
+    for (map::PointId pid : k->point_of_keypoint) {
+      const map::MapPoint* p = m.good_point(pid);
+      if (p != nullptr && seen.insert(pid).second) out.push_back(mapping::snapshot_point(*p));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+LoopCloser::LoopCloser(const StereoCamera& camera, map::SharedMap& map,
+                       const placerec::KeyFrameDatabase& database, MapperPause mapper,
+                       LoopCloserParams params)
+    : camera_(camera),
+      map_(map),
+      database_(database),
+      mapper_(std::move(mapper)),
+      params_(params),
+      consistency_(params.consistency) {}
+
+LoopCloser::~LoopCloser() { stop(); }
+
+void LoopCloser::enqueue(map::KeyFrameId keyframe) {
+  {
+    std::lock_guard lock(mutex_);
+    queue_.push_back(keyframe);
+  }
+  queue_cv_.notify_one();
+}
+
+Status LoopCloser::process_pending() {
+  if (running_.load()) {
+    return make_error(ErrorCode::kRuntime, "LoopCloser::process_pending: the loop thread is running");
+  }
+  Status first_error;
+  for (;;) {
+    map::KeyFrameId id = map::kNoKeyFrame;
+    {
+      std::lock_guard lock(mutex_);
+      if (queue_.empty()) break;
+      id = queue_.front();
+      queue_.pop_front();
+    }
+    Status status = process_keyframe(id);
+    if (!status && first_error) first_error = std::move(status);
+  }
+  return first_error;
+}
+
+void LoopCloser::start() {
+  if (running_.load()) return;
+  running_.store(true);
+  thread_ = std::jthread([this](const std::stop_token& stop_token) { run(stop_token); });
+  pthread_setname_np(thread_.native_handle(), "sp-loop");
+}
+
+void LoopCloser::stop() {
+  if (!thread_.joinable()) return;
+  thread_.request_stop();
+  thread_.join();
+  thread_ = std::jthread();
+  {
+    std::lock_guard lock(mutex_);
+    running_.store(false);
+  }
+  idle_cv_.notify_all();
+}
+
+void LoopCloser::run(const std::stop_token& stop_token) {
+  if (setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kLoopThreadNice) != 0) {
+    spdlog::debug("loop closing: could not lower the thread's priority: {}", std::strerror(errno));
+  }
+  while (!stop_token.stop_requested()) {
+    map::KeyFrameId id = map::kNoKeyFrame;
+    {
+      std::unique_lock lock(mutex_);
+      if (!queue_cv_.wait(lock, stop_token, [this] { return !queue_.empty(); })) break;
+      id = queue_.front();
+      queue_.pop_front();
+      busy_ = true;
+    }
+    const Status status = process_keyframe(id);
+    if (!status) spdlog::warn("loop closing: keyframe={} {}", id, status.error().message);
+    {
+      std::lock_guard lock(mutex_);
+      busy_ = false;
+    }
+    idle_cv_.notify_all();
+  }
+}
+
+void LoopCloser::wait_until_idle() {
+  std::unique_lock lock(mutex_);
+  idle_cv_.wait(lock, [this] { return !running_.load() || (queue_.empty() && !busy_); });
+}
+
+std::optional<SE3> LoopCloser::take_tracker_correction() {
+  std::lock_guard lock(mutex_);
+  std::optional<SE3> out = tracker_correction_;
+  tracker_correction_.reset();
+  return out;
+}
+
+LoopClosingStats LoopCloser::stats() const {
+  std::lock_guard lock(mutex_);
+  return stats_;
+}
+
+std::vector<KeyFramePair> LoopCloser::loops() const {
+  std::lock_guard lock(mutex_);
+  return loops_;
+}
+
+void LoopCloser::note_write_lock(double ms) {
+  std::lock_guard lock(mutex_);
+  stats_.max_write_lock_ms = std::max(stats_.max_write_lock_ms, ms);
+}
+
+Status LoopCloser::process_keyframe(map::KeyFrameId keyframe) {
+  const auto start = std::chrono::steady_clock::now();
+  const std::vector<map::KeyFrameId> consistent = detect(keyframe);
+  const double detection_ms = elapsed_ms(start);
+  {
+    std::lock_guard lock(mutex_);
+    ++stats_.keyframes_checked;
+    stats_.total_detection_ms += detection_ms;
+    stats_.max_detection_ms = std::max(stats_.max_detection_ms, detection_ms);
+  }
+  if (consistent.empty()) return ok_status();
+  const auto verify_start = std::chrono::steady_clock::now();
+  std::vector<mapping::PointSnapshot> loop_points;
+  const std::optional<VerifiedLoop> loop = verify(keyframe, consistent, loop_points);
+  const double verification_ms = elapsed_ms(verify_start);
+  {
+    std::lock_guard lock(mutex_);
+    stats_.total_verification_ms += verification_ms;
+    stats_.max_verification_ms = std::max(stats_.max_verification_ms, verification_ms);
+  }
+  if (!loop) return ok_status();
+  spdlog::info(
+      "loop closing: keyframe={} loop with keyframe={}: {} descriptor matches, {} RANSAC inliers, {} "
+      "refined, {} in all of {} loop points in view",
+      keyframe, loop->candidate, loop->descriptor_matches, loop->ransac_inliers, loop->refined_inliers,
+      loop->matches.size(), loop->visible_loop_points);
+  Status status = correct(keyframe, *loop, loop_points);
+  consistency_.reset();
+  last_loop_keyframe_ = keyframe;
+  return status;
+}
+
+std::vector<map::KeyFrameId> LoopCloser::detect(map::KeyFrameId keyframe) {
+  struct Context {
+    bool skip = true;
+    std::vector<map::KeyFrameId> covisible;
+  };
+  const Context context = map_.read([&](const map::MapData& m) {
+    Context c;
+    const map::KeyFrame* kf = m.keyframe(keyframe);
+    if (kf == nullptr || kf->bad || static_cast<int>(m.keyframe_count()) < params_.min_map_keyframes)
+      return c;
+    if (last_loop_keyframe_ != map::kNoKeyFrame &&
+        keyframe < last_loop_keyframe_ + params_.keyframes_after_loop) {
+      return c;
+    }
+    c.skip = false;
+    for (const auto& [id, weight] : kf->covisibility) c.covisible.push_back(id);
+    return c;
+  });
+  if (context.skip) return {};
+  const placerec::BowVector bow = database_.bow(keyframe);
+  if (bow.empty()) return {};
+  const double min_score = min_covisible_score(database_, bow, context.covisible);
+  std::unordered_set<map::KeyFrameId> exclude(context.covisible.begin(), context.covisible.end());
+  exclude.insert(keyframe);
+  const std::vector<placerec::ScoredKeyFrame> scored = database_.score_excluding(bow, exclude, min_score);
+  const std::vector<CandidateGroup> groups = map_.read([&](const map::MapData& m) {
+    std::vector<CandidateGroup> out;
+    if (scored.empty()) return out;
+    const auto covisible = [&](map::KeyFrameId id, int n) { return m.best_covisible(id, n); };
+    for (const placerec::PlaceCandidateGroup& g : placerec::group_candidates(scored, covisible)) {
+      const map::KeyFrame* kf = m.keyframe(g.keyframe);
+      if (kf == nullptr || kf->bad) continue;
+      CandidateGroup c{g.keyframe, {g.keyframe}};
+      for (const auto& [id, weight] : kf->covisibility) c.group.insert(id);
+      out.push_back(std::move(c));
+    }
+    return out;
+  });
+  spdlog::debug("loop closing: keyframe={} covisible={} min_score={:.4f} scored={} candidates={}", keyframe,
+                context.covisible.size(), min_score, scored.size(), groups.size());
+  return consistency_.update(groups);
+}
+
+std::optional<VerifiedLoop> LoopCloser::verify(map::KeyFrameId keyframe,
+                                               const std::vector<map::KeyFrameId>& candidates,
+                                               std::vector<mapping::PointSnapshot>& loop_points) {
+  for (map::KeyFrameId candidate : candidates) {
+    struct Views {
+      bool ok = false;
+      LoopView current;
+      LoopView candidate;
+      std::vector<mapping::PointSnapshot> loop_points;
+      map::ScalePyramid pyramid;
+    };
+    Views v = map_.read([&](const map::MapData& m) {
+      Views out;
+      const map::KeyFrame* kf = m.keyframe(keyframe);
+      const map::KeyFrame* other = m.keyframe(candidate);
+      if (kf == nullptr || other == nullptr || kf->bad || other->bad) return out;
+      out.ok = true;
+      out.current = view_of(m, *kf);
+      out.candidate = view_of(m, *other);
+      out.loop_points = loop_side_points(m, *other);
+      out.pyramid = m.pyramid();
+      return out;
+    });
+    if (!v.ok) continue;
+    {
+      std::lock_guard lock(mutex_);
+      ++stats_.consistent_candidates;
+    }
+    Expected<VerifiedLoop> loop =
+        verify_loop(camera_, v.pyramid, v.current, v.candidate, v.loop_points, params_.verifier);
+    if (loop) {
+      loop_points = std::move(v.loop_points);
+      return std::move(*loop);
+    }
+    spdlog::info("loop closing: keyframe={} candidate={}: {}", keyframe, candidate, loop.error().message);
+    std::lock_guard lock(mutex_);
+    ++stats_.loops_refused;
+  }
+  return std::nullopt;
+}
+
+Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
+                           const std::vector<mapping::PointSnapshot>& loop_points) {
+  const auto start = std::chrono::steady_clock::now();
+  if (mapper_.pause) mapper_.pause();
+  map::ScalePyramid pyramid;
+  const GroupCopy group = map_.read([&](const map::MapData& m) {
+    pyramid = m.pyramid();
+    return copy_group(m, keyframe);
+  });
+  const GroupCorrection plan = plan_group_correction(camera_, pyramid, group, loop, loop_points);
+  if (!group.keyframes.empty()) {
+    const SE3& before = group.keyframes.front().T_world_cam;
+    spdlog::info(
+        "loop closing: keyframe={} moves {:.3f} m, {:.2f} deg with its {} covisible keyframes", keyframe,
+        (loop.T_world_cam.translation() - before.translation()).norm(),
+        rotation_angle_rad(before.rotation().conjugate() * loop.T_world_cam.rotation()) * 180.0 / M_PI,
+        group.keyframes.size() - 1);
+  }
+  const auto lock_start = std::chrono::steady_clock::now();
+  const GroupApplied applied =
+      map_.write([&](map::MapData& m) { return apply_group_correction(m, group, plan); });
+  const double group_lock_ms = elapsed_ms(lock_start);
+  note_write_lock(group_lock_ms);
+  spdlog::info(
+      "loop closing: keyframe={} group applied in {:.1f} ms under the write lock: {} points moved, {} "
+      "fused, {} observations added",
+      keyframe, group_lock_ms, applied.points_moved, applied.points_fused, applied.observations_added);
+  const double correction_ms = elapsed_ms(start);
+  Status status = optimise_essential_graph(keyframe, group, plan, applied);
+  if (mapper_.resume) mapper_.resume();
+  std::lock_guard lock(mutex_);
+  stats_.last_correction_ms = correction_ms;
+  stats_.total_correction_ms += elapsed_ms(start);
+  stats_.last_matches = static_cast<int>(loop.matches.size());
+  if (status) {
+    ++stats_.loops_closed;
+    loops_.emplace_back(keyframe, loop.candidate);
+  }
+  return status;
+}
+
+Status LoopCloser::optimise_essential_graph(map::KeyFrameId keyframe, const GroupCopy& group,
+                                            const GroupCorrection& plan, const GroupApplied& applied) {
+  const std::vector<KeyFramePair> old_loops = loops();
+  const EssentialGraph graph = map_.read([&](const map::MapData& m) {
+    std::vector<KeyFramePair> new_edges{{keyframe, plan.loop}};
+    for (const KeyFramePair& e : applied.loop_connections) {
+      const map::KeyFrame* kf = m.keyframe(e.first);
+      if (kf == nullptr) continue;
+      const auto it = kf->covisibility.find(e.second);
+      if (it != kf->covisibility.end() && it->second >= params_.essential_min_weight) new_edges.push_back(e);
+    }
+    return build_essential_graph(m, group.T_world_cam_all, old_loops, new_edges,
+                                 params_.essential_min_weight);
+  });
+  const auto solve_start = std::chrono::steady_clock::now();
+  const Expected<PoseGraphResult> result = optimise_pose_graph(graph.input);
+  const double solve_ms = elapsed_ms(solve_start);
+  if (!result) {
+    // The group correction stands; the rest of the map keeps its poses.
+    std::lock_guard lock(mutex_);
+    tracker_correction_ = plan.correction;
+    return make_error(result.error().code,
+                      "loop closing: keyframe " + std::to_string(keyframe) + ": " + result.error().message);
+  }
+  std::unordered_map<map::PointId, map::KeyFrameId> corrected_by = plan.corrected_by;
+  corrected_by.insert(applied.corrected_by.begin(), applied.corrected_by.end());
+  const auto lock_start = std::chrono::steady_clock::now();
+  const GraphApplied moved = map_.write(
+      [&](map::MapData& m) { return apply_essential_graph(m, graph, result->T_world_node, corrected_by); });
+  const double graph_lock_ms = elapsed_ms(lock_start);
+  note_write_lock(graph_lock_ms);
+  spdlog::info(
+      "loop closing: keyframe={} essential graph {} nodes, {} edges ({} tree, {} covisibility, {} loop), "
+      "cost {:.4g} -> {:.4g}, {:.1f} ms; {} keyframes, {} points moved in {:.1f} ms under the write lock",
+      keyframe, graph.ids.size(), graph.input.edges.size(), graph.tree_edges, graph.covisibility_edges,
+      graph.loop_edges, result->initial_cost, result->final_cost, solve_ms, moved.keyframes_moved,
+      moved.points_moved, graph_lock_ms);
+  std::lock_guard lock(mutex_);
+  stats_.last_optimisation_ms = solve_ms;
+  stats_.last_graph_nodes = static_cast<int>(graph.ids.size());
+  stats_.last_graph_edges = static_cast<int>(graph.input.edges.size());
+  stats_.last_graph_initial_cost = result->initial_cost;
+  stats_.last_graph_final_cost = result->final_cost;
+  tracker_correction_ = moved.newest_correction * plan.correction;
+  return ok_status();
+}
+
+}  // namespace sitepose::loop
