@@ -1,6 +1,7 @@
 #include "sitepose/placerec/keyframe_database.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <set>
 
 namespace sitepose::placerec {
@@ -60,23 +61,8 @@ bool KeyFrameDatabase::contains(map::KeyFrameId keyframe) const {
 
 std::vector<ScoredKeyFrame> KeyFrameDatabase::score(const BowVector& query,
                                                     const CandidateQuery& params) const {
-  std::lock_guard lock(mutex_);
-  std::unordered_map<map::KeyFrameId, int> shared;
-  for (const BowEntry& e : query) {
-    if (e.word >= inverted_.size()) continue;
-    for (map::KeyFrameId kf : inverted_[e.word]) ++shared[kf];
-  }
-  int most = 0;
-  for (const auto& [kf, n] : shared) most = std::max(most, n);
-  const double min_shared = params.min_shared_words_of_best * most;
-  std::vector<ScoredKeyFrame> out;
-  for (const auto& [kf, n] : shared) {
-    if (n <= min_shared && n < most) continue;
-    out.push_back({kf, n, score_l1(query, bows_.at(kf))});
-  }
-  std::sort(out.begin(), out.end(),
-            [](const ScoredKeyFrame& a, const ScoredKeyFrame& b) { return a.keyframe < b.keyframe; });
-  return out;
+  // Scores are finite (1 - half an L1 distance), so -inf keeps every one.
+  return score_excluding(query, {}, -std::numeric_limits<double>::infinity(), params);
 }
 
 std::vector<ScoredKeyFrame> KeyFrameDatabase::score_excluding(
