@@ -6,6 +6,8 @@
 #include <random>
 #include <string>
 
+#include "sitepose/eval/alignment.hpp"
+
 namespace sitepose::loop {
 namespace {
 
@@ -40,6 +42,8 @@ Expected<SE3> fit_rigid(const std::vector<Eigen::Vector3d>& p_a, const std::vect
                                                        std::to_string(p_a.size()) + " and " +
                                                        std::to_string(p_b.size()));
   }
+  // The collinearity guard needs only the cross-covariance's singular
+  // values; the fit itself is eval's Umeyama (scale fixed to 1).
   Eigen::Vector3d c_a = Eigen::Vector3d::Zero();
   Eigen::Vector3d c_b = Eigen::Vector3d::Zero();
   for (std::size_t i = 0; i < p_a.size(); ++i) {
@@ -50,17 +54,11 @@ Expected<SE3> fit_rigid(const std::vector<Eigen::Vector3d>& p_a, const std::vect
   c_b /= static_cast<double>(p_b.size());
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
   for (std::size_t i = 0; i < p_a.size(); ++i) H += (p_b[i] - c_b) * (p_a[i] - c_a).transpose();
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::Vector3d& s = svd.singularValues();
+  const Eigen::Vector3d s = Eigen::JacobiSVD<Eigen::Matrix3d>(H).singularValues();
   if (!(s(0) > 0.0) || s(1) < kMinSingularRatio * s(0)) {
     return make_error(ErrorCode::kInvalidArgument, "rigid fit: the points are (nearly) collinear");
   }
-  const Eigen::Matrix3d& U = svd.matrixU();
-  const Eigen::Matrix3d& V = svd.matrixV();
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (V * U.transpose()).determinant() < 0.0 ? -1.0 : 1.0;
-  const Eigen::Matrix3d R = V * D * U.transpose();
-  return SE3(R, c_a - R * c_b);
+  return eval::umeyama_se3(p_b, p_a);
 }
 
 Expected<RigidRansacResult> ransac_rigid(const std::vector<Eigen::Vector3d>& p_a,

@@ -4,10 +4,10 @@
 // scale, so a loop is SE(3), not Sim(3)), and its RANSAC over 3-point
 // samples (ORB-SLAM2 Sim3Solver, written for sitepose).
 //
-// Fit: T_a_b minimising sum_i |p_a_i - T_a_b * p_b_i|^2. With centroids
-// c_a, c_b and H = sum_i (p_b_i - c_b)(p_a_i - c_a)^T = U S V^T:
-//   R = V diag(1, 1, det(V U^T)) U^T   (a proper rotation, never a reflection)
-//   t = c_a - R c_b.
+// Fit: T_a_b minimising sum_i |p_a_i - T_a_b * p_b_i|^2, by
+// eval::umeyama_se3 (a proper rotation, never a reflection), after a guard
+// on the centred cross-covariance H = sum_i (p_b_i - c_b)(p_a_i - c_a)^T:
+// its second singular value below 1e-9 of the first means collinear points.
 // Units are the points' (metres here).
 //
 // Thread-safety: pure functions.
