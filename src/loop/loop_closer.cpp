@@ -6,22 +6,18 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <unordered_set>
 
 #include "sitepose/core/log.hpp"
+#include "sitepose/core/stopwatch.hpp"
 
 namespace sitepose::loop {
 namespace {
 
 // As the local mapper's: background work yields to tracking on 2 cores.
 constexpr int kLoopThreadNice = 5;
-
-double elapsed_ms(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
-}
 
 LoopView view_of(const map::MapData& m, const map::KeyFrame& kf) {
   LoopView v;
@@ -160,9 +156,9 @@ void LoopCloser::note_write_lock(double ms) {
 }
 
 Status LoopCloser::process_keyframe(map::KeyFrameId keyframe) {
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = SteadyClock::now();
   const std::vector<map::KeyFrameId> consistent = detect(keyframe);
-  const double detection_ms = elapsed_ms(start);
+  const double detection_ms = ms_since(start);
   {
     std::lock_guard lock(mutex_);
     ++stats_.keyframes_checked;
@@ -170,10 +166,10 @@ Status LoopCloser::process_keyframe(map::KeyFrameId keyframe) {
     stats_.max_detection_ms = std::max(stats_.max_detection_ms, detection_ms);
   }
   if (consistent.empty()) return ok_status();
-  const auto verify_start = std::chrono::steady_clock::now();
+  const auto verify_start = SteadyClock::now();
   std::vector<mapping::PointSnapshot> loop_points;
   const std::optional<VerifiedLoop> loop = verify(keyframe, consistent, loop_points);
-  const double verification_ms = elapsed_ms(verify_start);
+  const double verification_ms = ms_since(verify_start);
   {
     std::lock_guard lock(mutex_);
     stats_.total_verification_ms += verification_ms;
@@ -277,7 +273,7 @@ std::optional<VerifiedLoop> LoopCloser::verify(map::KeyFrameId keyframe,
 
 Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
                            const std::vector<mapping::PointSnapshot>& loop_points) {
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = SteadyClock::now();
   if (mapper_.pause) mapper_.pause();
   map::ScalePyramid pyramid;
   const GroupCopy group = map_.read([&](const map::MapData& m) {
@@ -293,21 +289,21 @@ Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
         rotation_angle_rad(before.rotation().conjugate() * loop.T_world_cam.rotation()) * 180.0 / M_PI,
         group.keyframes.size() - 1);
   }
-  const auto lock_start = std::chrono::steady_clock::now();
+  const auto lock_start = SteadyClock::now();
   const GroupApplied applied =
       map_.write([&](map::MapData& m) { return apply_group_correction(m, group, plan); });
-  const double group_lock_ms = elapsed_ms(lock_start);
+  const double group_lock_ms = ms_since(lock_start);
   note_write_lock(group_lock_ms);
   spdlog::info(
       "loop closing: keyframe={} group applied in {:.1f} ms under the write lock: {} points moved, {} "
       "fused, {} observations added",
       keyframe, group_lock_ms, applied.points_moved, applied.points_fused, applied.observations_added);
-  const double correction_ms = elapsed_ms(start);
+  const double correction_ms = ms_since(start);
   Status status = optimise_essential_graph(keyframe, group, plan, applied);
   if (mapper_.resume) mapper_.resume();
   std::lock_guard lock(mutex_);
   stats_.last_correction_ms = correction_ms;
-  stats_.total_correction_ms += elapsed_ms(start);
+  stats_.total_correction_ms += ms_since(start);
   stats_.last_matches = static_cast<int>(loop.matches.size());
   if (status) {
     ++stats_.loops_closed;
@@ -330,9 +326,9 @@ Status LoopCloser::optimise_essential_graph(map::KeyFrameId keyframe, const Grou
     return build_essential_graph(m, group.T_world_cam_all, old_loops, new_edges,
                                  params_.essential_min_weight);
   });
-  const auto solve_start = std::chrono::steady_clock::now();
+  const auto solve_start = SteadyClock::now();
   const Expected<PoseGraphResult> result = optimise_pose_graph(graph.input);
-  const double solve_ms = elapsed_ms(solve_start);
+  const double solve_ms = ms_since(solve_start);
   if (!result) {
     // The group correction stands; the rest of the map keeps its poses.
     std::lock_guard lock(mutex_);
@@ -342,10 +338,10 @@ Status LoopCloser::optimise_essential_graph(map::KeyFrameId keyframe, const Grou
   }
   std::unordered_map<map::PointId, map::KeyFrameId> corrected_by = plan.corrected_by;
   corrected_by.insert(applied.corrected_by.begin(), applied.corrected_by.end());
-  const auto lock_start = std::chrono::steady_clock::now();
+  const auto lock_start = SteadyClock::now();
   const GraphApplied moved = map_.write(
       [&](map::MapData& m) { return apply_essential_graph(m, graph, result->T_world_node, corrected_by); });
-  const double graph_lock_ms = elapsed_ms(lock_start);
+  const double graph_lock_ms = ms_since(lock_start);
   note_write_lock(graph_lock_ms);
   spdlog::info(
       "loop closing: keyframe={} essential graph {} nodes, {} edges ({} tree, {} covisibility, {} loop), "
