@@ -223,12 +223,10 @@ TEST(KittiTrajectory, ZipsPosesAndTimes) {
 TEST(TrajectoryFormat, NamesParseBackAndABadNameListsTheChoices) {
   for (TrajectoryFormat f : {TrajectoryFormat::kTum, TrajectoryFormat::kKitti, TrajectoryFormat::kEuroc}) {
     const auto parsed = parse_trajectory_format(to_string(f));
-    ASSERT_TRUE(parsed.has_value());
-    EXPECT_EQ(*parsed, f);
+    EXPECT_TRUE(parsed.has_value() && *parsed == f) << to_string(f);
   }
   const auto bad = parse_trajectory_format("TUM");
   ASSERT_FALSE(bad.has_value());
-  EXPECT_EQ(bad.error().code, ErrorCode::kInvalidArgument);
   EXPECT_EQ(bad.error().message, "'TUM' is not one of tum, kitti, euroc");
 }
 
