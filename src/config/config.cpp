@@ -6,10 +6,12 @@
 
 #include "sitepose/config/config.hpp"
 
+#include <optional>
 #include <string>
 
 #include "detail/orb_limits.hpp"
 #include "sitepose/core/echo.hpp"
+#include "sitepose/core/enum_names.hpp"
 
 namespace sitepose::config {
 
@@ -245,44 +247,35 @@ bool operator==(const CameraConfig& a, const CameraConfig& b) {
 
 // ---- enums ----------------------------------------------------------------
 
-const char* to_string(MaskingMode mode) {
-  switch (mode) {
-    case MaskingMode::kNone: return "none";
-    case MaskingMode::kBbox: return "bbox";
-    case MaskingMode::kPixel: return "pixel";
-    case MaskingMode::kHierarchical: return "hierarchical";
-    case MaskingMode::kFull: return "full";
-  }
-  return "unknown";
-}
+constexpr auto kMaskingModeNames = enum_names<MaskingMode>({{MaskingMode::kNone, "none"},
+                                                            {MaskingMode::kBbox, "bbox"},
+                                                            {MaskingMode::kPixel, "pixel"},
+                                                            {MaskingMode::kHierarchical, "hierarchical"},
+                                                            {MaskingMode::kFull, "full"}},
+                                                           "unknown");
 
-const char* to_string(ClassifierMode mode) {
-  switch (mode) {
-    case ClassifierMode::kPaper: return "paper";
-    case ClassifierMode::kSitepose: return "sitepose";
-  }
-  return "unknown";
-}
+const char* to_string(MaskingMode mode) { return kMaskingModeNames.name(mode); }
+
+constexpr auto kClassifierModeNames = enum_names<ClassifierMode>(
+    {{ClassifierMode::kPaper, "paper"}, {ClassifierMode::kSitepose, "sitepose"}}, "unknown");
+
+const char* to_string(ClassifierMode mode) { return kClassifierModeNames.name(mode); }
 
 const char* masking_mode_names() { return "none|bbox|pixel|hierarchical|full"; }
 const char* classifier_mode_names() { return "paper|sitepose"; }
 
 Expected<MaskingMode> parse_masking_mode(std::string_view name) {
-  for (MaskingMode mode : {MaskingMode::kNone, MaskingMode::kBbox, MaskingMode::kPixel,
-                           MaskingMode::kHierarchical, MaskingMode::kFull}) {
-    if (name == to_string(mode)) return mode;
-  }
+  if (const std::optional<MaskingMode> mode = kMaskingModeNames.parse(name)) return *mode;
   return make_error(ErrorCode::kInvalidArgument,
                     "unknown masking mode \"" + echo_value(name) +
-                        "\" (expected one of: none, bbox, pixel, hierarchical, full)");
+                        "\" (expected one of: " + kMaskingModeNames.joined(", ") + ")");
 }
 
 Expected<ClassifierMode> parse_classifier_mode(std::string_view name) {
-  for (ClassifierMode mode : {ClassifierMode::kPaper, ClassifierMode::kSitepose}) {
-    if (name == to_string(mode)) return mode;
-  }
+  if (const std::optional<ClassifierMode> mode = kClassifierModeNames.parse(name)) return *mode;
   return make_error(ErrorCode::kInvalidArgument,
-                    "unknown classifier \"" + echo_value(name) + "\" (expected one of: paper, sitepose)");
+                    "unknown classifier \"" + echo_value(name) +
+                        "\" (expected one of: " + kClassifierModeNames.joined(", ") + ")");
 }
 
 }  // namespace sitepose::config

@@ -1,6 +1,7 @@
 #include <cstdio>
 
 #include "sitepose/core/echo.hpp"
+#include "sitepose/core/enum_names.hpp"
 #include "sitepose/core/expected.hpp"
 #include "sitepose/core/hex.hpp"
 #include "sitepose/core/pose_estimate.hpp"
@@ -19,14 +20,11 @@ const char* to_string(ErrorCode code) {
   return "unknown error";
 }
 
-const char* to_string(TrackingState state) {
-  switch (state) {
-    case TrackingState::kOk: return "OK";
-    case TrackingState::kRecovering: return "RECOVERING";
-    case TrackingState::kLost: return "LOST";
-  }
-  return "UNKNOWN";
-}
+constexpr auto kTrackingStateNames = enum_names<TrackingState>(
+    {{TrackingState::kOk, "OK"}, {TrackingState::kRecovering, "RECOVERING"}, {TrackingState::kLost, "LOST"}},
+    "UNKNOWN");
+
+const char* to_string(TrackingState state) { return kTrackingStateNames.name(state); }
 
 std::string hex(std::uint32_t value, HexStyle style) {
   char text[16];

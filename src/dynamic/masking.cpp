@@ -4,6 +4,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "sitepose/core/enum_names.hpp"
 #include "sitepose/core/stopwatch.hpp"
 
 namespace sitepose::dynamic {
@@ -16,14 +17,11 @@ namespace {
 constexpr int kPixelMaskDilationPx = 4;
 }  // namespace
 
-const char* to_string(MotionState state) {
-  switch (state) {
-    case MotionState::kStatic: return "static";
-    case MotionState::kMoving: return "moving";
-    case MotionState::kUnknown: break;
-  }
-  return "unknown";
-}
+constexpr auto kMotionStateNames = enum_names<MotionState>(
+    {{MotionState::kUnknown, "unknown"}, {MotionState::kStatic, "static"}, {MotionState::kMoving, "moving"}},
+    "unknown");
+
+const char* to_string(MotionState state) { return kMotionStateNames.name(state); }
 
 const char* to_string(UnknownReason reason) {
   switch (reason) {

@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/Eigenvalues>
 #include <fmt/format.h>
+#include <Eigen/Eigenvalues>
+
+#include "sitepose/core/enum_names.hpp"
 
 namespace sitepose::geo {
 
@@ -72,14 +74,12 @@ Status SiteAnchorOptions::validate() const {
   return ok_status();
 }
 
-const char* to_string(AnchorState state) {
-  switch (state) {
-    case AnchorState::kCollecting: return "collecting";
-    case AnchorState::kEstimating: return "estimating";
-    case AnchorState::kFrozen: return "frozen";
-  }
-  return "unknown";
-}
+constexpr auto kAnchorStateNames = enum_names<AnchorState>({{AnchorState::kCollecting, "collecting"},
+                                                            {AnchorState::kEstimating, "estimating"},
+                                                            {AnchorState::kFrozen, "frozen"}},
+                                                           "unknown");
+
+const char* to_string(AnchorState state) { return kAnchorStateNames.name(state); }
 
 Expected<SiteAnchor> SiteAnchor::create(const SiteAnchorOptions& options) {
   SITEPOSE_TRY_STATUS(options.validate());
@@ -141,8 +141,8 @@ std::optional<SE3> SiteAnchor::pose_at(std::int64_t t_ns) const {
 void SiteAnchor::process_pending() {
   while (!pending_.empty() && status_.state != AnchorState::kFrozen) {
     const GnssFix& fix = pending_.front();
-    const bool good = fix.has_position() &&
-                      static_cast<int>(fix.quality) == static_cast<int>(options_.required_quality);
+    const bool good =
+        fix.has_position() && static_cast<int>(fix.quality) == static_cast<int>(options_.required_quality);
     if (!good) {
       // Needs no pose: handled as soon as every earlier fix is.
       ++status_.fixes_low_quality;
@@ -153,8 +153,7 @@ void SiteAnchor::process_pending() {
         return;
       }
       if (site_frame_) {
-        freeze(fmt::format("GNSS quality dropped to {} at t_ns {}", to_string(fix.quality),
-                           fix.t_ns));
+        freeze(fmt::format("GNSS quality dropped to {} at t_ns {}", to_string(fix.quality), fix.t_ns));
         pending_.clear();
         return;
       }
@@ -186,8 +185,7 @@ void SiteAnchor::process_pending() {
   }
 }
 
-void SiteAnchor::add_pair(const Eigen::Vector3d& p_slam_antenna,
-                          const Eigen::Vector3d& p_site_antenna) {
+void SiteAnchor::add_pair(const Eigen::Vector3d& p_slam_antenna, const Eigen::Vector3d& p_site_antenna) {
   p_slam_.push_back(p_slam_antenna);
   p_site_.push_back(p_site_antenna);
   if (static_cast<int>(p_slam_.size()) > options_.max_pairs) {
@@ -225,8 +223,7 @@ void SiteAnchor::refit() {
   status_.inlier_rms_m = fit->inlier_rms_m;
   status_.lateral_spread_m = spread_m;
   status_.state = AnchorState::kEstimating;
-  if (fit->num_inliers >= options_.freeze_inliers &&
-      spread_m >= options_.freeze_lateral_spread_m) {
+  if (fit->num_inliers >= options_.freeze_inliers && spread_m >= options_.freeze_lateral_spread_m) {
     freeze(fmt::format("{} inliers spread {:.2f} m laterally", fit->num_inliers, spread_m));
   }
 }

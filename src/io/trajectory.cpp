@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "detail/text.hpp"
+#include "sitepose/core/enum_names.hpp"
 #include "sitepose/io/euroc.hpp"
 
 namespace sitepose::io {
@@ -196,21 +197,16 @@ Expected<Trajectory> read_kitti_trajectory(const std::string& poses_path, const 
   return trajectory;
 }
 
-const char* to_string(TrajectoryFormat format) {
-  switch (format) {
-    case TrajectoryFormat::kTum: return "tum";
-    case TrajectoryFormat::kKitti: return "kitti";
-    case TrajectoryFormat::kEuroc: return "euroc";
-  }
-  return "?";
-}
+constexpr auto kTrajectoryFormatNames = enum_names<TrajectoryFormat>({{TrajectoryFormat::kTum, "tum"},
+                                                                      {TrajectoryFormat::kKitti, "kitti"},
+                                                                      {TrajectoryFormat::kEuroc, "euroc"}});
+
+const char* to_string(TrajectoryFormat format) { return kTrajectoryFormatNames.name(format); }
 
 Expected<TrajectoryFormat> parse_trajectory_format(const std::string& name) {
-  for (TrajectoryFormat f : {TrajectoryFormat::kTum, TrajectoryFormat::kKitti, TrajectoryFormat::kEuroc}) {
-    if (name == to_string(f)) return f;
-  }
+  if (const std::optional<TrajectoryFormat> format = kTrajectoryFormatNames.parse(name)) return *format;
   std::string message = "'";  // appended, not "'" + ...: GCC 12 warns falsely (-Wrestrict) on that
-  message.append(name, 0, 40).append("' is not one of tum, kitti, euroc");
+  message.append(name, 0, 40).append("' is not one of ").append(kTrajectoryFormatNames.joined(", "));
   return make_error(ErrorCode::kInvalidArgument, message);
 }
 

@@ -1,13 +1,6 @@
 #include "sitepose/loop/loop_closer.hpp"
 
-#include <pthread.h>
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <unordered_set>
 
 #include "sitepose/core/log.hpp"
@@ -55,83 +48,26 @@ LoopCloser::LoopCloser(const StereoCamera& camera, map::SharedMap& map,
       database_(database),
       mapper_(std::move(mapper)),
       params_(params),
-      consistency_(params.consistency) {}
+      consistency_(params.consistency),
+      worker_({"sp-loop", kLoopThreadNice, "loop closing"},
+              [this](map::KeyFrameId keyframe) { return process_keyframe(keyframe); }) {}
 
 LoopCloser::~LoopCloser() { stop(); }
 
-void LoopCloser::enqueue(map::KeyFrameId keyframe) {
-  {
-    std::lock_guard lock(mutex_);
-    queue_.push_back(keyframe);
-  }
-  queue_cv_.notify_one();
-}
+void LoopCloser::enqueue(map::KeyFrameId keyframe) { worker_.enqueue(keyframe); }
 
 Status LoopCloser::process_pending() {
-  if (running_.load()) {
+  if (worker_.running()) {
     return make_error(ErrorCode::kRuntime, "LoopCloser::process_pending: the loop thread is running");
   }
-  Status first_error;
-  for (;;) {
-    map::KeyFrameId id = map::kNoKeyFrame;
-    {
-      std::lock_guard lock(mutex_);
-      if (queue_.empty()) break;
-      id = queue_.front();
-      queue_.pop_front();
-    }
-    Status status = process_keyframe(id);
-    if (!status && first_error) first_error = std::move(status);
-  }
-  return first_error;
+  return worker_.process_pending();
 }
 
-void LoopCloser::start() {
-  if (running_.load()) return;
-  running_.store(true);
-  thread_ = std::jthread([this](const std::stop_token& stop_token) { run(stop_token); });
-  pthread_setname_np(thread_.native_handle(), "sp-loop");
-}
+void LoopCloser::start() { worker_.start(); }
 
-void LoopCloser::stop() {
-  if (!thread_.joinable()) return;
-  thread_.request_stop();
-  thread_.join();
-  thread_ = std::jthread();
-  {
-    std::lock_guard lock(mutex_);
-    running_.store(false);
-  }
-  idle_cv_.notify_all();
-}
+void LoopCloser::stop() { worker_.stop(); }
 
-void LoopCloser::run(const std::stop_token& stop_token) {
-  if (setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kLoopThreadNice) != 0) {
-    spdlog::debug("loop closing: could not lower the thread's priority: {}", std::strerror(errno));
-  }
-  while (!stop_token.stop_requested()) {
-    map::KeyFrameId id = map::kNoKeyFrame;
-    {
-      std::unique_lock lock(mutex_);
-      if (!queue_cv_.wait(lock, stop_token, [this] { return !queue_.empty(); })) break;
-      id = queue_.front();
-      queue_.pop_front();
-      busy_ = true;
-    }
-    const Status status = process_keyframe(id);
-    if (!status) spdlog::warn("loop closing: keyframe={} {}", id, status.error().message);
-    {
-      std::lock_guard lock(mutex_);
-      busy_ = false;
-    }
-    idle_cv_.notify_all();
-  }
-}
-
-void LoopCloser::wait_until_idle() {
-  std::unique_lock lock(mutex_);
-  idle_cv_.wait(lock, [this] { return !running_.load() || (queue_.empty() && !busy_); });
-}
+void LoopCloser::wait_until_idle() { worker_.wait_until_idle(); }
 
 std::optional<SE3> LoopCloser::take_tracker_correction() {
   std::lock_guard lock(mutex_);

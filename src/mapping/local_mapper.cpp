@@ -1,15 +1,9 @@
 #include "sitepose/mapping/local_mapper.hpp"
 
-#include <pthread.h>
-#include <sys/resource.h>
-#include <sys/syscall.h>
 #include <time.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <chrono>
-#include <cstring>
 #include <optional>
 #include <set>
 #include <unordered_set>
@@ -126,7 +120,9 @@ LocalMapper::LocalMapper(const StereoCamera& camera, const config::MappingConfig
       tracking_(tracking),
       map_(map),
       local_ba_(camera, mapping, tracking),
-      close_depth_m_(tracking.close_depth_baselines * camera.baseline_m) {
+      close_depth_m_(tracking.close_depth_baselines * camera.baseline_m),
+      worker_({"sp-mapping", kMapperThreadNice, "local mapping"},
+              [this](map::KeyFrameId keyframe) { return process_keyframe(keyframe); }) {
   // load_config() enforces these bounds; reaching here without them is a bug.
   SITEPOSE_CHECK(mapping_.local_ba_keyframes >= 1);
   SITEPOSE_CHECK(mapping_.keyframe_redundancy > 0.0 && mapping_.keyframe_redundancy <= 1.0);
@@ -140,135 +136,40 @@ LocalMapper::LocalMapper(const StereoCamera& camera, const config::MappingConfig
 
 LocalMapper::~LocalMapper() { stop(); }
 
-void LocalMapper::enqueue(map::KeyFrameId keyframe) {
-  {
-    std::lock_guard lock(mutex_);
-    queue_.push_back(keyframe);
-    abort_ba_.store(true);  // ORB-SLAM2 InterruptBA: the newer keyframe matters more
-  }
-  queue_cv_.notify_one();
-}
+void LocalMapper::enqueue(map::KeyFrameId keyframe) { worker_.enqueue(keyframe); }
 
 Status LocalMapper::process_pending() {
-  if (running_.load()) {
+  if (worker_.running()) {
     return make_error(ErrorCode::kRuntime,
                       "LocalMapper::process_pending: the mapping thread is running; use wait_until_idle()");
   }
-  Status first_error;
-  for (;;) {
-    map::KeyFrameId id = map::kNoKeyFrame;
-    {
-      std::lock_guard lock(mutex_);
-      if (queue_.empty()) break;
-      id = queue_.front();
-      queue_.pop_front();
-      busy_ = true;
-    }
-    Status status = process_keyframe(id);
-    {
-      std::lock_guard lock(mutex_);
-      busy_ = false;
-    }
-    if (!status && first_error) first_error = std::move(status);
-  }
-  idle_cv_.notify_all();
-  return first_error;
+  return worker_.process_pending();
 }
 
-void LocalMapper::start() {
-  if (running_.load()) return;
-  running_.store(true);
-  thread_ = std::jthread([this](const std::stop_token& stop_token) { run(stop_token); });
-  // Names the thread for top/gdb/perf; the kernel limit is 15 characters.
-  pthread_setname_np(thread_.native_handle(), "sp-mapping");
-}
+void LocalMapper::start() { worker_.start(); }
 
-void LocalMapper::stop() {
-  if (!thread_.joinable()) return;
-  abort_ba_.store(true);
-  thread_.request_stop();  // wakes the condition_variable_any wait
-  thread_.join();
-  thread_ = std::jthread();
-  {
-    // Under the lock so a waiter cannot miss the change between its test and its wait.
-    std::lock_guard lock(mutex_);
-    running_.store(false);
-  }
-  idle_cv_.notify_all();
-}
+void LocalMapper::stop() { worker_.stop(); }
 
-bool LocalMapper::running() const { return running_.load(); }
+bool LocalMapper::running() const { return worker_.running(); }
 
-void LocalMapper::run(const std::stop_token& stop_token) {
-  // Mapping is background work, tracking is what the machine waits for: on
-  // a small onboard computer (2 cores) a local BA must not delay a frame.
-  // Raising a thread's own nice value needs no privilege; failure is harmless.
-  if (setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), kMapperThreadNice) != 0) {
-    spdlog::debug("local mapping: could not lower the thread's priority: {}", std::strerror(errno));
-  }
-  while (!stop_token.stop_requested()) {
-    map::KeyFrameId id = map::kNoKeyFrame;
-    {
-      std::unique_lock lock(mutex_);
-      if (!queue_cv_.wait(lock, stop_token, [this] { return !queue_.empty() && !paused_; })) break;
-      id = queue_.front();
-      queue_.pop_front();
-      busy_ = true;
-    }
-    const Status status = process_keyframe(id);
-    if (!status) spdlog::warn("local mapping: keyframe={} {}", id, status.error().message);
-    {
-      std::lock_guard lock(mutex_);
-      busy_ = false;
-    }
-    idle_cv_.notify_all();
-  }
-}
+void LocalMapper::pause() { worker_.hold(); }
 
-void LocalMapper::pause() {
-  std::unique_lock lock(mutex_);
-  paused_ = true;
-  abort_ba_.store(true);
-  idle_cv_.wait(lock, [this] { return !running_.load() || !busy_; });
-}
+void LocalMapper::resume() { worker_.release(); }
 
-void LocalMapper::resume() {
-  {
-    std::lock_guard lock(mutex_);
-    paused_ = false;
-  }
-  queue_cv_.notify_one();
-}
+void LocalMapper::wait_until_idle() { worker_.wait_until_idle(); }
 
-void LocalMapper::wait_until_idle() {
-  std::unique_lock lock(mutex_);
-  idle_cv_.wait(lock, [this] { return !running_.load() || (queue_.empty() && !busy_); });
-}
+bool LocalMapper::is_idle() const { return worker_.idle(); }
 
-bool LocalMapper::is_idle() const {
-  std::lock_guard lock(mutex_);
-  return queue_.empty() && !busy_;
-}
+bool LocalMapper::accepts_keyframes() const { return !worker_.busy(); }
 
-bool LocalMapper::accepts_keyframes() const {
-  std::lock_guard lock(mutex_);
-  return !busy_;
-}
-
-std::size_t LocalMapper::queue_size() const {
-  std::lock_guard lock(mutex_);
-  return queue_.size();
-}
+std::size_t LocalMapper::queue_size() const { return worker_.queue_size(); }
 
 MappingStats LocalMapper::stats() const {
   std::lock_guard lock(mutex_);
   return stats_;
 }
 
-bool LocalMapper::queue_empty() const {
-  std::lock_guard lock(mutex_);
-  return queue_.empty();
-}
+bool LocalMapper::queue_empty() const { return worker_.queue_size() == 0; }
 
 Status LocalMapper::process_keyframe(map::KeyFrameId keyframe) {
   const auto start = std::chrono::steady_clock::now();
@@ -449,12 +350,9 @@ void LocalMapper::fuse_neighbours(map::KeyFrameId keyframe) {
 }
 
 Status LocalMapper::local_bundle_adjustment(map::KeyFrameId keyframe) {
-  {
-    // Cleared under the queue lock: an enqueue (or a pause) after this point aborts the solve.
-    std::lock_guard lock(mutex_);
-    if (!queue_.empty() || paused_) return ok_status();  // paused: the loop closer waits
-    abort_ba_.store(false);
-  }
+  // Not with a keyframe waiting, nor paused (the loop closer waits); an
+  // enqueue (or a pause) after this point aborts the solve.
+  if (!worker_.begin_interruptible_step()) return ok_status();
   const LocalBaProblem problem = map_.read([&](const map::MapData& m) {
     return build_local_ba_problem(m, keyframe, mapping_.local_ba_keyframes, kMaxFixedKeyframes);
   });
@@ -462,7 +360,7 @@ Status LocalMapper::local_bundle_adjustment(map::KeyFrameId keyframe) {
 
   const auto start = std::chrono::steady_clock::now();
   const double cpu_start_ms = thread_cpu_ms();
-  Expected<optim::LocalBaResult> result = local_ba_.solve(problem.input, &abort_ba_);
+  Expected<optim::LocalBaResult> result = local_ba_.solve(problem.input, &worker_.interrupt());
   const double ms = elapsed_ms(start);
   const double cpu_ms = thread_cpu_ms() - cpu_start_ms;
   if (!result) {

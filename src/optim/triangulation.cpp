@@ -2,25 +2,22 @@
 
 #include <Eigen/SVD>
 
+#include "sitepose/core/enum_names.hpp"
+
 namespace sitepose::optim {
 
 Eigen::Vector3d normalised_ray(const StereoCamera& camera, const Eigen::Vector2d& uv_px) {
   return {(uv_px.x() - camera.cx) / camera.fx, (uv_px.y() - camera.cy) / camera.fy, 1.0};
 }
 
-const char* to_string(TriangulationStatus status) {
-  switch (status) {
-    case TriangulationStatus::kOk:
-      return "ok";
-    case TriangulationStatus::kLowParallax:
-      return "low parallax";
-    case TriangulationStatus::kNotInFront:
-      return "not in front of both cameras";
-    case TriangulationStatus::kDegenerate:
-      return "degenerate";
-  }
-  return "unknown";
-}
+constexpr auto kTriangulationStatusNames =
+    enum_names<TriangulationStatus>({{TriangulationStatus::kOk, "ok"},
+                                     {TriangulationStatus::kLowParallax, "low parallax"},
+                                     {TriangulationStatus::kNotInFront, "not in front of both cameras"},
+                                     {TriangulationStatus::kDegenerate, "degenerate"}},
+                                    "unknown");
+
+const char* to_string(TriangulationStatus status) { return kTriangulationStatusNames.name(status); }
 
 TwoViewTriangulation triangulate_two_view(const SE3& T_cam1_world, const Eigen::Vector3d& ray1_cam1,
                                           const SE3& T_cam2_world, const Eigen::Vector3d& ray2_cam2,
@@ -81,8 +78,8 @@ std::optional<PointWithCovariance> stereo_point_in_camera(const StereoCamera& ca
   const double inv_d2 = inv_d * inv_d;
   const double k_y = camera.fx / camera.fy;
   Eigen::Matrix3d J;
-  J << b * inv_d - b * du * inv_d2, 0.0, b * du * inv_d2,                      //
-      -k_y * b * dv * inv_d2, k_y * b * inv_d, k_y * b * dv * inv_d2,         //
+  J << b * inv_d - b * du * inv_d2, 0.0, b * du * inv_d2,              //
+      -k_y * b * dv * inv_d2, k_y * b * inv_d, k_y * b * dv * inv_d2,  //
       -camera.bf() * inv_d2, 0.0, camera.bf() * inv_d2;
   out.covariance = J * pixel_covariance_px2 * J.transpose();
   return out;

@@ -4,6 +4,8 @@
 #include <string>
 #include <utility>
 
+#include "sitepose/core/enum_names.hpp"
+
 namespace sitepose::output {
 
 namespace {
@@ -12,35 +14,29 @@ constexpr std::uint8_t kPriorityHeartbeat = 7;
 constexpr std::uint8_t kPriorityProductInformation = 6;
 constexpr std::int64_t kNsPerMs = 1'000'000;
 constexpr std::int64_t kMaxSettleNs = 10'000'000'000;
-constexpr std::int64_t kMinHeartbeatNs = 10'000'000;         // 0.01 s: the field's resolution
-constexpr std::int64_t kMaxHeartbeatNs = 655'320'000'000;    // largest valid u16 0.01 s value
+constexpr std::int64_t kMinHeartbeatNs = 10'000'000;       // 0.01 s: the field's resolution
+constexpr std::int64_t kMaxHeartbeatNs = 655'320'000'000;  // largest valid u16 0.01 s value
 
 CanFrame with_source_address(CanFrame f, std::uint8_t source_address) {
   f.id = (f.id & ~std::uint32_t{0xFF}) | source_address;
   return f;
 }
 
-Status invalid(const std::string& message) {
-  return make_error(ErrorCode::kInvalidArgument, message);
-}
+Status invalid(const std::string& message) { return make_error(ErrorCode::kInvalidArgument, message); }
 
 }  // namespace
 
 Status check_j1939_node_options(const J1939NodeOptions& o) {
   SITEPOSE_TRY_STATUS(check_j1939_name(o.name));
   if (o.preferred_address > kJ1939MaxUnicastAddress) {
-    return invalid("J1939 preferred address = " + std::to_string(o.preferred_address) +
-                   ": must be 0..253");
+    return invalid("J1939 preferred address = " + std::to_string(o.preferred_address) + ": must be 0..253");
   }
-  if (o.first_dynamic_address > o.last_dynamic_address ||
-      o.last_dynamic_address > kJ1939MaxUnicastAddress) {
-    return invalid("J1939 dynamic address range " + std::to_string(o.first_dynamic_address) +
-                   ".." + std::to_string(o.last_dynamic_address) +
-                   ": must be ordered and within 0..253");
+  if (o.first_dynamic_address > o.last_dynamic_address || o.last_dynamic_address > kJ1939MaxUnicastAddress) {
+    return invalid("J1939 dynamic address range " + std::to_string(o.first_dynamic_address) + ".." +
+                   std::to_string(o.last_dynamic_address) + ": must be ordered and within 0..253");
   }
   if (o.claim_settle_ns < 0 || o.claim_settle_ns > kMaxSettleNs) {
-    return invalid("J1939 claim settle time = " + std::to_string(o.claim_settle_ns) +
-                   " ns: must be 0..10 s");
+    return invalid("J1939 claim settle time = " + std::to_string(o.claim_settle_ns) + " ns: must be 0..10 s");
   }
   if (o.heartbeat_interval_ns != 0 &&
       (o.heartbeat_interval_ns < kMinHeartbeatNs || o.heartbeat_interval_ns > kMaxHeartbeatNs)) {
@@ -50,37 +46,28 @@ Status check_j1939_node_options(const J1939NodeOptions& o) {
   return check_n2k_product_information(o.product);
 }
 
-const char* to_string(J1939AddressState state) {
-  switch (state) {
-    case J1939AddressState::kStopped:
-      return "stopped";
-    case J1939AddressState::kClaiming:
-      return "claiming";
-    case J1939AddressState::kClaimed:
-      return "claimed";
-    case J1939AddressState::kCannotClaim:
-      return "cannot-claim";
-  }
-  return "?";
-}
+constexpr auto kJ1939AddressStateNames =
+    enum_names<J1939AddressState>({{J1939AddressState::kStopped, "stopped"},
+                                   {J1939AddressState::kClaiming, "claiming"},
+                                   {J1939AddressState::kClaimed, "claimed"},
+                                   {J1939AddressState::kCannotClaim, "cannot-claim"}});
+
+const char* to_string(J1939AddressState state) { return kJ1939AddressStateNames.name(state); }
 
 J1939Node::J1939Node(J1939NodeOptions options)
-    : options_(std::move(options)),
-      name_(0),
-      address_(options_.preferred_address) {
+    : options_(std::move(options)), name_(0), address_(options_.preferred_address) {
   SITEPOSE_CHECK(check_j1939_node_options(options_).has_value());
   name_ = pack_j1939_name(options_.name);
 }
 
 std::uint8_t J1939Node::address() const {
-  return state_ == J1939AddressState::kClaiming || state_ == J1939AddressState::kClaimed
-             ? address_
-             : kJ1939NullAddress;
+  return state_ == J1939AddressState::kClaiming || state_ == J1939AddressState::kClaimed ? address_
+                                                                                         : kJ1939NullAddress;
 }
 
 void J1939Node::start(std::int64_t now_ns) {
   if (state_ == J1939AddressState::kCannotClaim) return;  // stays silent (J1939-81)
-  claimed_by_others_.clear();  // the bus may have changed while we were away
+  claimed_by_others_.clear();                             // the bus may have changed while we were away
   claim(address_, now_ns);
 }
 
@@ -118,8 +105,7 @@ void J1939Node::on_address_claimed(const AddressClaim& claim, std::int64_t now_n
   }
   claimed_by_others_[claim.source_address] = claim.name;
   const bool contest = claim.source_address == address_ &&
-                       (state_ == J1939AddressState::kClaiming ||
-                        state_ == J1939AddressState::kClaimed);
+                       (state_ == J1939AddressState::kClaiming || state_ == J1939AddressState::kClaimed);
   if (!contest) return;
   if (name_ < claim.name) {
     ++counters_.contests_won;
@@ -188,18 +174,17 @@ void J1939Node::on_request(const Request& request, std::int64_t now_ns) {
   if (request.pgn == kPgnHeartbeat) {
     send_heartbeat(now_ns);
   } else if (request.pgn == kPgnProductInformation) {
-    const auto id = make_j1939_id(J1939Id{kPriorityProductInformation, kPgnProductInformation,
-                                          address_, kJ1939GlobalAddress});
-    auto frames = fast_packet_frames(*id, encode_n2k_product_information_payload(options_.product),
-                                     product_sequence_);
+    const auto id = make_j1939_id(
+        J1939Id{kPriorityProductInformation, kPgnProductInformation, address_, kJ1939GlobalAddress});
+    auto frames =
+        fast_packet_frames(*id, encode_n2k_product_information_payload(options_.product), product_sequence_);
     SITEPOSE_CHECK(frames.has_value());  // 134 bytes fit a fast packet
     product_sequence_ = static_cast<std::uint8_t>((product_sequence_ + 1) & 0x7);
     outgoing_.insert(outgoing_.end(), frames->begin(), frames->end());
   } else if (auto it = last_messages_.find(request.pgn); it != last_messages_.end()) {
     for (const CanFrame& f : it->second) outgoing_.push_back(with_source_address(f, address_));
   } else {
-    const bool transmitted = std::find(options_.transmitted_pgns.begin(),
-                                       options_.transmitted_pgns.end(),
+    const bool transmitted = std::find(options_.transmitted_pgns.begin(), options_.transmitted_pgns.end(),
                                        request.pgn) != options_.transmitted_pgns.end();
     refuse(request, transmitted ? AckControl::kCannotRespond : AckControl::kNack);
     return;
@@ -209,9 +194,8 @@ void J1939Node::on_request(const Request& request, std::int64_t now_ns) {
 
 void J1939Node::send_heartbeat(std::int64_t now_ns) {
   const std::int64_t interval = options_.heartbeat_interval_ns;
-  outgoing_.push_back(encode_n2k_heartbeat(interval, heartbeat_sequence_,
-                                           controller_state_, N2kEquipmentStatus::kOperational,
-                                           address_, kPriorityHeartbeat));
+  outgoing_.push_back(encode_n2k_heartbeat(interval, heartbeat_sequence_, controller_state_,
+                                           N2kEquipmentStatus::kOperational, address_, kPriorityHeartbeat));
   heartbeat_sequence_ = static_cast<std::uint8_t>(heartbeat_sequence_ >= 252 ? 0 : heartbeat_sequence_ + 1);
   ++counters_.heartbeats_sent;
   heartbeat_due_ns_ = interval > 0 ? now_ns + interval : kNever;

@@ -14,24 +14,21 @@
 //      (take_tracker_correction), so its last pose moves with the map.
 // No global BA follows.
 //
-// Threading (as mapping::LocalMapper): start() runs the steps on a thread
-// "sp-loop" that waits for keyframes; stop() ends it after the keyframe in
-// progress; process_pending() runs the queue on the caller's thread
-// (deterministic runs) and must not be called while the thread runs.
+// Threading (as mapping::LocalMapper, both mapping::KeyFrameWorker):
+// start() runs the steps on a thread "sp-loop" that waits for keyframes;
+// stop() ends it after the keyframe in progress; process_pending() runs the
+// queue on the caller's thread (deterministic runs) and must not be called
+// while the thread runs.
 // start(), stop() and the destructor belong to the owner's thread, the rest
 // may be called from any thread.
-// Locks: the queue mutex, the database's and the map's are never held
-// together; the mapper's pause() is called with none of them held.
+// Locks: the queue's and the stats' mutexes, the database's and the map's
+// are never held together; the mapper's pause() is called with none of
+// them held.
 // Ownership: `map` and `database` must outlive the closer.
 
-#include <atomic>
-#include <condition_variable>
-#include <deque>
 #include <functional>
 #include <mutex>
 #include <optional>
-#include <stop_token>
-#include <thread>
 #include <vector>
 
 #include "sitepose/core/expected.hpp"
@@ -40,6 +37,7 @@
 #include "sitepose/loop/loop_detector.hpp"
 #include "sitepose/loop/loop_verifier.hpp"
 #include "sitepose/map/shared_map.hpp"
+#include "sitepose/mapping/keyframe_worker.hpp"
 #include "sitepose/placerec/keyframe_database.hpp"
 
 namespace sitepose::loop {
@@ -89,7 +87,7 @@ class LoopCloser {
   Status process_pending();
   void start();
   void stop();
-  bool running() const { return running_.load(); }
+  bool running() const { return worker_.running(); }
   void wait_until_idle();
 
   // T_world' * T_world^-1 of the newest keyframe after a correction, once
@@ -100,7 +98,6 @@ class LoopCloser {
   std::vector<KeyFramePair> loops() const;
 
  private:
-  void run(const std::stop_token& stop_token);
   Status process_keyframe(map::KeyFrameId keyframe);
   std::vector<map::KeyFrameId> detect(map::KeyFrameId keyframe);
   std::optional<VerifiedLoop> verify(map::KeyFrameId keyframe, const std::vector<map::KeyFrameId>& candidates,
@@ -122,15 +119,11 @@ class LoopCloser {
   map::KeyFrameId last_loop_keyframe_ = map::kNoKeyFrame;
 
   mutable std::mutex mutex_;
-  std::condition_variable_any queue_cv_;   // guarded by mutex_
-  std::condition_variable idle_cv_;        // guarded by mutex_
-  std::deque<map::KeyFrameId> queue_;      // guarded by mutex_
-  bool busy_ = false;                      // guarded by mutex_
   LoopClosingStats stats_;                 // guarded by mutex_
   std::vector<KeyFramePair> loops_;        // guarded by mutex_
   std::optional<SE3> tracker_correction_;  // guarded by mutex_
-  std::atomic<bool> running_{false};
-  std::jthread thread_;
+  // Last: the thread it runs calls process_keyframe, so it stops first.
+  mapping::KeyFrameWorker worker_;
 };
 
 }  // namespace sitepose::loop

@@ -32,7 +32,8 @@
 // every frame rather than keep pointers.
 //
 // Threading: start(), stop() and the destructor belong to the owner's
-// thread; every other member may be called from any thread. Two ways to run:
+// thread; every other member may be called from any thread. Two ways to run
+// (keyframe_worker.hpp):
 //   * start() runs the steps on a thread named "sp-mapping" (std::jthread)
 //     that waits on a condition variable for keyframes; stop() ends it
 //     after the keyframe in progress (aborting its BA); keyframes still
@@ -40,20 +41,16 @@
 //   * process_pending() runs everything queued on the caller's thread
 //     (deterministic tests, `sitepose run --deterministic`); it must not
 //     be called while the thread runs.
-// Locks: the queue mutex is never held while the SharedMap lock is taken,
+// Locks: neither the queue's nor the stats' mutex is held while the
+// SharedMap lock is taken,
 // and the map lock is held only to copy out and to apply results (the
 // searches and the Ceres solve run unlocked), per shared_map.hpp.
 // Ownership: the camera and configs are copied; `map` must outlive the
 // mapper.
 
-#include <atomic>
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <mutex>
-#include <stop_token>
-#include <thread>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
@@ -61,6 +58,7 @@
 #include "sitepose/core/stereo_camera.hpp"
 #include "sitepose/map/shared_map.hpp"
 #include "sitepose/mapping/fuse.hpp"
+#include "sitepose/mapping/keyframe_worker.hpp"
 #include "sitepose/mapping/new_points.hpp"
 #include "sitepose/mapping/site_culling.hpp"
 #include "sitepose/optim/local_ba.hpp"
@@ -151,7 +149,6 @@ class LocalMapper {
   MappingStats stats() const;
 
  private:
-  void run(const std::stop_token& stop_token);
   Status process_keyframe(map::KeyFrameId keyframe);
   bool process_new_keyframe(map::KeyFrameId keyframe);
   void cull_recent_points(map::KeyFrameId keyframe);
@@ -183,15 +180,9 @@ class LocalMapper {
   std::vector<map::PointId> recent_points_;
 
   mutable std::mutex mutex_;
-  std::condition_variable_any queue_cv_;  // guarded by mutex_: keyframe queued
-  std::condition_variable idle_cv_;       // guarded by mutex_: became idle
-  std::deque<map::KeyFrameId> queue_;     // guarded by mutex_
-  bool busy_ = false;                     // guarded by mutex_
-  bool paused_ = false;                   // guarded by mutex_
-  MappingStats stats_;                    // guarded by mutex_
-  std::atomic<bool> abort_ba_{false};     // read by the Ceres callback
-  std::atomic<bool> running_{false};
-  std::jthread thread_;  // owner's thread only
+  MappingStats stats_;  // guarded by mutex_
+  // Last: the thread it runs calls process_keyframe, so it stops first.
+  KeyFrameWorker worker_;
 };
 
 }  // namespace sitepose::mapping

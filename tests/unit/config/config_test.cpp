@@ -263,8 +263,11 @@ TEST(Config, EnumHelpersRoundTrip) {
   const auto bad = parse_masking_mode("Full");
   ASSERT_FALSE(bad.has_value());
   EXPECT_EQ(bad.error().code, ErrorCode::kInvalidArgument);
-  EXPECT_TRUE(contains(bad.error().message, "\"Full\""));
-  EXPECT_FALSE(parse_classifier_mode("").has_value());
+  EXPECT_EQ(bad.error().message,
+            "unknown masking mode \"Full\" (expected one of: none, bbox, pixel, hierarchical, full)");
+  const auto bad_classifier = parse_classifier_mode("");
+  ASSERT_FALSE(bad_classifier.has_value());
+  EXPECT_EQ(bad_classifier.error().message, "unknown classifier \"\" (expected one of: paper, sitepose)");
 }
 
 TEST(Config, SectionsCanBeEmbeddedInAnotherFile) {

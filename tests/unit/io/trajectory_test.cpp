@@ -128,12 +128,12 @@ TEST(KittiPoses, WriteReadRoundTrip) {
 TEST(KittiPoses, ReadsKittiStyleLine) {
   TempDir dir;
   // First line of KITTI sequence 00 ground truth, scientific notation.
-  const std::string path = dir.write(
-      "00.txt",
-      "1.000000e+00 9.043680e-12 2.326809e-11 5.551115e-17 9.043683e-12 1.000000e+00 "
-      "2.392370e-10 3.330669e-16 2.326810e-11 2.392370e-10 9.999999e-01 -4.440892e-16\n"
-      "9.999978e-01 5.272628e-04 -2.066935e-03 -4.690294e-02 -5.296506e-04 9.999992e-01 "
-      "-1.154865e-03 -2.839928e-02 2.066324e-03 1.155958e-03 9.999971e-01 8.586941e-01\n\n");
+  const std::string path =
+      dir.write("00.txt",
+                "1.000000e+00 9.043680e-12 2.326809e-11 5.551115e-17 9.043683e-12 1.000000e+00 "
+                "2.392370e-10 3.330669e-16 2.326810e-11 2.392370e-10 9.999999e-01 -4.440892e-16\n"
+                "9.999978e-01 5.272628e-04 -2.066935e-03 -4.690294e-02 -5.296506e-04 9.999992e-01 "
+                "-1.154865e-03 -2.839928e-02 2.066324e-03 1.155958e-03 9.999971e-01 8.586941e-01\n\n");
   auto read = read_kitti_poses(path);
   ASSERT_TRUE(read) << read.error().message;
   ASSERT_EQ(read->size(), 2u);
@@ -218,6 +218,16 @@ TEST(KittiTrajectory, ZipsPosesAndTimes) {
   ASSERT_FALSE(mismatch);
   EXPECT_NE(mismatch.error().message.find("has 3 poses"), std::string::npos);
   EXPECT_NE(mismatch.error().message.find("has 2 times"), std::string::npos);
+}
+
+TEST(TrajectoryFormat, NamesParseBackAndABadNameListsTheChoices) {
+  for (TrajectoryFormat f : {TrajectoryFormat::kTum, TrajectoryFormat::kKitti, TrajectoryFormat::kEuroc}) {
+    const auto parsed = parse_trajectory_format(to_string(f));
+    EXPECT_TRUE(parsed.has_value() && *parsed == f) << to_string(f);
+  }
+  const auto bad = parse_trajectory_format("TUM");
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_EQ(bad.error().message, "'TUM' is not one of tum, kitti, euroc");
 }
 
 }  // namespace

@@ -1,0 +1,91 @@
+#include "sitepose/mapping/keyframe_worker.hpp"
+
+#include <gtest/gtest.h>
+
+#include <mutex>
+#include <vector>
+
+namespace sitepose::mapping {
+namespace {
+
+// Records the keyframes it is given; keyframe 2 fails.
+struct Recorder {
+  std::mutex mutex;
+  std::vector<map::KeyFrameId> seen;
+
+  KeyFrameWorker::Process process() {
+    return [this](map::KeyFrameId id) -> Status {
+      {
+        std::lock_guard lock(mutex);
+        seen.push_back(id);
+      }
+      if (id == 2) return make_error(ErrorCode::kRuntime, "keyframe 2 fails");
+      return ok_status();
+    };
+  }
+  std::vector<map::KeyFrameId> snapshot() {
+    std::lock_guard lock(mutex);
+    return seen;
+  }
+};
+
+KeyFrameWorkerOptions test_options() { return {"sp-test", 0, "test"}; }
+
+TEST(KeyFrameWorker, ProcessPendingRunsTheQueueInOrderAndReturnsTheFirstError) {
+  Recorder recorder;
+  KeyFrameWorker worker(test_options(), recorder.process());
+  for (map::KeyFrameId id : {1, 2, 3}) worker.enqueue(id);
+  EXPECT_EQ(worker.queue_size(), 3U);
+  const Status status = worker.process_pending();
+  ASSERT_FALSE(status);
+  EXPECT_EQ(status.error().message, "keyframe 2 fails");
+  EXPECT_EQ(recorder.snapshot(), (std::vector<map::KeyFrameId>{1, 2, 3}));
+  EXPECT_TRUE(worker.idle());
+}
+
+TEST(KeyFrameWorker, ThreadGoesOnAfterAFailureAndStopsWhenAsked) {
+  Recorder recorder;
+  KeyFrameWorker worker(test_options(), recorder.process());
+  worker.start();
+  EXPECT_TRUE(worker.running());
+  for (map::KeyFrameId id : {1, 2, 3}) worker.enqueue(id);
+  worker.wait_until_idle();
+  EXPECT_EQ(recorder.snapshot(), (std::vector<map::KeyFrameId>{1, 2, 3}));
+  worker.stop();
+  EXPECT_FALSE(worker.running());
+  worker.enqueue(4);  // stays queued
+  worker.wait_until_idle();
+  EXPECT_EQ(worker.queue_size(), 1U);
+}
+
+TEST(KeyFrameWorker, HeldThreadKeepsKeyframesQueuedUntilReleased) {
+  Recorder recorder;
+  KeyFrameWorker worker(test_options(), recorder.process());
+  worker.start();
+  worker.hold();
+  worker.enqueue(1);
+  EXPECT_FALSE(worker.begin_interruptible_step());  // held, and a keyframe waits
+  EXPECT_TRUE(worker.interrupt().load());
+  EXPECT_EQ(worker.queue_size(), 1U);
+  worker.release();
+  worker.wait_until_idle();
+  EXPECT_EQ(recorder.snapshot(), (std::vector<map::KeyFrameId>{1}));
+  worker.stop();
+}
+
+TEST(KeyFrameWorker, InterruptibleStepClearsTheFlagOnlyWhenNothingWaits) {
+  Recorder recorder;
+  KeyFrameWorker worker(test_options(), recorder.process());
+  worker.enqueue(1);
+  EXPECT_TRUE(worker.interrupt().load());
+  EXPECT_FALSE(worker.begin_interruptible_step());
+  EXPECT_TRUE(worker.interrupt().load());
+  ASSERT_TRUE(worker.process_pending());
+  EXPECT_TRUE(worker.begin_interruptible_step());
+  EXPECT_FALSE(worker.interrupt().load());
+  worker.enqueue(3);
+  EXPECT_TRUE(worker.interrupt().load());
+}
+
+}  // namespace
+}  // namespace sitepose::mapping
