@@ -5,6 +5,8 @@
 
 #include "sitepose/core/log.hpp"
 #include "sitepose/core/stopwatch.hpp"
+#include "sitepose/loop/global_ba.hpp"
+#include "sitepose/optim/local_ba.hpp"
 
 namespace sitepose::loop {
 namespace {
@@ -63,9 +65,15 @@ Status LoopCloser::process_pending() {
   return worker_.process_pending();
 }
 
-void LoopCloser::start() { worker_.start(); }
+void LoopCloser::start() {
+  stop_global_ba_ = false;
+  worker_.start();
+}
 
-void LoopCloser::stop() { worker_.stop(); }
+void LoopCloser::stop() {
+  stop_global_ba_ = true;
+  worker_.stop();
+}
 
 void LoopCloser::wait_until_idle() { worker_.wait_until_idle(); }
 
@@ -120,6 +128,7 @@ Status LoopCloser::process_keyframe(map::KeyFrameId keyframe) {
   Status status = correct(keyframe, *loop, loop_points);
   consistency_.reset();
   last_loop_keyframe_ = keyframe;
+  if (status && params_.global_ba) status = run_global_ba(keyframe);
   return status;
 }
 
@@ -292,6 +301,46 @@ Status LoopCloser::optimise_essential_graph(map::KeyFrameId keyframe, const Grou
   stats_.last_graph_initial_cost = result->initial_cost;
   stats_.last_graph_final_cost = result->final_cost;
   tracker_correction_ = moved.newest_correction * plan.correction;
+  return ok_status();
+}
+
+Status LoopCloser::run_global_ba(map::KeyFrameId keyframe) {
+  const mapping::LocalBaProblem problem =
+      map_.read([](const map::MapData& m) { return mapping::build_global_ba_problem(m); });
+  if (problem.n_free_keyframes == 0) return ok_status();
+  config::MappingConfig mapping;
+  mapping.local_ba_iterations = params_.global_ba_iterations;
+  const optim::LocalBa solver(camera_, mapping, config::TrackingConfig{});
+  const auto solve_start = SteadyClock::now();
+  const Expected<optim::LocalBaResult> result = solver.solve(problem.input, &stop_global_ba_);
+  const double solve_ms = ms_since(solve_start);
+  if (!result) {
+    return make_error(result.error().code, "loop closing: keyframe " + std::to_string(keyframe) +
+                                               ": global BA: " + result.error().message);
+  }
+  if (mapper_.pause) mapper_.pause();
+  const auto lock_start = SteadyClock::now();
+  const GlobalBaApplied applied =
+      map_.write([&](map::MapData& m) { return apply_global_ba(m, problem, *result); });
+  const double lock_ms = ms_since(lock_start);
+  if (mapper_.resume) mapper_.resume();
+  note_write_lock(lock_ms);
+  spdlog::info(
+      "loop closing: keyframe={} global BA over {} keyframes and {} points, cost {:.4g} -> {:.4g} in {} "
+      "iterations{}, {:.1f} ms; {} keyframes moved and {} points set in {:.1f} ms under the write lock",
+      keyframe, problem.keyframe_ids.size(), problem.point_ids.size(), result->initial_cost,
+      result->final_cost, result->iterations, result->aborted ? " (stopped)" : "", solve_ms,
+      applied.keyframes_moved, applied.points_optimised, lock_ms);
+  std::lock_guard lock(mutex_);
+  ++stats_.global_ba_runs;
+  stats_.global_ba_stopped += result->aborted ? 1 : 0;
+  stats_.last_global_ba_ms = solve_ms;
+  stats_.last_global_ba_keyframes = static_cast<int>(problem.keyframe_ids.size());
+  stats_.last_global_ba_points = static_cast<int>(problem.point_ids.size());
+  stats_.last_global_ba_initial_cost = result->initial_cost;
+  stats_.last_global_ba_final_cost = result->final_cost;
+  // The tracker may not have taken the pose graph's correction yet.
+  tracker_correction_ = applied.newest_correction * tracker_correction_.value_or(SE3());
   return ok_status();
 }
 

@@ -174,7 +174,12 @@ io::Json loop_stats_json(const loop::LoopClosingStats& s) {
                   {"max_write_lock_ms", s.max_write_lock_ms},
                   {"last_graph_nodes", s.last_graph_nodes},
                   {"last_graph_edges", s.last_graph_edges},
-                  {"last_matches", s.last_matches}};
+                  {"last_matches", s.last_matches},
+                  {"global_ba_runs", s.global_ba_runs},
+                  {"global_ba_stopped", s.global_ba_stopped},
+                  {"last_global_ba_ms", s.last_global_ba_ms},
+                  {"last_global_ba_keyframes", s.last_global_ba_keyframes},
+                  {"last_global_ba_points", s.last_global_ba_points}};
 }
 
 // Writes the trajectory and the optional stats and states of the frames
@@ -363,7 +368,8 @@ int finish_run(const RunArgs& args, const config::SiteposeConfig& config, bool w
     std::printf(
         "loop closing: keyframes checked %lld, consistent candidates %lld, refused %lld, loops closed %lld; "
         "detection %.2f ms mean (max %.2f), verification max %.1f ms, last correction %.1f ms, last "
-        "pose-graph solve %.1f ms (%d keyframes, %d edges), longest write lock %.1f ms\n",
+        "pose-graph solve %.1f ms (%d keyframes, %d edges), global BAs %lld (last %.1f ms, %d keyframes, %d "
+        "points), longest write lock %.1f ms\n",
         static_cast<long long>(loops->keyframes_checked),
         static_cast<long long>(loops->consistent_candidates), static_cast<long long>(loops->loops_refused),
         static_cast<long long>(loops->loops_closed),
@@ -371,7 +377,8 @@ int finish_run(const RunArgs& args, const config::SiteposeConfig& config, bool w
                                  : 0.0,
         loops->max_detection_ms, loops->max_verification_ms, loops->last_correction_ms,
         loops->last_optimisation_ms, loops->last_graph_nodes, loops->last_graph_edges,
-        loops->max_write_lock_ms);
+        static_cast<long long>(loops->global_ba_runs), loops->last_global_ba_ms,
+        loops->last_global_ba_keyframes, loops->last_global_ba_points, loops->max_write_lock_ms);
   }
   return 0;
 }

@@ -11,8 +11,10 @@
 //      group moved and fused, then the essential graph optimised on a copy
 //      and applied. The map's write lock is held for the two updates only.
 //      The correction of the newest keyframe is left for the tracker
-//      (take_tracker_correction), so its last pose moves with the map.
-// No global BA follows.
+//      (take_tracker_correction), so its last pose moves with the map;
+//   4. a global BA (global_ba.hpp) on a copy of the whole map, solved
+//      without any lock while the mapper runs, applied with the mapper
+//      paused (params.global_ba; the next keyframes wait in the queue).
 //
 // Threading (as mapping::LocalMapper, both mapping::KeyFrameWorker):
 // start() runs the steps on a thread "sp-loop" that waits for keyframes;
@@ -26,6 +28,7 @@
 // them held.
 // Ownership: `map` and `database` must outlive the closer.
 
+#include <atomic>
 #include <functional>
 #include <mutex>
 #include <optional>
@@ -47,6 +50,8 @@ struct LoopCloserParams {
   int min_map_keyframes = 10;      // no detection in a smaller map
   int keyframes_after_loop = 10;   // no detection within this many keyframe ids of the last loop
   int essential_min_weight = 100;  // covisibility edges of the essential graph
+  bool global_ba = true;           // step 4
+  int global_ba_iterations = 10;   // ORB-SLAM2's; the Huber stage runs half of them
   LoopVerifierParams verifier;
 };
 
@@ -67,7 +72,14 @@ struct LoopClosingStats {
   int last_graph_edges = 0;
   double last_graph_initial_cost = 0.0;
   double last_graph_final_cost = 0.0;
-  int last_matches = 0;  // matches of the last accepted loop
+  int last_matches = 0;                // matches of the last accepted loop
+  std::int64_t global_ba_runs = 0;     // applied
+  std::int64_t global_ba_stopped = 0;  // ended early by stop(), applied as far as they got
+  double last_global_ba_ms = 0.0;      // the solve, unlocked
+  int last_global_ba_keyframes = 0;
+  int last_global_ba_points = 0;
+  double last_global_ba_initial_cost = 0.0;
+  double last_global_ba_final_cost = 0.0;
 };
 
 struct MapperPause {
@@ -106,6 +118,7 @@ class LoopCloser {
                  const std::vector<mapping::PointSnapshot>& loop_points);
   Status optimise_essential_graph(map::KeyFrameId keyframe, const GroupCopy& group,
                                   const GroupCorrection& plan, const GroupApplied& applied);
+  Status run_global_ba(map::KeyFrameId keyframe);
   void note_write_lock(double ms);
 
   StereoCamera camera_;
@@ -117,6 +130,8 @@ class LoopCloser {
   // The processing thread's (worker or caller of process_pending).
   LoopConsistency consistency_;
   map::KeyFrameId last_loop_keyframe_ = map::kNoKeyFrame;
+  // Raised by stop(): a global BA in progress ends at its last iterate.
+  std::atomic<bool> stop_global_ba_{false};
 
   mutable std::mutex mutex_;
   LoopClosingStats stats_;                 // guarded by mutex_

@@ -30,8 +30,13 @@ struct LocalBaProblem {
 
 // Builds the window of `keyframe` (call under SharedMap::read()); an empty
 // problem when the keyframe is gone.
-LocalBaProblem build_local_ba_problem(const map::MapData& map, map::KeyFrameId keyframe,
-                                      int n_covisible, int max_fixed);
+LocalBaProblem build_local_ba_problem(const map::MapData& map, map::KeyFrameId keyframe, int n_covisible,
+                                      int max_fixed);
+
+// The whole map (ORB-SLAM2 Optimizer::GlobalBundleAdjustemnt): every good
+// keyframe, the map's first one held fixed (the gauge), and every good point
+// they observe (call under SharedMap::read()).
+LocalBaProblem build_global_ba_problem(const map::MapData& map);
 
 struct LocalBaApplied {
   int outliers_erased = 0;

@@ -4,7 +4,9 @@
 // the turn the return still sees the outbound points, after it the
 // association is lost and the return builds its own (duplicate) points
 // from odometry that drifts 0.1 degrees of heading and 1 cm a keyframe.
-// Back at the start, only place recognition can join the two.
+// Back at the start, only place recognition can join the two. The
+// keyframes' observations are exact, so a global BA after the pose graph
+// can find the truth.
 
 #include "sitepose/loop/loop_closer.hpp"
 
@@ -13,21 +15,14 @@
 #include <cstdio>
 #include <random>
 
+#include "sitepose/testing/cameras.hpp"
+
 namespace sitepose::loop {
 namespace {
 
 constexpr int kLaneKeyFrames = 41;  // one a metre, 0 .. 40 m
 
-StereoCamera test_camera() {
-  StereoCamera c;
-  c.fx = c.fy = 500.0;
-  c.cx = 320.0;
-  c.cy = 180.0;
-  c.baseline_m = 0.5;
-  c.width = 640;
-  c.height = 360;
-  return c;
-}
+StereoCamera test_camera() { return testing::centred_camera(640, 360, 500.0, 0.5); }
 
 struct World {
   std::vector<Eigen::Vector3d> p;
@@ -146,50 +141,92 @@ double error_m(const map::MapData& m, map::KeyFrameId id, const SE3& truth) {
   return (m.keyframe(id)->T_world_cam.translation() - truth.translation()).norm();
 }
 
-TEST(LoopCloser, ClosesADriftedReturnAndLowersItsError) {
-  const World w = make_wall(21);
-  LoopMap lm = make_loop_map(w);
-  const double before_m = error_m(lm.map, lm.inbound.back(), lm.inbound_truth.back());
-  const SE3 first_before = lm.map.keyframe(lm.map.first_keyframe())->T_world_cam;
+struct ClosedLoopRun {
+  LoopClosingStats stats;
+  map::MapData after;
+  std::vector<KeyFramePair> loops;
+  bool tracker_correction = false;
+  double start_error_m = 0.0;  // the last returning keyframe, back at the start
+  double rms_error_m = 0.0;    // over the returning keyframes
+};
+
+double rms_error_m(const map::MapData& m, const LoopMap& lm) {
+  double sum = 0.0;
+  for (std::size_t r = 0; r < lm.inbound.size(); ++r) {
+    sum += std::pow(error_m(m, lm.inbound[r], lm.inbound_truth[r]), 2);
+  }
+  return std::sqrt(sum / static_cast<double>(lm.inbound.size()));
+}
+
+ClosedLoopRun close_loops(const LoopMap& lm, const LoopCloserParams& params) {
   const auto vocabulary = vocabulary_of(lm.map);
   placerec::KeyFrameDatabase database(vocabulary);
   database.rebuild(lm.map);
   map::SharedMap shared;
   shared.write([&](map::MapData& m) { m = lm.map; });
-  LoopCloser closer(test_camera(), shared, database, {});
+  LoopCloser closer(test_camera(), shared, database, {}, params);
   for (map::KeyFrameId id : lm.inbound) closer.enqueue(id);
-  ASSERT_TRUE(closer.process_pending().has_value());
-  const LoopClosingStats stats = closer.stats();
-  const map::MapData after = shared.read([](const map::MapData& m) { return m; });
-  const double after_m = error_m(after, lm.inbound.back(), lm.inbound_truth.back());
-  double sum_before = 0.0;
-  double sum_after = 0.0;
-  for (std::size_t r = 0; r < lm.inbound.size(); ++r) {
-    sum_before += std::pow(error_m(lm.map, lm.inbound[r], lm.inbound_truth[r]), 2);
-    sum_after += std::pow(error_m(after, lm.inbound[r], lm.inbound_truth[r]), 2);
-  }
-  const double ate_before = std::sqrt(sum_before / static_cast<double>(lm.inbound.size()));
-  const double ate_after = std::sqrt(sum_after / static_cast<double>(lm.inbound.size()));
+  EXPECT_TRUE(closer.process_pending().has_value());
+  ClosedLoopRun run;
+  run.stats = closer.stats();
+  run.after = shared.read([](const map::MapData& m) { return m; });
+  run.loops = closer.loops();
+  run.tracker_correction = closer.take_tracker_correction().has_value();
+  run.start_error_m = error_m(run.after, lm.inbound.back(), lm.inbound_truth.back());
+  run.rms_error_m = rms_error_m(run.after, lm);
+  const LoopClosingStats& stats = run.stats;
   std::printf(
-      "loop closer: %lld loops closed, %lld refused; return keyframes' RMS error %.4f -> %.4f m, at the "
-      "start %.4f -> %.4f m; detection %.2f ms mean, verification max %.1f ms, last correction %.1f ms, "
-      "last pose graph %d keyframes, %d edges, %.1f ms, longest write lock %.1f ms\n",
-      static_cast<long long>(stats.loops_closed), static_cast<long long>(stats.loops_refused), ate_before,
-      ate_after, before_m, after_m, stats.total_detection_ms / static_cast<double>(stats.keyframes_checked),
-      stats.max_verification_ms, stats.last_correction_ms, stats.last_graph_nodes, stats.last_graph_edges,
-      stats.last_optimisation_ms, stats.max_write_lock_ms);
-  EXPECT_GE(stats.loops_closed, 1);
+      "loop closer (global BA %s): %lld loops closed, %lld refused; return keyframes' RMS error %.4f m, at "
+      "the "
+      "start %.4f m; detection %.2f ms mean, verification max %.1f ms, last correction %.1f ms, last pose "
+      "graph %d keyframes, %d edges, %.1f ms; %lld global BAs, last %d keyframes, %d points, %.1f ms; "
+      "longest write lock %.1f ms\n",
+      params.global_ba ? "on" : "off", static_cast<long long>(stats.loops_closed),
+      static_cast<long long>(stats.loops_refused), run.rms_error_m, run.start_error_m,
+      stats.total_detection_ms / static_cast<double>(stats.keyframes_checked), stats.max_verification_ms,
+      stats.last_correction_ms, stats.last_graph_nodes, stats.last_graph_edges, stats.last_optimisation_ms,
+      static_cast<long long>(stats.global_ba_runs), stats.last_global_ba_keyframes,
+      stats.last_global_ba_points, stats.last_global_ba_ms, stats.max_write_lock_ms);
+  return run;
+}
+
+TEST(LoopCloser, ClosesADriftedReturnAndLowersItsError) {
+  const World w = make_wall(21);
+  const LoopMap lm = make_loop_map(w);
+  const double before_m = error_m(lm.map, lm.inbound.back(), lm.inbound_truth.back());
+  const double rms_before_m = rms_error_m(lm.map, lm);
+  const SE3 first_before = lm.map.keyframe(lm.map.first_keyframe())->T_world_cam;
+  std::printf("before: return keyframes' RMS error %.4f m, at the start %.4f m\n", rms_before_m, before_m);
   EXPECT_GT(before_m, 0.3) << "the synthetic drift is too small to test anything";
-  EXPECT_LT(after_m, before_m / 5.0);
-  EXPECT_LT(ate_after, ate_before / 2.5);
-  EXPECT_EQ(after.keyframe(after.first_keyframe())->T_world_cam.matrix(), first_before.matrix());
-  ASSERT_FALSE(closer.loops().empty());
-  for (const auto& [current, loop] : closer.loops()) {
-    // Each loop joins a returning keyframe to an outbound one.
-    EXPECT_NE(std::find(lm.inbound.begin(), lm.inbound.end(), current), lm.inbound.end());
-    EXPECT_NE(std::find(lm.outbound.begin(), lm.outbound.end(), loop), lm.outbound.end());
+
+  LoopCloserParams pose_graph_only;
+  pose_graph_only.global_ba = false;
+  const ClosedLoopRun graph = close_loops(lm, pose_graph_only);
+  EXPECT_GE(graph.stats.loops_closed, 1);
+  EXPECT_EQ(graph.stats.global_ba_runs, 0);
+  EXPECT_LT(graph.start_error_m, before_m / 5.0);
+  EXPECT_LT(graph.rms_error_m, rms_before_m / 2.5);
+
+  // The global BA refines what the pose graph spread: the observations are
+  // exact here, so it lands on the truth.
+  const ClosedLoopRun full = close_loops(lm, {});
+  EXPECT_GE(full.stats.loops_closed, 1);
+  EXPECT_EQ(full.stats.global_ba_runs, full.stats.loops_closed);
+  EXPECT_EQ(full.stats.global_ba_stopped, 0);
+  EXPECT_LT(full.stats.last_global_ba_final_cost, full.stats.last_global_ba_initial_cost + 1e-9);
+  EXPECT_LT(full.start_error_m, 0.01);
+  EXPECT_LT(full.rms_error_m, graph.rms_error_m / 10.0);
+
+  for (const ClosedLoopRun* run : {&graph, &full}) {
+    EXPECT_EQ(run->after.keyframe(run->after.first_keyframe())->T_world_cam.matrix(), first_before.matrix());
+    ASSERT_FALSE(run->loops.empty());
+    for (const auto& [current, loop] : run->loops) {
+      // Each loop joins a returning keyframe to an outbound one.
+      EXPECT_NE(std::find(lm.inbound.begin(), lm.inbound.end(), current), lm.inbound.end());
+      EXPECT_NE(std::find(lm.outbound.begin(), lm.outbound.end(), loop), lm.outbound.end());
+    }
+    EXPECT_TRUE(run->tracker_correction);
   }
-  EXPECT_TRUE(closer.take_tracker_correction().has_value());
 }
 
 // The same drive without drift and with the return's points those of the
@@ -210,6 +247,7 @@ TEST(LoopCloser, LeavesAConnectedMapAlone) {
   for (const auto& [id, kf] : m.keyframes()) closer.enqueue(id);
   ASSERT_TRUE(closer.process_pending().has_value());
   EXPECT_EQ(closer.stats().loops_closed, 0);
+  EXPECT_EQ(closer.stats().global_ba_runs, 0);
   EXPECT_FALSE(closer.take_tracker_correction().has_value());
 }
 

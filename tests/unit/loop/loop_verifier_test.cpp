@@ -9,19 +9,12 @@
 
 #include <random>
 
+#include "sitepose/testing/cameras.hpp"
+
 namespace sitepose::loop {
 namespace {
 
-StereoCamera test_camera() {
-  StereoCamera c;
-  c.fx = c.fy = 500.0;
-  c.cx = 320.0;
-  c.cy = 180.0;
-  c.baseline_m = 0.5;
-  c.width = 640;
-  c.height = 360;
-  return c;
-}
+StereoCamera test_camera() { return testing::centred_camera(640, 360, 500.0, 0.5); }
 
 struct WorldPoint {
   Eigen::Vector3d p_world;
