@@ -90,6 +90,8 @@ Expected<std::unique_ptr<DatagramPort>> open_udp_port(const std::string& address
 
 }  // namespace
 
+bool is_dotted_ipv4(const std::string& text) { return parse_ipv4(text).has_value(); }
+
 DatagramPortOpener udp_port_opener() { return &open_udp_port; }
 
 Expected<std::string> subnet_broadcast_of(const std::string& interface_ipv4) {

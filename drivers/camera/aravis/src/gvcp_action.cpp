@@ -1,5 +1,8 @@
 #include "sitepose/drivers/aravis/gvcp_action.hpp"
 
+#include <charconv>
+#include <cstdio>
+
 #include "sitepose/core/hex.hpp"
 
 namespace sitepose::drivers::aravis::gvcp {
@@ -70,6 +73,25 @@ bool action_matches(const ActionCommand& command, std::uint32_t device_key, std:
                     std::uint32_t group_mask) {
   return command.device_key == device_key && command.group_key == group_key &&
          (command.group_mask & group_mask) != 0;
+}
+
+Expected<std::uint32_t> parse_key(const std::string& text) {
+  const bool hexadecimal = text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X');
+  const char* first = text.data() + (hexadecimal ? 2 : 0);
+  const char* last = text.data() + text.size();
+  std::uint32_t value = 0;
+  const auto [end, error] = std::from_chars(first, last, value, hexadecimal ? 16 : 10);
+  if (text.empty() || error != std::errc() || end != last) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "expected a 32-bit key: decimal or 0x-hexadecimal, at most 0xFFFFFFFF");
+  }
+  return value;
+}
+
+std::string format_key(std::uint32_t key) {
+  char text[11];
+  std::snprintf(text, sizeof(text), "0x%08X", key);
+  return text;
 }
 
 std::uint16_t next_request_id(std::uint16_t id) { return id == 0xFFFF ? 1 : static_cast<std::uint16_t>(id + 1); }

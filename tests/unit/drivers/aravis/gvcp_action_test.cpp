@@ -114,5 +114,16 @@ TEST(GvcpAction, RequestIdsSkipZero) {
   EXPECT_EQ(next_request_id(0xFFFF), 1);
 }
 
+TEST(GvcpAction, KeysReadDecimalOrHexAndWriteBackAsHex) {
+  EXPECT_EQ(*parse_key("36"), 36u);
+  EXPECT_EQ(*parse_key("0x24"), 36u);
+  EXPECT_EQ(*parse_key("0XFFFFFFFF"), 0xFFFFFFFFu);
+  EXPECT_EQ(format_key(36), "0x00000024");
+  EXPECT_EQ(*parse_key(format_key(0x80000001)), 0x80000001u);
+  for (const char* bad : {"", "0x", "0x100000000", "4294967296", "-1", "12ab", "0x12 "}) {
+    EXPECT_FALSE(parse_key(bad)) << bad;
+  }
+}
+
 }  // namespace
 }  // namespace sitepose::drivers::aravis::gvcp

@@ -35,6 +35,9 @@ class DatagramPort {
 using DatagramPortOpener =
     std::function<Expected<std::unique_ptr<DatagramPort>>(const std::string& address_ipv4, std::uint16_t port)>;
 
+// Whether `text` is a dotted IPv4 address ("192.168.10.255").
+bool is_dotted_ipv4(const std::string& text);
+
 // The UDP socket: bound to an ephemeral port on any address, broadcast
 // allowed (SO_BROADCAST), so the acks come back to it.
 DatagramPortOpener udp_port_opener();

@@ -66,6 +66,12 @@ struct ActionAck {
 bool action_matches(const ActionCommand& command, std::uint32_t device_key, std::uint32_t group_key,
                     std::uint32_t group_mask);
 
+// A 32-bit key or mask as written in settings: decimal or 0x-hexadecimal
+// ("0x00000024"). kInvalidArgument otherwise or beyond 0xFFFFFFFF.
+Expected<std::uint32_t> parse_key(const std::string& text);
+// "0x" and eight hexadecimal digits, which parse_key reads back.
+std::string format_key(std::uint32_t key);
+
 // The request id after `id`: 1 after 0xFFFF (0 is not a valid id).
 std::uint16_t next_request_id(std::uint16_t id);
 
