@@ -287,19 +287,23 @@ TEST(DaemonConfig, AravisActionTriggerReadsItsKeys) {
 
 TEST(DaemonConfig, AravisActionTriggerErrorsNameTheKeys) {
   const auto failed = load_daemon_config_from_string(
-      kAravisBase + kActionCameras + "    action: {device_key: 0x1FFFFFFFF, lead_time_ms: 0}\n", "d.yaml", "");
+      kAravisBase + kActionCameras + "    action: {device_key: 0x1FFFFFFFF, lead_time_ms: 0}\n", "d.yaml",
+      "");
   ASSERT_FALSE(failed);
   EXPECT_EQ(failed.error().exit_status(), 2);
   const std::string& bad = failed.error().message;
-  EXPECT_TRUE(contains(bad, "source.aravis.action.device_key = \"0x1FFFFFFFF\": expected a 32-bit key")) << bad;
+  EXPECT_TRUE(contains(bad, "source.aravis.action.device_key = \"0x1FFFFFFFF\": expected a 32-bit key"))
+      << bad;
   EXPECT_TRUE(contains(bad, "source.aravis.action.lead_time_ms = 0")) << bad;
-  const std::string relations =
-      load_error(kAravisBase + kActionCameras + "    action: {group_mask: 0, lead_time_ms: 50, destination: nic0}\n");
+  const std::string relations = load_error(
+      kAravisBase + kActionCameras + "    action: {group_mask: 0, lead_time_ms: 50, destination: nic0}\n");
   EXPECT_TRUE(contains(relations, "action.group_mask: must not be 0")) << relations;
   EXPECT_TRUE(contains(relations, "action.lead_time_ms = 50.000000: must be in (0, 50.000000)")) << relations;
-  EXPECT_TRUE(contains(relations, "action.destination = \"nic0\": expected a dotted IPv4 address")) << relations;
+  EXPECT_TRUE(contains(relations, "action.destination = \"nic0\": expected a dotted IPv4 address"))
+      << relations;
   const std::string host_clock = load_error(
-      kAravisBase + "  aravis: {left_id: A, right_id: B, calibration: c.yaml, trigger: action, pair_clock: host}\n");
+      kAravisBase +
+      "  aravis: {left_id: A, right_id: B, calibration: c.yaml, trigger: action, pair_clock: host}\n");
   EXPECT_TRUE(contains(host_clock, "pair_clock: trigger action needs camera")) << host_clock;
 }
 

@@ -113,8 +113,10 @@ Expected<std::string> subnet_broadcast_of(const std::string& interface_ipv4) {
   }
   ::freeifaddrs(list);
   if (found) return *found;
-  if (name.empty()) return make_error(ErrorCode::kNotFound, "no network interface has the address " + interface_ipv4);
-  return make_error(ErrorCode::kNotFound, "interface " + name + " (" + interface_ipv4 + ") has no broadcast address");
+  if (name.empty())
+    return make_error(ErrorCode::kNotFound, "no network interface has the address " + interface_ipv4);
+  return make_error(ErrorCode::kNotFound,
+                    "interface " + name + " (" + interface_ipv4 + ") has no broadcast address");
 }
 
 Expected<ActionResult> ActionSender::send(const gvcp::ActionCommand& command, int expected_acks,

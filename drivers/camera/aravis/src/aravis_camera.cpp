@@ -230,16 +230,17 @@ Status AravisCamera::check_ptp_locked() {
   ArvDevice* device = arv_camera_get_device(camera_);
   const std::string enable = first_available({"PtpEnable", "GevIEEE1588"});
   if (enable.empty()) {
-    return make_error(ErrorCode::kUnsupported,
-                      id_ + ": trigger action needs PTP, and the camera has neither PtpEnable nor GevIEEE1588");
+    return make_error(
+        ErrorCode::kUnsupported,
+        id_ + ": trigger action needs PTP, and the camera has neither PtpEnable nor GevIEEE1588");
   }
   GError* error = nullptr;
   const bool on = arv_device_get_boolean_feature_value(device, enable.c_str(), &error);
   SITEPOSE_TRY_STATUS(check(error, enable));
   if (!on) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      id_ + ": " + enable + " is false: trigger action needs PTP on (" + enable +
-                          "=true in the feature file, firmware-config/genicam)");
+    return make_error(ErrorCode::kInvalidArgument, id_ + ": " + enable +
+                                                       " is false: trigger action needs PTP on (" + enable +
+                                                       "=true in the feature file, firmware-config/genicam)");
   }
   // The status is of a latched data set where the camera has a latch.
   const std::string latch = first_available({"PtpDataSetLatch", "GevIEEE1588DataSetLatch"});
@@ -256,9 +257,10 @@ Status AravisCamera::check_ptp_locked() {
   SITEPOSE_TRY_STATUS(check(error, status, ErrorCode::kIoError));
   const std::string state = value != nullptr ? value : "";
   if (state != "Slave") {
-    return make_error(ErrorCode::kNotFound, id_ + ": " + status + " is " + state +
-                                                ", not Slave: not locked to the PTP grandmaster (ptp4l on the "
-                                                "camera NIC, firmware-config/README.md)");
+    return make_error(ErrorCode::kNotFound,
+                      id_ + ": " + status + " is " + state +
+                          ", not Slave: not locked to the PTP grandmaster (ptp4l on the "
+                          "camera NIC, firmware-config/README.md)");
   }
   return ok_status();
 }
@@ -268,9 +270,10 @@ Status AravisCamera::configure_action(const ActionSettings& a) {
   latch_command_ = first_available({"TimestampLatch", "GevTimestampControlLatch"});
   latch_value_ = latch_command_ == "TimestampLatch" ? "TimestampLatchValue" : "GevTimestampValue";
   if (latch_command_.empty() || first_available({latch_value_.c_str()}).empty()) {
-    return make_error(ErrorCode::kUnsupported, id_ + ": trigger action: no timestamp latch "
-                                                     "(TimestampLatch + TimestampLatchValue, or "
-                                                     "GevTimestampControlLatch + GevTimestampValue)");
+    return make_error(ErrorCode::kUnsupported, id_ +
+                                                   ": trigger action: no timestamp latch "
+                                                   "(TimestampLatch + TimestampLatchValue, or "
+                                                   "GevTimestampControlLatch + GevTimestampValue)");
   }
   ArvDevice* device = arv_camera_get_device(camera_);
   GError* error = nullptr;
@@ -282,8 +285,8 @@ Status AravisCamera::configure_action(const ActionSettings& a) {
       {"ActionDeviceKey", a.device_key}, {"ActionGroupKey", a.group_key}, {"ActionGroupMask", a.group_mask}};
   for (const auto& [name, value] : keys) {
     if (first_available({name}).empty()) {
-      return make_error(ErrorCode::kUnsupported,
-                        id_ + ": trigger action: no " + std::string(name) + " (the camera takes no action commands)");
+      return make_error(ErrorCode::kUnsupported, id_ + ": trigger action: no " + std::string(name) +
+                                                     " (the camera takes no action commands)");
     }
     arv_device_set_integer_feature_value(device, name, value, &error);
     SITEPOSE_TRY_STATUS(check(error, std::string(name) + " " + gvcp::format_key(value)));
@@ -318,7 +321,8 @@ Expected<ClockLatch> AravisCamera::latch_clock() {
 
 std::string AravisCamera::host_address_ipv4() const {
   if (!arv_camera_is_gv_device(camera_)) return "";
-  GSocketAddress* address = arv_gv_device_get_interface_address(ARV_GV_DEVICE(arv_camera_get_device(camera_)));
+  GSocketAddress* address =
+      arv_gv_device_get_interface_address(ARV_GV_DEVICE(arv_camera_get_device(camera_)));
   if (address == nullptr) return "";
   gchar* text = g_inet_address_to_string(g_inet_socket_address_get_address(G_INET_SOCKET_ADDRESS(address)));
   std::string out = text != nullptr ? text : "";

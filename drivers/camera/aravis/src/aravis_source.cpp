@@ -25,7 +25,9 @@ using camera::side_name;
 // second, far below any useful lead time.
 constexpr Clock::duration kLatchInterval = std::chrono::seconds(1);
 
-std::int64_t to_ns(Clock::duration d) { return std::chrono::duration_cast<std::chrono::nanoseconds>(d).count(); }
+std::int64_t to_ns(Clock::duration d) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(d).count();
+}
 
 // A repeated warning: the first, then every 100th.
 bool worth_warning(std::uint64_t count) { return count == 1 || count % 100 == 0; }
@@ -184,7 +186,8 @@ Expected<std::string> action_destination(const ActionSettings& action, const Cam
                           ") is not reached over IPv4, so there is no camera NIC to broadcast on: set it");
   }
   auto broadcast = subnet_broadcast_of(host);
-  if (!broadcast) return make_error(broadcast.error().code, "action.destination: " + broadcast.error().message);
+  if (!broadcast)
+    return make_error(broadcast.error().code, "action.destination: " + broadcast.error().message);
   return broadcast;
 }
 
@@ -359,7 +362,8 @@ bool AravisSource::latch_clocks() {
   const std::int64_t tolerance_ns = std::llround(options_.pair_tolerance_ms * 1e6);
   if (std::abs(skew_ns) > tolerance_ns && std::abs(ptp_skew_ns_) <= tolerance_ns) {
     spdlog::warn(
-        "aravis: the cameras' clocks differ by {:.3f} ms (more than pair_tolerance_ms): not locked to one PTP "
+        "aravis: the cameras' clocks differ by {:.3f} ms (more than pair_tolerance_ms): not locked to one "
+        "PTP "
         "grandmaster; no action commands until they agree",
         static_cast<double>(skew_ns) * 1e-6);
   }

@@ -94,7 +94,9 @@ std::string format_key(std::uint32_t key) {
   return text;
 }
 
-std::uint16_t next_request_id(std::uint16_t id) { return id == 0xFFFF ? 1 : static_cast<std::uint16_t>(id + 1); }
+std::uint16_t next_request_id(std::uint16_t id) {
+  return id == 0xFFFF ? 1 : static_cast<std::uint16_t>(id + 1);
+}
 
 std::vector<std::uint8_t> encode_action_command(const ActionPacket& packet) {
   SITEPOSE_CHECK(packet.request_id != 0);
@@ -129,7 +131,8 @@ Expected<ActionPacket> decode_action_command(std::span<const std::uint8_t> datag
   const std::size_t expected = scheduled ? kScheduledActionPayloadBytes : kActionPayloadBytes;
   if (datagram.size() - kHeaderBytes != expected) {
     return parse_error(what, std::to_string(datagram.size() - kHeaderBytes) + " payload bytes, expected " +
-                                 std::to_string(expected) + (scheduled ? " (scheduled)" : " (not scheduled)"));
+                                 std::to_string(expected) +
+                                 (scheduled ? " (scheduled)" : " (not scheduled)"));
   }
   ActionPacket packet;
   packet.request_id = id;

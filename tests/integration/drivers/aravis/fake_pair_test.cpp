@@ -202,10 +202,11 @@ TEST(AravisActionTrigger, AFakeCameraWithoutPtpIsRefusedNamingTheFeature) {
   ASSERT_FALSE(source);
   EXPECT_EQ(source.error().code, ErrorCode::kUnsupported);
   EXPECT_EQ(source.error().exit_status(), 2);
-  EXPECT_NE(source.error().message.find(
-                "left_id = \"Fake_L\": Fake_L: trigger action needs PTP, and the camera has neither PtpEnable "
-                "nor GevIEEE1588"),
-            std::string::npos)
+  EXPECT_NE(
+      source.error().message.find(
+          "left_id = \"Fake_L\": Fake_L: trigger action needs PTP, and the camera has neither PtpEnable "
+          "nor GevIEEE1588"),
+      std::string::npos)
       << source.error().message;
 }
 

@@ -64,7 +64,8 @@ class GvcpResponder {
       std::uint8_t buffer[64];
       sockaddr_in from{};
       socklen_t from_size = sizeof(from);
-      const ssize_t n = ::recvfrom(fd_, buffer, sizeof(buffer), 0, reinterpret_cast<sockaddr*>(&from), &from_size);
+      const ssize_t n =
+          ::recvfrom(fd_, buffer, sizeof(buffer), 0, reinterpret_cast<sockaddr*>(&from), &from_size);
       if (n <= 0) continue;
       const auto packet = gvcp::decode_action_command(std::span<const std::uint8_t>(buffer, n));
       if (!packet) continue;  // a camera ignores what it cannot parse
@@ -73,7 +74,8 @@ class GvcpResponder {
         received_.push_back(*packet);
       }
       for (const PlayedCamera& c : cameras_) {
-        if (!packet->ack_required || !gvcp::action_matches(packet->command, c.device_key, c.group_key, c.group_mask))
+        if (!packet->ack_required ||
+            !gvcp::action_matches(packet->command, c.device_key, c.group_key, c.group_mask))
           continue;
         for (int i = 0; i < c.extra_stale_acks; ++i) {
           reply(from, {gvcp::kStatusSuccess, static_cast<std::uint16_t>(packet->request_id + 100)});
@@ -161,7 +163,8 @@ TEST(ActionSender, LoopbackHasNoSubnetBroadcast) {
       << broadcast.error().message;
   const auto nowhere = subnet_broadcast_of("192.0.2.77");  // TEST-NET-1: on no interface
   ASSERT_FALSE(nowhere);
-  EXPECT_NE(nowhere.error().message.find("no network interface has the address 192.0.2.77"), std::string::npos);
+  EXPECT_NE(nowhere.error().message.find("no network interface has the address 192.0.2.77"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -32,8 +32,8 @@ class DatagramPort {
 
 // Opens a port to address_ipv4:port (dotted IPv4). kInvalidArgument for an
 // address that is not one, kIoError when the socket fails.
-using DatagramPortOpener =
-    std::function<Expected<std::unique_ptr<DatagramPort>>(const std::string& address_ipv4, std::uint16_t port)>;
+using DatagramPortOpener = std::function<Expected<std::unique_ptr<DatagramPort>>(
+    const std::string& address_ipv4, std::uint16_t port)>;
 
 // Whether `text` is a dotted IPv4 address ("192.168.10.255").
 bool is_dotted_ipv4(const std::string& text);
@@ -51,7 +51,7 @@ Expected<std::string> subnet_broadcast_of(const std::string& interface_ipv4);
 
 struct ActionResult {
   std::uint16_t request_id = 0;
-  int acks = 0;                          // SUCCESS acknowledgements
+  int acks = 0;                         // SUCCESS acknowledgements
   std::vector<std::uint16_t> failures;  // the other acknowledgements' statuses
 };
 

@@ -145,15 +145,14 @@ class AravisSource final : public pipeline::FrameSource {
   bool latch_clocks();
   void send_action();
   bool triggered() const {
-    return options_.camera.trigger == TriggerMode::kSoftware || options_.camera.trigger == TriggerMode::kAction;
+    return options_.camera.trigger == TriggerMode::kSoftware ||
+           options_.camera.trigger == TriggerMode::kAction;
   }
   std::chrono::microseconds poll_timeout(Clock::time_point now) const;
   void warn_of_underruns(Camera& camera);
   // A triggered camera whose partner is lost gets no triggers: no frames
   // are due then, and silence is not a fault.
-  bool expecting_frames() const {
-    return !triggered() || (cameras_[0].device && cameras_[1].device);
-  }
+  bool expecting_frames() const { return !triggered() || (cameras_[0].device && cameras_[1].device); }
   Expected<StereoFrame> make_frame(const camera::StereoPair<CameraFrame>& pair);
 
   AravisSourceOptions options_;

@@ -35,8 +35,8 @@ inline constexpr std::size_t kScheduledActionPayloadBytes = 20;
 // ACTION_ACK statuses a host acts on; any other non-zero status is an error
 // code of the device's (GigE Vision's status table).
 inline constexpr std::uint16_t kStatusSuccess = 0x0000;
-inline constexpr std::uint16_t kStatusNoRefTime = 0x8013;  // scheduled, but no PTP time to act on
-inline constexpr std::uint16_t kStatusOverflow = 0x8015;   // the device's action queue is full
+inline constexpr std::uint16_t kStatusNoRefTime = 0x8013;   // scheduled, but no PTP time to act on
+inline constexpr std::uint16_t kStatusOverflow = 0x8015;    // the device's action queue is full
 inline constexpr std::uint16_t kStatusActionLate = 0x8016;  // action_time had passed on arrival
 
 // "SUCCESS", "NO_REF_TIME", ..., or the code in hex for others.
