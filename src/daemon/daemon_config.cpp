@@ -12,6 +12,7 @@
 #include "sitepose/config/yaml_reader.hpp"
 #include "sitepose/detect/create_detector.hpp"
 #include "sitepose/drivers/aravis/aravis_source.hpp"
+#include "sitepose/drivers/aravis/gvcp_action.hpp"
 #include "sitepose/drivers/v4l2/pixel_format.hpp"
 
 namespace sitepose::daemon {
@@ -65,6 +66,19 @@ Section<drivers::aravis::Roi> roi_section() {
   return s;
 }
 
+Section<drivers::aravis::ActionSettings> action_section() {
+  namespace a = drivers::aravis;
+  using A = a::ActionSettings;
+  const auto key = [](const std::string& t) { return a::gvcp::parse_key(t); };
+  Section<A> s;
+  s.parsed("device_key", &A::device_key, key, a::gvcp::format_key)
+      .parsed("group_key", &A::group_key, key, a::gvcp::format_key)
+      .parsed("group_mask", &A::group_mask, key, a::gvcp::format_key)
+      .key("destination", &A::destination)
+      .key("lead_time_ms", &A::lead_time_ms, in_range(0.1, 1000.0));
+  return s;
+}
+
 Section<drivers::aravis::CameraSettings> camera_settings_section() {
   namespace a = drivers::aravis;
   using C = a::CameraSettings;
@@ -80,7 +94,9 @@ Section<drivers::aravis::CameraSettings> camera_settings_section() {
       .choice("trigger", &C::trigger,
               {Choice<a::TriggerMode>{a::TriggerMode::kFreeRun, "free_run"},
                Choice<a::TriggerMode>{a::TriggerMode::kSoftware, "software"},
-               Choice<a::TriggerMode>{a::TriggerMode::kHardware, "hardware"}})
+               Choice<a::TriggerMode>{a::TriggerMode::kHardware, "hardware"},
+               Choice<a::TriggerMode>{a::TriggerMode::kAction, "action"}})
+      .section("action", &C::action, action_section())
       .key("frame_rate_hz", &C::frame_rate_hz, in_range(0.1, 1000.0))
       .key("packet_size_bytes", &C::packet_size_bytes, in_range(0, 16384))
       .key("packet_delay_ns", &C::packet_delay_ns, in_range(0, 100'000'000))

@@ -258,5 +258,54 @@ TEST(DaemonConfig, AravisSourceErrorsNameTheKeys) {
   EXPECT_TRUE(contains(replay, "source.replay.sequence")) << replay;
 }
 
+const std::string kActionCameras =
+    "  aravis:\n"
+    "    left_id: A\n    right_id: B\n    calibration: c.yaml\n"
+    "    trigger: action\n    pair_clock: camera\n    frame_rate_hz: 20\n";
+
+TEST(DaemonConfig, AravisActionTriggerReadsItsKeys) {
+  const auto config = load_daemon_config_from_string(
+      kAravisBase + kActionCameras +
+          "    action: {device_key: 0x5EC0, group_key: 36, group_mask: 0x80000001,\n"
+          "             destination: 192.168.10.255, lead_time_ms: 8}\n",
+      "d.yaml", "/etc/sitepose");
+  ASSERT_TRUE(config) << config.error().message;
+  const drivers::aravis::CameraSettings& c = config->aravis.camera;
+  EXPECT_EQ(c.trigger, drivers::aravis::TriggerMode::kAction);
+  EXPECT_EQ(c.action.device_key, 0x5EC0u);
+  EXPECT_EQ(c.action.group_key, 36u);
+  EXPECT_EQ(c.action.group_mask, 0x80000001u);
+  EXPECT_EQ(c.action.destination, "192.168.10.255");
+  EXPECT_EQ(c.action.lead_time_ms, 8.0);
+  const std::string written = to_yaml(*config);
+  EXPECT_TRUE(contains(written, "group_mask: 0x80000001")) << written;
+  const auto again = load_daemon_config_from_string(written, "resolved.yaml", "");
+  ASSERT_TRUE(again) << again.error().message;
+  EXPECT_EQ(again->aravis.camera.action.group_mask, 0x80000001u);
+  EXPECT_EQ(again->aravis.camera.trigger, drivers::aravis::TriggerMode::kAction);
+}
+
+TEST(DaemonConfig, AravisActionTriggerErrorsNameTheKeys) {
+  const auto failed = load_daemon_config_from_string(
+      kAravisBase + kActionCameras + "    action: {device_key: 0x1FFFFFFFF, lead_time_ms: 0}\n", "d.yaml",
+      "");
+  ASSERT_FALSE(failed);
+  EXPECT_EQ(failed.error().exit_status(), 2);
+  const std::string& bad = failed.error().message;
+  EXPECT_TRUE(contains(bad, "source.aravis.action.device_key = \"0x1FFFFFFFF\": expected a 32-bit key"))
+      << bad;
+  EXPECT_TRUE(contains(bad, "source.aravis.action.lead_time_ms = 0")) << bad;
+  const std::string relations = load_error(
+      kAravisBase + kActionCameras + "    action: {group_mask: 0, lead_time_ms: 50, destination: nic0}\n");
+  EXPECT_TRUE(contains(relations, "action.group_mask: must not be 0")) << relations;
+  EXPECT_TRUE(contains(relations, "action.lead_time_ms = 50.000000: must be in (0, 50.000000)")) << relations;
+  EXPECT_TRUE(contains(relations, "action.destination = \"nic0\": expected a dotted IPv4 address"))
+      << relations;
+  const std::string host_clock = load_error(
+      kAravisBase +
+      "  aravis: {left_id: A, right_id: B, calibration: c.yaml, trigger: action, pair_clock: host}\n");
+  EXPECT_TRUE(contains(host_clock, "pair_clock: trigger action needs camera")) << host_clock;
+}
+
 }  // namespace
 }  // namespace sitepose::daemon

@@ -5,6 +5,9 @@
 
 #include <atomic>
 #include <mutex>
+#include <utility>
+
+#include "sitepose/drivers/aravis/gvcp_action.hpp"
 
 namespace sitepose::drivers::aravis {
 namespace {
@@ -62,6 +65,8 @@ class AravisCamera final : public CameraDevice {
     arv_stream_get_statistics(stream_, nullptr, nullptr, &n);
     return n;
   }
+  Expected<ClockLatch> latch_clock() override;
+  std::string host_address_ipv4() const override;
 
  private:
   static void on_control_lost(ArvDevice* /*device*/, gpointer self) {
@@ -74,6 +79,10 @@ class AravisCamera final : public CameraDevice {
   Status apply_features(const FeatureFile& file);
   Status configure_exposure_gain(const CameraSettings& s);
   Status configure_timing(const CameraSettings& s);
+  Status configure_action(const ActionSettings& a);
+  Status check_ptp_locked();
+  // The first of `names` the camera has; "" when none.
+  std::string first_available(std::initializer_list<const char*> names) const;
 
   ArvCamera* camera_ = nullptr;
   ArvStream* stream_ = nullptr;
@@ -83,6 +92,8 @@ class AravisCamera final : public CameraDevice {
   int width_ = 0;
   int height_ = 0;
   std::uint64_t failed_ = 0;
+  std::string latch_command_;  // kAction: the timestamp latch command and its value feature
+  std::string latch_value_;
   std::atomic<bool> control_lost_{false};  // set by Aravis's heartbeat thread
 };
 
@@ -191,12 +202,132 @@ Status AravisCamera::configure_timing(const CameraSettings& s) {
     return check(error, "TriggerSource Software");
   }
   if (s.trigger == TriggerMode::kHardware) return ok_status();  // the feature file set the line up
+  if (s.trigger == TriggerMode::kAction) return configure_action(s.action);
   arv_camera_clear_triggers(camera_, &error);
   SITEPOSE_TRY_STATUS(check(error, "TriggerMode Off"));
   const bool rate_available = arv_camera_is_frame_rate_available(camera_, &error);
   SITEPOSE_TRY_STATUS(check(error, "AcquisitionFrameRate"));
   if (rate_available) arv_camera_set_frame_rate(camera_, s.frame_rate_hz, &error);
   return check(error, "frame rate " + std::to_string(s.frame_rate_hz) + " Hz");
+}
+
+std::string AravisCamera::first_available(std::initializer_list<const char*> names) const {
+  ArvDevice* device = arv_camera_get_device(camera_);
+  for (const char* name : names) {
+    GError* error = nullptr;
+    const bool available = arv_device_is_feature_available(device, name, &error);
+    if (error != nullptr) g_error_free(error);  // a feature the camera cannot read is not available
+    if (available) return name;
+  }
+  return "";
+}
+
+// Scheduled actions act on the PTP clock: the camera must have PTP on and
+// follow the grandmaster. Not locked yet is kNotFound, which the source
+// waits for (a camera locks within seconds of ptp4l starting); PTP off or
+// missing is the feature file's or the camera's, named.
+Status AravisCamera::check_ptp_locked() {
+  ArvDevice* device = arv_camera_get_device(camera_);
+  const std::string enable = first_available({"PtpEnable", "GevIEEE1588"});
+  if (enable.empty()) {
+    return make_error(
+        ErrorCode::kUnsupported,
+        id_ + ": trigger action needs PTP, and the camera has neither PtpEnable nor GevIEEE1588");
+  }
+  GError* error = nullptr;
+  const bool on = arv_device_get_boolean_feature_value(device, enable.c_str(), &error);
+  SITEPOSE_TRY_STATUS(check(error, enable));
+  if (!on) {
+    return make_error(ErrorCode::kInvalidArgument, id_ + ": " + enable +
+                                                       " is false: trigger action needs PTP on (" + enable +
+                                                       "=true in the feature file, firmware-config/genicam)");
+  }
+  // The status is of a latched data set where the camera has a latch.
+  const std::string latch = first_available({"PtpDataSetLatch", "GevIEEE1588DataSetLatch"});
+  if (!latch.empty()) {
+    arv_device_execute_command(device, latch.c_str(), &error);
+    SITEPOSE_TRY_STATUS(check(error, latch, ErrorCode::kIoError));
+  }
+  const std::string status = first_available({"PtpStatus", "GevIEEE1588StatusLatched", "GevIEEE1588Status"});
+  if (status.empty()) {
+    return make_error(ErrorCode::kUnsupported,
+                      id_ + ": trigger action: no PTP status feature (PtpStatus, GevIEEE1588Status)");
+  }
+  const char* value = arv_device_get_string_feature_value(device, status.c_str(), &error);
+  SITEPOSE_TRY_STATUS(check(error, status, ErrorCode::kIoError));
+  const std::string state = value != nullptr ? value : "";
+  if (state != "Slave") {
+    return make_error(ErrorCode::kNotFound,
+                      id_ + ": " + status + " is " + state +
+                          ", not Slave: not locked to the PTP grandmaster (ptp4l on the "
+                          "camera NIC, firmware-config/README.md)");
+  }
+  return ok_status();
+}
+
+Status AravisCamera::configure_action(const ActionSettings& a) {
+  SITEPOSE_TRY_STATUS(check_ptp_locked());
+  latch_command_ = first_available({"TimestampLatch", "GevTimestampControlLatch"});
+  latch_value_ = latch_command_ == "TimestampLatch" ? "TimestampLatchValue" : "GevTimestampValue";
+  if (latch_command_.empty() || first_available({latch_value_.c_str()}).empty()) {
+    return make_error(ErrorCode::kUnsupported, id_ +
+                                                   ": trigger action: no timestamp latch "
+                                                   "(TimestampLatch + TimestampLatchValue, or "
+                                                   "GevTimestampControlLatch + GevTimestampValue)");
+  }
+  ArvDevice* device = arv_camera_get_device(camera_);
+  GError* error = nullptr;
+  if (!first_available({"ActionSelector"}).empty()) {
+    arv_device_set_integer_feature_value(device, "ActionSelector", 1, &error);
+    SITEPOSE_TRY_STATUS(check(error, "ActionSelector 1"));
+  }
+  const std::pair<const char*, std::uint32_t> keys[] = {
+      {"ActionDeviceKey", a.device_key}, {"ActionGroupKey", a.group_key}, {"ActionGroupMask", a.group_mask}};
+  for (const auto& [name, value] : keys) {
+    if (first_available({name}).empty()) {
+      return make_error(ErrorCode::kUnsupported, id_ + ": trigger action: no " + std::string(name) +
+                                                     " (the camera takes no action commands)");
+    }
+    arv_device_set_integer_feature_value(device, name, value, &error);
+    SITEPOSE_TRY_STATUS(check(error, std::string(name) + " " + gvcp::format_key(value)));
+  }
+  if (!first_available({"TriggerSelector"}).empty()) {
+    arv_device_set_string_feature_value(device, "TriggerSelector", "FrameStart", &error);
+    SITEPOSE_TRY_STATUS(check(error, "TriggerSelector FrameStart"));
+  }
+  const bool action1 = arv_device_is_enumeration_entry_available(device, "TriggerSource", "Action1", &error);
+  SITEPOSE_TRY_STATUS(check(error, "TriggerSource"));
+  if (!action1) {
+    return make_error(ErrorCode::kUnsupported, id_ + ": trigger action: TriggerSource has no Action1");
+  }
+  arv_device_set_string_feature_value(device, "TriggerSource", "Action1", &error);
+  SITEPOSE_TRY_STATUS(check(error, "TriggerSource Action1"));
+  arv_device_set_string_feature_value(device, "TriggerMode", "On", &error);
+  return check(error, "TriggerMode On");
+}
+
+Expected<ClockLatch> AravisCamera::latch_clock() {
+  if (latch_command_.empty()) return CameraDevice::latch_clock();
+  ArvDevice* device = arv_camera_get_device(camera_);
+  GError* error = nullptr;
+  const auto before = std::chrono::steady_clock::now();
+  arv_device_execute_command(device, latch_command_.c_str(), &error);
+  const auto after = std::chrono::steady_clock::now();
+  SITEPOSE_TRY_STATUS(check(error, latch_command_, ErrorCode::kIoError));
+  const gint64 value = arv_device_get_integer_feature_value(device, latch_value_.c_str(), &error);
+  SITEPOSE_TRY_STATUS(check(error, latch_value_, ErrorCode::kIoError));
+  return ClockLatch{value, before + (after - before) / 2};
+}
+
+std::string AravisCamera::host_address_ipv4() const {
+  if (!arv_camera_is_gv_device(camera_)) return "";
+  GSocketAddress* address =
+      arv_gv_device_get_interface_address(ARV_GV_DEVICE(arv_camera_get_device(camera_)));
+  if (address == nullptr) return "";
+  gchar* text = g_inet_address_to_string(g_inet_socket_address_get_address(G_INET_SOCKET_ADDRESS(address)));
+  std::string out = text != nullptr ? text : "";
+  g_free(text);
+  return out;
 }
 
 Status AravisCamera::start(int buffer_count) {

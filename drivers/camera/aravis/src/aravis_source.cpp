@@ -20,6 +20,18 @@ using Clock = std::chrono::steady_clock;
 
 using camera::side_name;
 
+// How often the cameras' clocks are latched for the PTP time of an action:
+// the host's oscillator drifts from PTP by at most ~100 ppm, 0.1 ms a
+// second, far below any useful lead time.
+constexpr Clock::duration kLatchInterval = std::chrono::seconds(1);
+
+std::int64_t to_ns(Clock::duration d) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(d).count();
+}
+
+// A repeated warning: the first, then every 100th.
+bool worth_warning(std::uint64_t count) { return count == 1 || count % 100 == 0; }
+
 // Short polls, alternating between the cameras, keep a frame's wait for its
 // partner and the answer to a stop request within milliseconds.
 constexpr std::chrono::microseconds kPoll{1000};
@@ -41,6 +53,7 @@ const char* trigger_name(TriggerMode trigger) {
     case TriggerMode::kFreeRun: return "free-run";
     case TriggerMode::kSoftware: return "software trigger";
     case TriggerMode::kHardware: return "hardware trigger";
+    case TriggerMode::kAction: return "scheduled action command";
   }
   return "?";
 }
@@ -141,12 +154,48 @@ Status check_aravis_source_options(const AravisSourceOptions& o) {
   if (o.camera.trigger == TriggerMode::kHardware && o.feature_file.empty()) {
     add("trigger: hardware needs a feature_file that sets up the trigger line");
   }
+  if (o.camera.trigger == TriggerMode::kAction) {
+    const ActionSettings& a = o.camera.action;
+    if (o.pair_clock != PairClock::kCamera) {
+      add("pair_clock: trigger action needs camera (both cameras stamp frames on the PTP clock)");
+    }
+    if (a.group_mask == 0) add("action.group_mask: must not be 0 (no camera would act)");
+    const double period_ms = 1000.0 / std::max(o.camera.frame_rate_hz, 1e-3);
+    if (!(a.lead_time_ms > 0.0 && a.lead_time_ms < period_ms)) {
+      add("action.lead_time_ms = " + std::to_string(a.lead_time_ms) + ": must be in (0, " +
+          std::to_string(period_ms) + ") (below a frame period: a camera queues few scheduled actions)");
+    }
+    if (!a.destination.empty() && !is_dotted_ipv4(a.destination)) {
+      add("action.destination = \"" + a.destination + "\": expected a dotted IPv4 address, or \"\"");
+    }
+  }
   if (bad.empty()) return ok_status();
   return make_error(ErrorCode::kInvalidArgument, bad);
 }
 
+namespace {
+
+// Where action commands go: the configured address, or the broadcast
+// address of the NIC the left camera is reached through.
+Expected<std::string> action_destination(const ActionSettings& action, const CameraDevice& left) {
+  if (!action.destination.empty()) return action.destination;
+  const std::string host = left.host_address_ipv4();
+  if (host.empty()) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      "action.destination: empty, and the left camera (" + left.describe() +
+                          ") is not reached over IPv4, so there is no camera NIC to broadcast on: set it");
+  }
+  auto broadcast = subnet_broadcast_of(host);
+  if (!broadcast)
+    return make_error(broadcast.error().code, "action.destination: " + broadcast.error().message);
+  return broadcast;
+}
+
+}  // namespace
+
 Expected<std::unique_ptr<AravisSource>> AravisSource::open(const AravisSourceOptions& options_in,
-                                                           CameraOpener opener, const std::stop_token& stop) {
+                                                           CameraOpener opener, const std::stop_token& stop,
+                                                           const DatagramPortOpener& ports) {
   SITEPOSE_TRY_STATUS(check_aravis_source_options(options_in));
   AravisSourceOptions options = options_in;
   if (!options.feature_file.empty()) {
@@ -168,18 +217,28 @@ Expected<std::unique_ptr<AravisSource>> AravisSource::open(const AravisSourceOpt
   }
   auto rectifier = calib::load_stereo_rectifier(options.calibration, cv::Size(left.width(), left.height()));
   if (!rectifier) return make_error(rectifier.error().code, "calibration: " + rectifier.error().message);
-  return std::unique_ptr<AravisSource>(
-      new AravisSource(options, std::move(opener), std::move(*rectifier), std::move(devices)));
+  std::unique_ptr<ActionSender> actions;
+  if (options.camera.trigger == TriggerMode::kAction) {
+    SITEPOSE_TRY(const std::string destination, action_destination(options.camera.action, left));
+    auto port = (ports ? ports : udp_port_opener())(destination, gvcp::kGvcpPort);
+    if (!port) return make_error(port.error().code, "action.destination: " + port.error().message);
+    spdlog::info("aravis: action commands to {}:{}", destination, gvcp::kGvcpPort);
+    actions = std::make_unique<ActionSender>(std::move(*port));
+  }
+  return std::unique_ptr<AravisSource>(new AravisSource(options, std::move(opener), std::move(*rectifier),
+                                                        std::move(devices), std::move(actions)));
 }
 
 AravisSource::AravisSource(const AravisSourceOptions& options, CameraOpener opener,
                            calib::StereoRectifier rectifier,
-                           std::array<std::unique_ptr<CameraDevice>, 2> devices)
+                           std::array<std::unique_ptr<CameraDevice>, 2> devices,
+                           std::unique_ptr<ActionSender> actions)
     : options_(options),
       opener_(std::move(opener)),
       rectifier_(std::move(rectifier)),
       pairer_(static_cast<std::int64_t>(std::llround(options.pair_tolerance_ms * 1e6)),
-              static_cast<std::size_t>(options.max_pending)) {
+              static_cast<std::size_t>(options.max_pending)),
+      actions_(std::move(actions)) {
   const Clock::time_point now = Clock::now();
   for (int i = 0; i < 2; ++i) {
     Camera& c = cameras_[i];
@@ -211,6 +270,7 @@ void AravisSource::lose(Camera& camera, const std::string& why) {
   camera.underruns_base = camera.underruns_seen = 0;
   camera.device.reset();
   camera.clock.reset();
+  ptp_latch_.reset();  // latched from both cameras' devices
   camera.backoff_s = options_.reconnect_min_s;
   camera.next_attempt = Clock::now();
   pairer_.reset();
@@ -285,15 +345,86 @@ void AravisSource::warn_of_underruns(Camera& camera) {
   camera.underruns_seen = n;
 }
 
+// Latches both cameras' clocks: the left one's gives PTP time now; the
+// difference between the two says whether they follow one grandmaster.
+bool AravisSource::latch_clocks() {
+  std::array<ClockLatch, 2> latches;
+  for (int i = 0; i < 2; ++i) {
+    auto latch = cameras_[i].device->latch_clock();
+    if (!latch) {
+      lose(cameras_[i], latch.error().message);
+      return false;
+    }
+    latches[i] = *latch;
+  }
+  const std::int64_t skew_ns =
+      (latches[1].camera_t_ns - latches[0].camera_t_ns) - to_ns(latches[1].host_t - latches[0].host_t);
+  const std::int64_t tolerance_ns = std::llround(options_.pair_tolerance_ms * 1e6);
+  if (std::abs(skew_ns) > tolerance_ns && std::abs(ptp_skew_ns_) <= tolerance_ns) {
+    spdlog::warn(
+        "aravis: the cameras' clocks differ by {:.3f} ms (more than pair_tolerance_ms): not locked to one "
+        "PTP "
+        "grandmaster; no action commands until they agree",
+        static_cast<double>(skew_ns) * 1e-6);
+  }
+  ptp_skew_ns_ = skew_ns;
+  ptp_latch_ = latches[0];
+  return true;
+}
+
+// One scheduled action command for both cameras, lead_time_ms ahead of
+// their PTP time now. None while their clocks disagree: each camera stamps
+// a frame with the action time on its own clock, so frames exposed that far
+// apart would carry one time and pair.
+void AravisSource::send_action() {
+  const Clock::time_point now = Clock::now();
+  if ((!ptp_latch_ || now - ptp_latch_->host_t >= kLatchInterval) && !latch_clocks()) return;
+  if (std::abs(ptp_skew_ns_) > std::llround(options_.pair_tolerance_ms * 1e6)) return;
+  const ActionSettings& a = options_.camera.action;
+  const auto lead = std::chrono::duration_cast<std::chrono::microseconds>(
+      std::chrono::duration<double, std::milli>(a.lead_time_ms));
+  const std::int64_t ptp_now_ns = ptp_latch_->camera_t_ns + to_ns(Clock::now() - ptp_latch_->host_t);
+  const gvcp::ActionCommand command{a.device_key, a.group_key, a.group_mask,
+                                    static_cast<std::uint64_t>(ptp_now_ns + to_ns(lead))};
+  ++actions_sent_;
+  // Acks after the action time would change nothing: wait up to the lead time.
+  const auto result = actions_->send(command, 2, lead);
+  if (!result) {
+    action_acks_missing_ += 2;
+    if (worth_warning(actions_sent_)) spdlog::warn("aravis: action command: {}", result.error().message);
+    return;
+  }
+  for (const std::uint16_t status : result->failures) {
+    if (worth_warning(++action_acks_refused_)) {
+      spdlog::warn("aravis: a camera refused action command {} ({}; {} refusals)", result->request_id,
+                   gvcp::status_name(status), action_acks_refused_);
+    }
+  }
+  const int missing = 2 - result->acks - static_cast<int>(result->failures.size());
+  for (int i = 0; i < missing; ++i) {
+    if (worth_warning(++action_acks_missing_)) {
+      spdlog::warn("aravis: action command {}: {} of 2 cameras acknowledged within {:g} ms ({} missing)",
+                   result->request_id, result->acks + result->failures.size(), a.lead_time_ms,
+                   action_acks_missing_);
+    }
+  }
+}
+
 void AravisSource::trigger_if_due(Clock::time_point now) {
-  if (options_.camera.trigger != TriggerMode::kSoftware || now < next_trigger_) return;
+  if (!triggered() || now < next_trigger_) return;
   if (!cameras_[0].device || !cameras_[1].device) return;
-  trigger_helper_->start(*cameras_[1].device);
-  const Clock::time_point sent = Clock::now();  // after waking the helper, which may have taken the CPU
-  const Status left = cameras_[0].device->trigger();
-  const Status right = trigger_helper_->wait();
-  if (!left) lose(cameras_[0], left.error().message);
-  if (!right) lose(cameras_[1], right.error().message);
+  Clock::time_point sent;
+  if (options_.camera.trigger == TriggerMode::kAction) {
+    sent = Clock::now();
+    send_action();
+  } else {
+    trigger_helper_->start(*cameras_[1].device);
+    sent = Clock::now();  // after waking the helper, which may have taken the CPU
+    const Status left = cameras_[0].device->trigger();
+    const Status right = trigger_helper_->wait();
+    if (!left) lose(cameras_[0], left.error().message);
+    if (!right) lose(cameras_[1], right.error().message);
+  }
   if (!cameras_[0].device || !cameras_[1].device) return;
   // Never two triggers closer than a period: a camera still busy with the
   // last frame may drop a trigger, and the other camera of the pair may not
@@ -305,7 +436,7 @@ void AravisSource::trigger_if_due(Clock::time_point now) {
 
 std::chrono::microseconds AravisSource::poll_timeout(Clock::time_point now) const {
   // No triggers while a camera is lost (trigger_if_due): nothing to be back for.
-  if (options_.camera.trigger != TriggerMode::kSoftware || !expecting_frames()) return kPoll;
+  if (!triggered() || !expecting_frames()) return kPoll;
   // Back in time for the next trigger: a late one shifts all after it.
   const auto until = std::chrono::duration_cast<std::chrono::microseconds>(next_trigger_ - now);
   return std::clamp(until, std::chrono::microseconds{0}, kPoll);
@@ -376,6 +507,10 @@ AravisSourceStats AravisSource::stats() const {
   s.reconnects = reconnects_;
   s.clock_offset_left_ns = cameras_[0].clock.offset_ns();
   s.clock_offset_right_ns = cameras_[1].clock.offset_ns();
+  s.actions_sent = actions_sent_;
+  s.action_acks_missing = action_acks_missing_;
+  s.action_acks_refused = action_acks_refused_;
+  s.ptp_skew_ns = ptp_skew_ns_;
   return s;
 }
 

@@ -188,5 +188,27 @@ TEST(AravisFeatureFile, AStepTheCameraRefusesNamesTheFileAndLine) {
       << no_file.error().message;
 }
 
+// Aravis's fake camera has neither PTP nor action features: trigger action
+// is refused at open, naming what the camera lacks, with no fallback to
+// another trigger.
+TEST(AravisActionTrigger, AFakeCameraWithoutPtpIsRefusedNamingTheFeature) {
+  fake_interface_only();
+  TempDir dir;
+  AravisSourceOptions o = fake_pair_options(write_calibration(dir, rendered().camera), PixelFormat::kMono8);
+  o.camera.trigger = TriggerMode::kAction;
+  o.camera.action.destination = "127.0.0.1";
+  o.pair_clock = PairClock::kCamera;
+  const auto source = AravisSource::open(o, aravis_camera_opener());
+  ASSERT_FALSE(source);
+  EXPECT_EQ(source.error().code, ErrorCode::kUnsupported);
+  EXPECT_EQ(source.error().exit_status(), 2);
+  EXPECT_NE(
+      source.error().message.find(
+          "left_id = \"Fake_L\": Fake_L: trigger action needs PTP, and the camera has neither PtpEnable "
+          "nor GevIEEE1588"),
+      std::string::npos)
+      << source.error().message;
+}
+
 }  // namespace
 }  // namespace sitepose::drivers::aravis

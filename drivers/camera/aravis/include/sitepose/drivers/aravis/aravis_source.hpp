@@ -10,8 +10,18 @@
 // rest; both triggers go out together, the right camera's from a helper
 // thread, so the cameras expose within the trigger latency, not one trigger
 // round trip apart).
-// Hardware trigger and PTP with scheduled action commands are set up in the
-// cameras' feature files (firmware-config/), not here.
+// Action trigger (both cameras PTP-locked, pair_clock camera): every
+// 1 / frame_rate_hz, paced like the software trigger, one scheduled GigE
+// Vision action command goes to camera.action.destination (one datagram that
+// both cameras receive) with an action time of the cameras' PTP time now
+// plus camera.action.lead_time_ms; both expose at that PTP time. PTP time
+// "now" is extrapolated on the host's steady clock from a latch of each
+// camera's clock, renewed once a second (two control round trips each).
+// While the two latched clocks disagree by more than pair_tolerance_ms no
+// command goes out: each camera stamps a frame with the action time on its
+// own clock, so frames exposed that far apart would still pair.
+// Hardware trigger lines are set up in the cameras' feature files
+// (firmware-config/), not here.
 // A lost camera (Aravis reports it, or it sends nothing for lost_timeout_s)
 // is closed and reopened with exponential back-off from reconnect_min_s to
 // reconnect_max_s; meanwhile next() returns kTimeout at its deadline, so the
@@ -24,9 +34,11 @@
 #include <array>
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "sitepose/calib/rectifier.hpp"
+#include "sitepose/drivers/aravis/action_sender.hpp"
 #include "sitepose/drivers/aravis/camera_device.hpp"
 #include "sitepose/drivers/aravis/clock_mapper.hpp"
 #include "sitepose/drivers/camera/stereo_pairer.hpp"
@@ -72,6 +84,15 @@ struct AravisSourceStats {
   std::uint64_t reconnects = 0;
   std::int64_t clock_offset_left_ns = 0;  // host - camera (clock_mapper.hpp)
   std::int64_t clock_offset_right_ns = 0;
+  // Trigger action: commands sent, and acknowledgements missing or refused
+  // (each expects one SUCCESS ack per camera).
+  std::uint64_t actions_sent = 0;
+  std::uint64_t action_acks_missing = 0;
+  std::uint64_t action_acks_refused = 0;
+  // The latest latch: right camera's clock minus the left one's, minus the
+  // host time between the two latches. Near 0 when both follow one PTP
+  // grandmaster; its size is the latch's own uncertainty (round trips).
+  std::int64_t ptp_skew_ns = 0;
 };
 
 class AravisSource final : public pipeline::FrameSource {
@@ -82,8 +103,11 @@ class AravisSource final : public pipeline::FrameSource {
   // kNotFound for an absent camera or feature file, kInvalidArgument for a
   // setting the camera refuses (a feature file's step: its file and line) or
   // cameras of different image sizes, the calibration's errors.
+  // Trigger action: `ports` opens the socket the commands go out on (null:
+  // UDP); "action.destination: ..." when there is no address to send to.
   static Expected<std::unique_ptr<AravisSource>> open(const AravisSourceOptions& options, CameraOpener opener,
-                                                      const std::stop_token& stop = {});
+                                                      const std::stop_token& stop = {},
+                                                      const DatagramPortOpener& ports = {});
   ~AravisSource() override;
 
   const StereoCamera& camera() const override { return rectifier_.camera(); }
@@ -112,19 +136,23 @@ class AravisSource final : public pipeline::FrameSource {
   };
 
   AravisSource(const AravisSourceOptions& options, CameraOpener opener, calib::StereoRectifier rectifier,
-               std::array<std::unique_ptr<CameraDevice>, 2> devices);
+               std::array<std::unique_ptr<CameraDevice>, 2> devices, std::unique_ptr<ActionSender> actions);
   void lose(Camera& camera, const std::string& why);
   Status try_reconnect(Camera& camera, Clock::time_point now);
   Status poll_camera(Camera& camera, std::chrono::microseconds timeout);
   void pair_frame(Camera& camera, CameraFrame frame);
   void trigger_if_due(Clock::time_point now);
+  bool latch_clocks();
+  void send_action();
+  bool triggered() const {
+    return options_.camera.trigger == TriggerMode::kSoftware ||
+           options_.camera.trigger == TriggerMode::kAction;
+  }
   std::chrono::microseconds poll_timeout(Clock::time_point now) const;
   void warn_of_underruns(Camera& camera);
   // A triggered camera whose partner is lost gets no triggers: no frames
   // are due then, and silence is not a fault.
-  bool expecting_frames() const {
-    return options_.camera.trigger != TriggerMode::kSoftware || (cameras_[0].device && cameras_[1].device);
-  }
+  bool expecting_frames() const { return !triggered() || (cameras_[0].device && cameras_[1].device); }
   Expected<StereoFrame> make_frame(const camera::StereoPair<CameraFrame>& pair);
 
   AravisSourceOptions options_;
@@ -133,6 +161,12 @@ class AravisSource final : public pipeline::FrameSource {
   std::array<Camera, 2> cameras_;
   camera::StereoPairer<CameraFrame> pairer_;
   std::unique_ptr<TriggerHelper> trigger_helper_;  // software trigger only
+  std::unique_ptr<ActionSender> actions_;          // action trigger only
+  std::optional<ClockLatch> ptp_latch_;            // the left camera's, for PTP time now
+  std::uint64_t actions_sent_ = 0;
+  std::uint64_t action_acks_missing_ = 0;
+  std::uint64_t action_acks_refused_ = 0;
+  std::int64_t ptp_skew_ns_ = 0;
   Clock::time_point next_trigger_{};
   bool started_ = false;  // next() called once
   std::int64_t next_seq_ = 0;

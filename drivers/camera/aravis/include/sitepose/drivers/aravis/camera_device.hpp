@@ -31,6 +31,25 @@ enum class TriggerMode {
   kSoftware,  // the source triggers both cameras at frame_rate_hz
   kHardware,  // a trigger line the feature file sets up (TriggerSelector, TriggerMode,
               // TriggerSource, TriggerActivation) starts each exposure; left as set there
+  kAction,    // both cameras PTP-locked; the source sends one scheduled GigE Vision action
+              // command per frame that both act on at the same PTP time (TriggerSource Action1)
+};
+
+// TriggerMode::kAction. The cameras take the keys (ActionDeviceKey,
+// ActionGroupKey, ActionGroupMask); the source sends each command to
+// `destination` and schedules it lead_time_ms ahead of the cameras' PTP time.
+struct ActionSettings {
+  std::uint32_t device_key = 0;
+  std::uint32_t group_key = 1;
+  std::uint32_t group_mask = 1;
+  std::string destination;  // dotted IPv4; "" = the broadcast address of the left camera's host NIC
+  double lead_time_ms = 10.0;
+};
+
+// A camera's clock latched at a known host time (TriggerMode::kAction).
+struct ClockLatch {
+  std::int64_t camera_t_ns = 0;                  // the camera's timestamp clock: PTP time when locked
+  std::chrono::steady_clock::time_point host_t;  // when it was latched (mid-point of the latch command)
 };
 
 // Region of interest; width/height 0 = the sensor's full size.
@@ -53,6 +72,7 @@ struct CameraSettings {
   double gain_db = 0.0;  // when not auto
   Roi roi;
   TriggerMode trigger = TriggerMode::kFreeRun;
+  ActionSettings action;  // trigger kAction
   double frame_rate_hz = 20.0;
   int packet_size_bytes = 0;  // GigE: 0 = negotiate the largest that passes
   int packet_delay_ns = 0;    // GigE inter-packet delay (two cameras on one link)
@@ -84,12 +104,22 @@ class CameraDevice {
   // Frames the camera sent while every stream buffer was taken (the
   // capture thread fell behind by more than the pool): lost on the host.
   virtual std::uint64_t underruns() const = 0;
+  // TriggerMode::kAction: latches the camera's clock now and reads it (two
+  // control round trips). kUnsupported where the camera has no latch.
+  virtual Expected<ClockLatch> latch_clock() {
+    return make_error(ErrorCode::kUnsupported, describe() + ": no timestamp latch");
+  }
+  // The host's IPv4 address the camera's control channel runs through; ""
+  // when the camera is not reached over IP (USB3 Vision, in-process fakes).
+  virtual std::string host_address_ipv4() const { return ""; }
 };
 
 // Opens, configures and starts streaming one camera (device_id: Aravis's
 // "Vendor-Model-Serial", an IP address, ...). kNotFound when no device has
-// the id; kInvalidArgument when the camera refuses a setting (the message
-// names it).
+// the id, or (trigger kAction) its PTP clock is not locked yet: both are
+// waited for (wait_for_camera_s, reconnects). kInvalidArgument when the
+// camera refuses a setting, kUnsupported when it lacks a feature the
+// settings need (the message names it).
 using CameraOpener = std::function<Expected<std::unique_ptr<CameraDevice>>(const std::string& device_id,
                                                                            const CameraSettings&)>;
 
