@@ -158,15 +158,23 @@ double rms_error_m(const map::MapData& m, const LoopMap& lm) {
   return std::sqrt(sum / static_cast<double>(lm.inbound.size()));
 }
 
-ClosedLoopRun close_loops(const LoopMap& lm, const LoopCloserParams& params) {
+// `threaded`: on the closer's own thread (start / wait_until_idle / stop),
+// as with the mapper thread; else inline (process_pending).
+ClosedLoopRun close_loops(const LoopMap& lm, const LoopCloserParams& params, bool threaded = false) {
   const auto vocabulary = vocabulary_of(lm.map);
   placerec::KeyFrameDatabase database(vocabulary);
   database.rebuild(lm.map);
   map::SharedMap shared;
   shared.write([&](map::MapData& m) { m = lm.map; });
   LoopCloser closer(test_camera(), shared, database, {}, params);
+  if (threaded) closer.start();
   for (map::KeyFrameId id : lm.inbound) closer.enqueue(id);
-  EXPECT_TRUE(closer.process_pending().has_value());
+  if (threaded) {
+    closer.wait_until_idle();
+    closer.stop();
+  } else {
+    EXPECT_TRUE(closer.process_pending().has_value());
+  }
   ClosedLoopRun run;
   run.stats = closer.stats();
   run.after = shared.read([](const map::MapData& m) { return m; });
@@ -227,6 +235,19 @@ TEST(LoopCloser, ClosesADriftedReturnAndLowersItsError) {
     }
     EXPECT_TRUE(run->tracker_correction);
   }
+}
+
+// The closer's thread (and the global BA on it) closes the same loops as
+// the inline run; under ThreadSanitizer (preset tsan) this is the thread's
+// race check.
+TEST(LoopCloser, ClosesTheSameLoopsOnItsOwnThread) {
+  const LoopMap lm = make_loop_map(make_wall(21));
+  const ClosedLoopRun inline_run = close_loops(lm, {});
+  const ClosedLoopRun threaded_run = close_loops(lm, {}, true);
+  EXPECT_EQ(threaded_run.stats.loops_closed, inline_run.stats.loops_closed);
+  EXPECT_EQ(threaded_run.stats.global_ba_runs, inline_run.stats.global_ba_runs);
+  EXPECT_EQ(threaded_run.loops, inline_run.loops);
+  EXPECT_NEAR(threaded_run.start_error_m, inline_run.start_error_m, 1e-6);
 }
 
 // The same drive without drift and with the return's points those of the
