@@ -1,5 +1,6 @@
 #include "sitepose/loop/loop_closer.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <unordered_set>
 
@@ -245,6 +246,8 @@ Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
       keyframe, group_lock_ms, applied.points_moved, applied.points_fused, applied.observations_added);
   const double correction_ms = ms_since(start);
   Status status = optimise_essential_graph(keyframe, group, plan, applied);
+  // The loop stays in the map (and its file) for the next loops' graphs.
+  if (status) map_.write([&](map::MapData& m) { m.add_loop_edge(keyframe, loop.candidate); });
   if (mapper_.resume) mapper_.resume();
   std::lock_guard lock(mutex_);
   stats_.last_correction_ms = correction_ms;
@@ -259,8 +262,15 @@ Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
 
 Status LoopCloser::optimise_essential_graph(map::KeyFrameId keyframe, const GroupCopy& group,
                                             const GroupCorrection& plan, const GroupApplied& applied) {
-  const std::vector<KeyFramePair> old_loops = loops();
   const EssentialGraph graph = map_.read([&](const map::MapData& m) {
+    // Every earlier loop, this run's and a loaded map's.
+    std::vector<KeyFramePair> old_loops;
+    for (const auto& [id, kf] : m.keyframes()) {
+      for (const map::KeyFrameId other : kf.loop_edges) {
+        if (id < other) old_loops.emplace_back(id, other);
+      }
+    }
+    std::sort(old_loops.begin(), old_loops.end());
     std::vector<KeyFramePair> new_edges{{keyframe, plan.loop}};
     for (const KeyFramePair& e : applied.loop_connections) {
       const map::KeyFrame* kf = m.keyframe(e.first);

@@ -83,6 +83,13 @@ Status link_keyframes(std::unordered_map<KeyFrameId, KeyFrame>& keyframes) {
                           kf_name(id) + " is covisible with " + kf_name(other) + ", not in the map");
       }
     }
+    for (const KeyFrameId other : kf.loop_edges) {
+      const auto it = keyframes.find(other);
+      if (it == keyframes.end() || other == id || it->second.loop_edges.count(id) == 0) {
+        return make_error(ErrorCode::kParseError, kf_name(id) + " has a loop edge to " + kf_name(other) +
+                                                      " that is not in the map or not kept on both");
+      }
+    }
     if (kf.parent == kNoKeyFrame) continue;
     auto parent = keyframes.find(kf.parent);
     if (parent == keyframes.end() || kf.parent == id) {
@@ -240,9 +247,18 @@ bool MapData::is_tracker_keyframe(KeyFrameId id) const {
   return std::find(tracker_keyframes_.begin(), tracker_keyframes_.end(), id) != tracker_keyframes_.end();
 }
 
+bool MapData::add_loop_edge(KeyFrameId a, KeyFrameId b) {
+  KeyFrame* ka = keyframe(a);
+  KeyFrame* kb = keyframe(b);
+  if (ka == nullptr || kb == nullptr || ka->bad || kb->bad || a == b) return false;
+  ka->loop_edges.insert(b);
+  kb->loop_edges.insert(a);
+  return true;
+}
+
 void MapData::set_keyframe_bad(KeyFrameId keyframe_id) {
   KeyFrame* kf = keyframe(keyframe_id);
-  if (kf == nullptr || kf->bad || keyframe_id == first_keyframe_) return;
+  if (kf == nullptr || kf->bad || keyframe_id == first_keyframe_ || !kf->loop_edges.empty()) return;
   for (const auto& [other, weight] : kf->covisibility) {
     if (KeyFrame* o = keyframe(other); o != nullptr) o->covisibility.erase(keyframe_id);
   }

@@ -101,6 +101,12 @@ void write_covisibility(ByteWriter& out, const map::KeyFrame& kf) {
   }
 }
 
+void write_loop_edges(ByteWriter& out, const map::KeyFrame& kf) {
+  out.i64(kf.id);
+  out.u64(kf.loop_edges.size());
+  for (const map::KeyFrameId other : kf.loop_edges) out.i64(other);
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta& meta) {
@@ -113,6 +119,9 @@ std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta&
   write_records(out, kKeyFramesTag, keyframes, write_keyframe);
   write_records(out, kPointsTag, points, write_point);
   write_records(out, kCovisibilityTag, keyframes, write_covisibility);
+  std::vector<const map::KeyFrame*> looped = keyframes;
+  std::erase_if(looped, [](const map::KeyFrame* kf) { return kf->loop_edges.empty(); });
+  if (!looped.empty()) write_records(out, kLoopEdgesTag, looped, write_loop_edges);
   write_frame_header(map_file_kind(), out.bytes());
   return std::move(out.bytes());
 }

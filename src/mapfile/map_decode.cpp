@@ -141,23 +141,42 @@ Expected<std::vector<Record>> read_records(std::span<const std::uint8_t> body, s
   return records;
 }
 
-Status read_covisibility(std::span<const std::uint8_t> body, std::vector<map::KeyFrame>& keyframes) {
+// A section of per-keyframe edge lists (COVI, LOOP): records of keyframe
+// id, edge count, edges of `edge_bytes` each, read by `read_edge`.
+template <typename ReadEdge>
+Status read_keyframe_edges(std::span<const std::uint8_t> body, std::uint32_t tag, std::size_t edge_bytes,
+                           std::vector<map::KeyFrame>& keyframes, ReadEdge read_edge) {
   std::unordered_map<map::KeyFrameId, map::KeyFrame*> index;
   for (map::KeyFrame& kf : keyframes) index[kf.id] = &kf;
   ByteReader in(body);
   const std::size_t n = in.count(16);
   for (std::size_t i = 0; i < n && in.ok(); ++i) {
     const map::KeyFrameId id = in.i64();
-    const std::size_t n_edges = in.count(kCovisibilityBytes);
+    const std::size_t n_edges = in.count(edge_bytes);
     auto it = index.find(id);
-    if (in.ok() && it == index.end()) return refuse("section COVI names keyframe " + std::to_string(id));
-    for (std::size_t e = 0; e < n_edges && in.ok(); ++e) {
-      const map::KeyFrameId other = in.i64();
-      it->second->covisibility[other] = in.i32();
-    }
+    if (in.ok() && it == index.end())
+      return refuse("section " + tag_name(tag) + " names keyframe " + std::to_string(id));
+    for (std::size_t e = 0; e < n_edges && in.ok(); ++e) read_edge(in, *it->second);
   }
-  if (!in.ok()) return refuse("section COVI ends early");
+  if (!in.ok()) return refuse("section " + tag_name(tag) + " ends early");
   return ok_status();
+}
+
+Status read_covisibility(std::span<const std::uint8_t> body, std::vector<map::KeyFrame>& keyframes) {
+  return read_keyframe_edges(body, kCovisibilityTag, kCovisibilityBytes, keyframes,
+                             [](ByteReader& in, map::KeyFrame& kf) {
+                               const map::KeyFrameId other = in.i64();
+                               kf.covisibility[other] = in.i32();
+                             });
+}
+
+// Optional: a map saved before any loop has none.
+Status read_loop_edges(const std::map<std::uint32_t, std::span<const std::uint8_t>>& sections,
+                       std::vector<map::KeyFrame>& keyframes) {
+  const auto it = sections.find(kLoopEdgesTag);
+  if (it == sections.end()) return ok_status();
+  return read_keyframe_edges(it->second, kLoopEdgesTag, kLoopEdgeBytes, keyframes,
+                             [](ByteReader& in, map::KeyFrame& kf) { kf.loop_edges.insert(in.i64()); });
 }
 
 // What the sections' bounds do not catch: a NaN, infinite or absurdly far
@@ -208,6 +227,7 @@ Expected<LoadedMap> decode_map(std::span<const std::uint8_t> bytes) {
                read_records(sections.at(kPointsTag), kPointBytes, read_point,
                             "section PNTS ends early or holds a broken point"));
   SITEPOSE_TRY_STATUS(read_covisibility(sections.at(kCovisibilityTag), keyframes));
+  SITEPOSE_TRY_STATUS(read_loop_edges(sections, keyframes));
   SITEPOSE_TRY_STATUS(check_values(meta.pyramid, keyframes, points));
   auto restored =
       map::MapData::restore(meta.pyramid, std::move(keyframes), std::move(points), meta.first, meta.last);

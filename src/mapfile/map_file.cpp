@@ -37,10 +37,12 @@ MapSummary summarise(const LoadedMap& loaded, std::uint64_t file_bytes) {
   for (const auto& [id, kf] : map.keyframes()) {
     s.keypoints += kf.keypoints.size();
     s.covisibility_edges += kf.covisibility.size();
+    s.loop_edges += kf.loop_edges.size();
     centres[id] = kf.camera_center();
   }
   for (const auto& [id, p] : map.points()) s.observations += p.observations.size();
   s.covisibility_edges /= 2;  // each edge is kept on both keyframes
+  s.loop_edges /= 2;
   bool first = true;
   Eigen::Vector3d previous = Eigen::Vector3d::Zero();
   for (const auto& [id, c] : centres) {

@@ -436,7 +436,7 @@ void LocalMapper::remove_keyframes(const std::vector<map::KeyFrameId>& candidate
     for (map::KeyFrameId id : candidates) {
       if (!may_cull(m, id)) continue;
       m.set_keyframe_bad(id);
-      removed.push_back(id);
+      if (m.keyframe(id) == nullptr) removed.push_back(id);  // a loop keyframe stays
     }
     return removed;
   });

@@ -25,6 +25,7 @@ void print_summary(const std::string& path, const mapfile::MapSummary& s) {
   std::printf("points        %zu (%zu observations, %.1f per point)\n", s.points, s.observations,
               per(s.observations, s.points));
   std::printf("covisibility  %zu edges\n", s.covisibility_edges);
+  std::printf("loop edges    %zu\n", s.loop_edges);
   std::printf(
       "area          x %.2f .. %.2f, y %.2f .. %.2f, z %.2f .. %.2f m (keyframe centres, map frame)\n",
       s.centre_min_m.x(), s.centre_max_m.x(), s.centre_min_m.y(), s.centre_max_m.y(), s.centre_min_m.z(),

@@ -44,7 +44,8 @@ class MapData {
   // observations and the parents, so the two sides cannot disagree. New ids
   // continue after the largest. Names the first inconsistency (an
   // observation of a missing keyframe or keypoint, a keypoint claimed by two
-  // points, a parent or covisible keyframe that is not in the map).
+  // points, a parent, covisible or loop-edge keyframe that is not in the
+  // map, a loop edge kept on one side only).
   static Expected<MapData> restore(ScalePyramid pyramid, std::vector<KeyFrame> keyframes,
                                    std::vector<MapPoint> points, KeyFrameId first_keyframe,
                                    KeyFrameId last_keyframe);
@@ -65,8 +66,12 @@ class MapData {
   void set_point_bad(PointId point);
   // Removes a keyframe: its observations are erased and its children are
   // re-parented to the covisible keyframe they share most with. The first
-  // keyframe is never removed (it anchors the gauge).
+  // keyframe is never removed (it anchors the gauge), nor one with a loop
+  // edge (it holds the loop).
   void set_keyframe_bad(KeyFrameId keyframe);
+  // Joins two keyframes by a loop edge (both ways); false when either is
+  // missing or bad, or they are the same.
+  bool add_loop_edge(KeyFrameId a, KeyFrameId b);
   // Replaces `old_point` by `new_point` in every keyframe that observed it.
   void replace_point(PointId old_point, PointId new_point);
 

@@ -48,6 +48,10 @@ struct KeyFrame {
   // Spanning tree.
   KeyFrameId parent = kNoKeyFrame;
   std::set<KeyFrameId> children;
+  // Keyframes a closed loop joined to this one (kept on both); the pose
+  // graph of each later loop keeps them, and such a keyframe is never
+  // removed (ORB-SLAM2 mspLoopEdges, SetNotErase).
+  std::set<KeyFrameId> loop_edges;
   bool bad = false;
 
   SE3 T_cam_world() const { return T_world_cam.inverse(); }
@@ -57,9 +61,9 @@ struct KeyFrame {
 struct MapPoint {
   PointId id = kNoPoint;
   Eigen::Vector3d p_world = Eigen::Vector3d::Zero();
-  Descriptor descriptor{};               // the observation descriptor closest to all others
+  Descriptor descriptor{};                            // the observation descriptor closest to all others
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // mean viewing direction (unit)
-  double min_distance_m = 0.0;           // scale invariance range
+  double min_distance_m = 0.0;                        // scale invariance range
   double max_distance_m = 0.0;
   std::map<KeyFrameId, int> observations;  // keyframe -> keypoint index
   KeyFrameId reference_keyframe = kNoKeyFrame;

@@ -9,8 +9,10 @@
 //           u64 payload bytes, u32 CRC-32 of the payload, u32 CRC-32 of the
 //           header's first 28 bytes
 //   payload sections, each: 4-byte tag, u64 body bytes, body. Tags META,
-//           KFRM, PNTS, COVI are required; unknown tags are skipped, so a
-//           later minor addition does not need a new version.
+//           KFRM, PNTS, COVI are required; LOOP (loop edges, as COVI's
+//           records with bare i64 keyframe ids) only when the map has a
+//           loop; unknown tags are skipped, so a later minor addition does
+//           not need a new version.
 //
 // Reading checks, in order, and names the first that fails: size (a file
 // shorter than its header says is truncated), magic, header checksum,
@@ -72,6 +74,7 @@ struct MapSummary {
   std::size_t keypoints = 0;     // over all keyframes
   std::size_t observations = 0;  // over all points
   std::size_t covisibility_edges = 0;
+  std::size_t loop_edges = 0;
   // Axis-aligned box of the keyframes' camera centres (zero when empty).
   Eigen::Vector3d centre_min_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d centre_max_m = Eigen::Vector3d::Zero();

@@ -232,6 +232,9 @@ TEST(LoopCloser, ClosesADriftedReturnAndLowersItsError) {
       // Each loop joins a returning keyframe to an outbound one.
       EXPECT_NE(std::find(lm.inbound.begin(), lm.inbound.end(), current), lm.inbound.end());
       EXPECT_NE(std::find(lm.outbound.begin(), lm.outbound.end(), loop), lm.outbound.end());
+      // ... and stays in the map for the next loops (and the map file).
+      EXPECT_EQ(run->after.keyframe(current)->loop_edges.count(loop), 1U);
+      EXPECT_EQ(run->after.keyframe(loop)->loop_edges.count(current), 1U);
     }
     EXPECT_TRUE(run->tracker_correction);
   }

@@ -182,6 +182,34 @@ TEST(MapDataRestore, NamesTheFirstInconsistency) {
   EXPECT_NE(
       why(MapData::restore({}, {keyframe(0, 3, kNoKeyFrame)}, {}, 0, 2)).find("keyframe 2 is not in the map"),
       std::string::npos);
+  KeyFrame one_sided = keyframe(4, 3, 0);
+  one_sided.loop_edges = {0};
+  EXPECT_NE(why(MapData::restore({}, {keyframe(0, 3, kNoKeyFrame), one_sided}, {}, 0, 4))
+                .find("keyframe 4 has a loop edge to keyframe 0"),
+            std::string::npos);
+  KeyFrame looped_back = keyframe(0, 3, kNoKeyFrame);
+  looped_back.loop_edges = {4};
+  EXPECT_EQ(why(MapData::restore({}, {looped_back, one_sided}, {}, 0, 4)), "accepted");
+}
+
+// A loop edge is kept on both keyframes and keeps its keyframes from being
+// removed (the loop's constraint would go with them).
+TEST(MapData, LoopEdgesAreMutualAndKeepTheirKeyFrames) {
+  MapData map;
+  const KeyFrameId a = map.add_keyframe(make_keyframe(2, 0.0));
+  const KeyFrameId b = map.add_keyframe(make_keyframe(2, 1.0));
+  const KeyFrameId c = map.add_keyframe(make_keyframe(2, 2.0));
+  const KeyFrameId d = map.add_keyframe(make_keyframe(2, 3.0));
+  EXPECT_FALSE(map.add_loop_edge(b, b));
+  EXPECT_FALSE(map.add_loop_edge(b, 99));
+  ASSERT_TRUE(map.add_loop_edge(b, c));
+  EXPECT_EQ(map.keyframe(b)->loop_edges, (std::set<KeyFrameId>{c}));
+  EXPECT_EQ(map.keyframe(c)->loop_edges, (std::set<KeyFrameId>{b}));
+  map.set_keyframe_bad(c);
+  EXPECT_NE(map.keyframe(c), nullptr) << "a keyframe with a loop edge was removed";
+  map.set_keyframe_bad(d);
+  EXPECT_EQ(map.keyframe(d), nullptr);
+  EXPECT_NE(map.keyframe(a), nullptr);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <limits>
 #include <string>
@@ -67,6 +68,7 @@ void expect_same_keyframes(const map::MapData& a, const map::MapData& b) {
     EXPECT_EQ(other->parent, kf.parent);
     EXPECT_EQ(other->children, kf.children);
     EXPECT_EQ(other->covisibility, kf.covisibility);
+    EXPECT_EQ(other->loop_edges, kf.loop_edges);
     EXPECT_EQ(other->point_of_keypoint, kf.point_of_keypoint);
     ASSERT_EQ(other->keypoints.size(), kf.keypoints.size());
     for (std::size_t i = 0; i < kf.keypoints.size(); ++i) {
@@ -127,6 +129,34 @@ TEST(MapFile, RoundTripKeepsEveryField) {
   });
   // The file is a function of the map: saving the loaded map gives the same bytes.
   EXPECT_EQ(encode_map(loaded->map, loaded->meta), bytes);
+}
+
+// Loop edges go in the optional LOOP section: a map without loops has none
+// (and reads as before), one with a loop keeps it.
+TEST(MapFile, LoopEdgesRoundTripInTheirOwnSection) {
+  map::SharedMap shared;
+  test::build_map(shared, 8);
+  const Bytes without = shared.read([](const map::MapData& m) { return encode_map(m, {}); });
+  const std::uint32_t loop_tag = kLoopEdgesTag;
+  const auto has_loop_section = [&](const Bytes& bytes) {
+    return std::search(bytes.begin(), bytes.end(), reinterpret_cast<const std::uint8_t*>(&loop_tag),
+                       reinterpret_cast<const std::uint8_t*>(&loop_tag) + 4) != bytes.end();
+  };
+  EXPECT_FALSE(has_loop_section(without));
+  const auto [a, b] = shared.write([](map::MapData& m) {
+    const map::KeyFrameId first = m.first_keyframe();
+    const map::KeyFrameId last = m.last_keyframe();
+    EXPECT_TRUE(m.add_loop_edge(last, first));
+    return std::pair{first, last};
+  });
+  const Bytes with = shared.read([](const map::MapData& m) { return encode_map(m, {}); });
+  EXPECT_TRUE(has_loop_section(with));
+  auto loaded = decode_map(with);
+  ASSERT_TRUE(loaded) << loaded.error().message;
+  EXPECT_EQ(loaded->map.keyframe(a)->loop_edges, (std::set<map::KeyFrameId>{b}));
+  EXPECT_EQ(loaded->map.keyframe(b)->loop_edges, (std::set<map::KeyFrameId>{a}));
+  shared.read([&](const map::MapData& m) { expect_same_keyframes(m, loaded->map); });
+  EXPECT_EQ(encode_map(loaded->map, loaded->meta), with);
 }
 
 TEST(MapFile, LoadedMapGrowsWithFreshIds) {
