@@ -12,9 +12,9 @@
 #include <cstdio>
 
 #include "sitepose/experiments/labelled_source.hpp"
-#include "sitepose/experiments/vocabulary_training.hpp"
 #include "sitepose/placerec/vocabulary.hpp"
 #include "sitepose/slam/slam_system.hpp"
+#include "static_vocabulary.hpp"
 
 namespace sitepose::experiments {
 namespace {
@@ -22,20 +22,6 @@ namespace {
 const std::string kScenarioDir = SITEPOSE_SCENARIO_DIR;
 constexpr int kWidth = 640;
 constexpr int kHeight = 360;
-
-std::shared_ptr<const placerec::Vocabulary> train_on_static() {
-  auto source = open_simulated(kScenarioDir + "/static.yaml", 60, 5, kWidth, kHeight);
-  EXPECT_TRUE(source.has_value());
-  if (!source) return nullptr;
-  config::SiteposeConfig config;
-  auto images = left_image_descriptors(**source, config.orb, 2);
-  EXPECT_TRUE(images.has_value());
-  if (!images) return nullptr;
-  auto vocabulary = placerec::Vocabulary::train(*images);
-  EXPECT_TRUE(vocabulary.has_value());
-  if (!vocabulary) return nullptr;
-  return std::make_shared<const placerec::Vocabulary>(std::move(*vocabulary));
-}
 
 struct KidnapRun {
   int drive_frames = 0;        // frames of the drive before the kidnap
@@ -142,7 +128,7 @@ void expect_relocalised_right(const KidnapRun& run) {
 }
 
 TEST(Kidnap, RelocalisesThroughTheKeyFrameDatabase) {
-  const auto vocabulary = train_on_static();
+  const auto vocabulary = train_on_static(kWidth, kHeight);
   ASSERT_NE(vocabulary, nullptr);
   KidnapRun run;
   ASSERT_NO_FATAL_FAILURE(run_kidnap(vocabulary, run));
