@@ -28,6 +28,7 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
   slam_options.fps = source.fps();
   slam_options.mapper_thread = options.mapper_thread;
   slam_options.trace = options.trace;
+  slam_options.vocabulary = options.vocabulary;
   SITEPOSE_TRY(auto system, slam::SlamSystem::create(source.camera(), config, slam_options));
   DynamicRunResult result;
   result.name = source.name();
@@ -68,6 +69,7 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
   system->finish();
   result.keyframes = system->keyframe_count();
   result.points = system->point_count();
+  result.loop_stats = system->loop_stats();
   result.tracker_counters = system->tracker_counters();
   if (result.ground_truth.size() < 3 || result.estimate.size() < 3) {
     result.evaluation_error = "fewer than 3 ground-truth or estimated poses";

@@ -2,6 +2,8 @@
 
 #include "sitepose/loop/loop_correction.hpp"
 
+#include <unordered_set>
+
 namespace sitepose::loop {
 
 GlobalBaApplied apply_global_ba(map::MapData& map, const mapping::LocalBaProblem& problem,
@@ -16,7 +18,10 @@ GlobalBaApplied apply_global_ba(map::MapData& map, const mapping::LocalBaProblem
     copied.T_world_cam_built.push_back(problem.input.T_cam_world[k].inverse());
     T_world_cam_optimised.push_back(result.T_cam_world[k].inverse());
   }
-  const GraphApplied moved = apply_essential_graph(map, copied, T_world_cam_optimised, {});
+  // The copy's points are set to the solve's positions below, so the graph
+  // moves only those made since.
+  const std::unordered_set<map::PointId> optimised(problem.point_ids.begin(), problem.point_ids.end());
+  const GraphApplied moved = apply_essential_graph(map, copied, T_world_cam_optimised, {}, &optimised);
   GlobalBaApplied out;
   out.keyframes_moved = moved.keyframes_moved;
   out.newest_correction = moved.newest_correction;

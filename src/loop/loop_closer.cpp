@@ -235,15 +235,22 @@ Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
         rotation_angle_rad(before.rotation().conjugate() * loop.T_world_cam.rotation()) * 180.0 / M_PI,
         group.keyframes.size() - 1);
   }
-  const auto lock_start = SteadyClock::now();
-  const GroupApplied applied =
-      map_.write([&](map::MapData& m) { return apply_group_correction(m, group, plan); });
+  auto lock_start = SteadyClock::now();
+  GroupApplied applied = map_.write([&](map::MapData& m) { return apply_group_correction(m, group, plan); });
   const double group_lock_ms = ms_since(lock_start);
   note_write_lock(group_lock_ms);
+  const GroupConnections counted =
+      map_.read([&](const map::MapData& m) { return count_group_connections(m, plan, applied); });
+  lock_start = SteadyClock::now();
+  map_.write([&](map::MapData& m) { connect_group(m, group, plan, counted, applied); });
+  const double connect_lock_ms = ms_since(lock_start);
+  note_write_lock(connect_lock_ms);
   spdlog::info(
-      "loop closing: keyframe={} group applied in {:.1f} ms under the write lock: {} points moved, {} "
+      "loop closing: keyframe={} group applied in {:.1f} + {:.1f} ms under the write lock: {} points moved, "
+      "{} "
       "fused, {} observations added",
-      keyframe, group_lock_ms, applied.points_moved, applied.points_fused, applied.observations_added);
+      keyframe, group_lock_ms, connect_lock_ms, applied.points_moved, applied.points_fused,
+      applied.observations_added);
   const double correction_ms = ms_since(start);
   Status status = optimise_essential_graph(keyframe, group, plan, applied);
   // The loop stays in the map (and its file) for the next loops' graphs.

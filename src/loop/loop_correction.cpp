@@ -18,10 +18,8 @@ KeyFramePair ordered(map::KeyFrameId a, map::KeyFrameId b) {
 }
 
 // Fuses one proposal keeping the loop side's point; true when the map
-// changed. `touched`: points that gained a view and need their appearance
-// refreshed.
-bool fuse_loop_point(map::MapData& map, const mapping::FuseProposal& f, GroupApplied& out,
-                     std::unordered_set<map::PointId>& touched) {
+// changed. The kept point's appearance is refreshed by connect_group.
+bool fuse_loop_point(map::MapData& map, const mapping::FuseProposal& f, GroupApplied& out) {
   const map::MapPoint* loop_point = map.good_point(f.point);
   const map::KeyFrame* kf = map.keyframe(f.keyframe);
   if (loop_point == nullptr || kf == nullptr || kf->bad || loop_point->observations.count(f.keyframe) != 0) {
@@ -29,13 +27,13 @@ bool fuse_loop_point(map::MapData& map, const mapping::FuseProposal& f, GroupApp
   }
   const map::PointId existing = kf->point_of_keypoint[static_cast<std::size_t>(f.index)];
   if (map.good_point(existing) != nullptr) {
-    map.replace_point(existing, f.point);  // refreshes the loop point's appearance itself
+    map.replace_point(existing, f.point, map::MapData::AppearanceUpdate::kDeferred);
     ++out.points_fused;
   } else {
     map.add_observation(f.point, f.keyframe, f.index);
     ++out.observations_added;
-    touched.insert(f.point);
   }
+  out.points_with_new_views.insert(f.point);
   return true;
 }
 
@@ -157,17 +155,43 @@ GroupApplied apply_group_correction(map::MapData& map, const GroupCopy& group, c
       ++out.points_moved;
     }
   }
-  std::unordered_set<map::PointId> touched;
-  for (const mapping::FuseProposal& f : plan.fusions) fuse_loop_point(map, f, out, touched);
-  for (map::PointId pid : touched) {
-    if (map.good_point(pid) != nullptr) map.update_point_appearance(pid);
+  for (const mapping::FuseProposal& f : plan.fusions) fuse_loop_point(map, f, out);
+  return out;
+}
+
+GroupConnections count_group_connections(const map::MapData& map, const GroupCorrection& plan,
+                                         const GroupApplied& applied) {
+  GroupConnections counted;
+  counted.last_keyframe = map.last_keyframe();
+  for (map::PointId pid : applied.points_with_new_views) {
+    if (auto descriptor = map.representative_descriptor(pid))
+      counted.descriptors.emplace_back(pid, *descriptor);
+  }
+  for (const auto& [id, T] : plan.T_world_cam)
+    counted.shared_points.emplace_back(id, map.shared_point_counts(id));
+  return counted;
+}
+
+void connect_group(map::MapData& map, const GroupCopy& group, const GroupCorrection& plan,
+                   const GroupConnections& counted, GroupApplied& out) {
+  // Only a keyframe the tracker inserted since the count changes what was
+  // counted (the mapper is paused): then count again here.
+  const bool recount = map.last_keyframe() != counted.last_keyframe;
+  if (recount) {
+    for (map::PointId pid : out.points_with_new_views) map.update_point_appearance(pid);
+    for (const auto& [id, T] : plan.T_world_cam) map.update_connections(id);
+  } else {
+    for (const auto& [pid, descriptor] : counted.descriptors) {
+      map.point(pid)->descriptor = descriptor;
+      map.update_point_geometry(pid);
+    }
+    for (const auto& [id, counts] : counted.shared_points) map.set_connections(id, counts);
   }
   std::set<map::KeyFrameId> in_group;
   for (const auto& [id, T] : plan.T_world_cam) in_group.insert(id);
   for (map::KeyFrameId id : in_group) {
-    if (map.keyframe(id) == nullptr) continue;
-    map.update_connections(id);
     const map::KeyFrame* kf = map.keyframe(id);
+    if (kf == nullptr) continue;
     const auto before_it = group.covisible_before.find(id);
     for (const auto& [other, weight] : kf->covisibility) {
       if (in_group.count(other) != 0) continue;
@@ -178,7 +202,6 @@ GroupApplied apply_group_correction(map::MapData& map, const GroupCopy& group, c
       out.loop_connections.emplace_back(id, other);
     }
   }
-  return out;
 }
 
 EssentialGraph build_essential_graph(const map::MapData& map,
@@ -231,7 +254,8 @@ EssentialGraph build_essential_graph(const map::MapData& map,
 
 GraphApplied apply_essential_graph(map::MapData& map, const EssentialGraph& graph,
                                    const std::vector<SE3>& T_world_cam_optimised,
-                                   const std::unordered_map<map::PointId, map::KeyFrameId>& corrected_by) {
+                                   const std::unordered_map<map::PointId, map::KeyFrameId>& corrected_by,
+                                   const std::unordered_set<map::PointId>* set_by_caller) {
   GraphApplied out;
   std::unordered_map<map::KeyFrameId, int> node;
   std::vector<SE3> correction(graph.ids.size());
@@ -255,22 +279,22 @@ GraphApplied apply_essential_graph(map::MapData& map, const EssentialGraph& grap
   if (const auto it = node_of_keyframe.find(newest); it != node_of_keyframe.end() && it->second >= 0) {
     out.newest_correction = correction[static_cast<std::size_t>(it->second)];
   }
-  std::vector<map::PointId> moved;
+  // Each point with the correction of the keyframe it follows, found in
+  // one pass over the points, then moved: the write lock's cost is one
+  // lookup and one geometry update a point.
+  std::vector<std::pair<map::PointId, std::size_t>> moves;
   for (const auto& [pid, p] : map.points()) {
-    if (p.bad) continue;
+    if (p.bad || (set_by_caller != nullptr && set_by_caller->count(pid) != 0)) continue;
     const auto by = corrected_by.find(pid);
     const map::KeyFrameId ref =
         by != corrected_by.end() && node.count(by->second) != 0 ? by->second : p.reference_keyframe;
     const auto it = node_of_keyframe.find(ref);
     if (it == node_of_keyframe.end() || it->second < 0) continue;
-    moved.push_back(pid);
+    moves.emplace_back(pid, static_cast<std::size_t>(it->second));
   }
-  for (map::PointId pid : moved) {
+  for (const auto& [pid, n] : moves) {
     map::MapPoint* p = map.point(pid);
-    const auto by = corrected_by.find(pid);
-    const map::KeyFrameId ref =
-        by != corrected_by.end() && node.count(by->second) != 0 ? by->second : p->reference_keyframe;
-    p->p_world = correction[static_cast<std::size_t>(node_of_keyframe.at(ref))] * p->p_world;
+    p->p_world = correction[n] * p->p_world;
     map.update_point_geometry(pid);
     ++out.points_moved;
   }

@@ -220,7 +220,7 @@ void MapData::set_point_bad(PointId point_id) {
   p->observations.clear();
 }
 
-void MapData::replace_point(PointId old_id, PointId new_id) {
+void MapData::replace_point(PointId old_id, PointId new_id, AppearanceUpdate appearance) {
   if (old_id == new_id) return;
   MapPoint* old_point = point(old_id);
   MapPoint* new_point = point(new_id);
@@ -240,7 +240,7 @@ void MapData::replace_point(PointId old_id, PointId new_id) {
   new_point->n_found += old_point->n_found;
   old_point->observations.clear();
   old_point->bad = true;
-  update_point_appearance(new_id);
+  if (appearance == AppearanceUpdate::kNow) update_point_appearance(new_id);
 }
 
 bool MapData::is_tracker_keyframe(KeyFrameId id) const {
@@ -303,18 +303,34 @@ void MapData::set_keyframe_bad(KeyFrameId keyframe_id) {
 }
 
 void MapData::update_connections(KeyFrameId keyframe_id) {
-  KeyFrame* kf = keyframe(keyframe_id);
-  if (kf == nullptr) return;
-  std::map<KeyFrameId, int> counts;
+  set_connections(keyframe_id, shared_point_counts(keyframe_id));
+}
+
+MapData::SharedPointCounts MapData::shared_point_counts(KeyFrameId keyframe_id) const {
+  const KeyFrame* kf = keyframe(keyframe_id);
+  if (kf == nullptr) return {};
+  std::vector<KeyFrameId> sharing;
   for (PointId pid : kf->point_of_keypoint) {
     const MapPoint* p = good_point(pid);
     if (p == nullptr) continue;
     for (const auto& [other, index] : p->observations) {
-      if (other != keyframe_id) ++counts[other];
+      if (other != keyframe_id) sharing.push_back(other);
     }
   }
+  std::sort(sharing.begin(), sharing.end());
+  SharedPointCounts counts;
+  for (KeyFrameId other : sharing) {
+    if (counts.empty() || counts.back().first != other) counts.emplace_back(other, 0);
+    ++counts.back().second;
+  }
+  return counts;
+}
+
+void MapData::set_connections(KeyFrameId keyframe_id, const SharedPointCounts& counts) {
+  KeyFrame* kf = keyframe(keyframe_id);
+  if (kf == nullptr) return;
   // Drop old edges, then add those over the threshold (or the best one, so a
-  // keyframe is never disconnected).
+  // keyframe is never disconnected; ties go to the lower id).
   for (const auto& [other, weight] : kf->covisibility) {
     if (KeyFrame* o = keyframe(other); o != nullptr) o->covisibility.erase(keyframe_id);
   }
@@ -322,13 +338,15 @@ void MapData::update_connections(KeyFrameId keyframe_id) {
   KeyFrameId best = kNoKeyFrame;
   int best_count = 0;
   for (const auto& [other, count] : counts) {
+    KeyFrame* o = keyframe(other);
+    if (o == nullptr) continue;
     if (count > best_count) {
       best_count = count;
       best = other;
     }
     if (count >= kCovisibilityThreshold) {
       kf->covisibility[other] = count;
-      keyframe(other)->covisibility[keyframe_id] = count;
+      o->covisibility[keyframe_id] = count;
     }
   }
   if (kf->covisibility.empty() && best != kNoKeyFrame) {
@@ -343,35 +361,52 @@ void MapData::update_connections(KeyFrameId keyframe_id) {
 }
 
 void MapData::update_point_appearance(PointId point_id) {
-  MapPoint* p = point(point_id);
-  if (p == nullptr || p->bad || p->observations.empty()) return;
+  const std::optional<Descriptor> descriptor = representative_descriptor(point_id);
+  if (!descriptor) return;
+  point(point_id)->descriptor = *descriptor;
+  update_point_geometry(point_id);
+}
+
+std::optional<Descriptor> MapData::representative_descriptor(PointId point_id) const {
+  const MapPoint* p = point(point_id);
+  if (p == nullptr || p->bad || p->observations.empty()) return std::nullopt;
   std::vector<const KeyPointData*> views;
   for (const auto& [kf_id, index] : p->observations) {
     const KeyFrame* kf = keyframe(kf_id);
     if (kf == nullptr) continue;
     views.push_back(&kf->keypoints[index]);
   }
-  if (views.empty()) return;
-  // Representative descriptor: least median distance to the others.
-  int best = 0;
+  if (views.empty()) return std::nullopt;
+  // Each distance is computed once: the matrix is symmetric.
+  const std::size_t n = views.size();
+  std::vector<int> distance(n * n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      distance[i * n + j] = distance[j * n + i] =
+          descriptor_distance(views[i]->descriptor, views[j]->descriptor);
+    }
+  }
+  std::size_t best = 0;
   int best_median = 1 << 30;
-  for (std::size_t i = 0; i < views.size(); ++i) {
-    std::vector<int> d;
-    for (std::size_t j = 0; j < views.size(); ++j) {
-      if (i != j) d.push_back(descriptor_distance(views[i]->descriptor, views[j]->descriptor));
+  std::vector<int> others;
+  others.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    others.clear();
+    for (std::size_t j = 0; j < n; ++j) {
+      if (i != j) others.push_back(distance[i * n + j]);
     }
     int median = 0;
-    if (!d.empty()) {
-      std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-      median = d[d.size() / 2];
+    if (!others.empty()) {
+      std::nth_element(others.begin(), others.begin() + static_cast<std::ptrdiff_t>(others.size() / 2),
+                       others.end());
+      median = others[others.size() / 2];
     }
     if (median < best_median) {
       best_median = median;
-      best = static_cast<int>(i);
+      best = i;
     }
   }
-  p->descriptor = views[best]->descriptor;
-  update_point_geometry(point_id);
+  return views[best]->descriptor;
 }
 
 void MapData::update_point_geometry(PointId point_id) {

@@ -42,8 +42,9 @@ map::Descriptor random_descriptor(std::mt19937& rng) {
 }
 
 // Three keyframes of six keypoints, five points seen from two or three of
-// them, a spanning tree, covisibility and an anchor.
-Bytes small_map() {
+// them, a spanning tree, covisibility and an anchor; with_loop_edge joins
+// keyframes 0 and 2 by a loop edge (the file's optional LOOP section).
+Bytes small_map(bool with_loop_edge) {
   std::mt19937 rng(7);
   map::MapData m;
   for (int k = 0; k < 3; ++k) {
@@ -75,6 +76,7 @@ Bytes small_map() {
       if (a != b) m.keyframe(a)->covisibility[b] = 3;
     }
   }
+  if (with_loop_edge) m.add_loop_edge(0, 2);
   mapfile::MapFileMeta meta;
   meta.vocabulary_id = "orb-kmajority-2x2-test";
   mapfile::SiteAnchorRecord anchor;
@@ -121,8 +123,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::filesystem::path corpus = argv[1];
-  const Bytes map_bytes = small_map();
+  const Bytes map_bytes = small_map(false);
   write(corpus / "map_file" / "small_map", map_bytes);
+  write(corpus / "map_file" / "small_map_loop_edge", small_map(true));
   write(corpus / "map_file" / "empty_map", mapfile::encode_map(map::MapData{}, {}));
   write(corpus / "map_file" / "truncated", cut(map_bytes));
   write(corpus / "map_file" / "version_2", other_version(map_bytes));

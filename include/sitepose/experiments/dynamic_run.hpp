@@ -6,6 +6,7 @@
 // `sitepose bench dynamic`. Inline mapping: reproducible.
 
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -16,6 +17,8 @@
 #include "sitepose/eval/evaluate.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
 #include "sitepose/io/trajectory.hpp"
+#include "sitepose/loop/loop_closer.hpp"
+#include "sitepose/placerec/vocabulary.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/tracking/tracker.hpp"
 
@@ -38,6 +41,9 @@ struct DynamicRunOptions {
   detect::Detector* detector = nullptr;
   // Fill FrameReport::trace for the views (slam::SlamOptions::trace).
   bool trace = false;
+  // Place recognition (slam::SlamOptions::vocabulary); with
+  // config.mapping.loop_closing it also runs the loop closer.
+  std::shared_ptr<const placerec::Vocabulary> vocabulary;
 };
 
 // A classified object with its ground truth, for ROC and latency figures.
@@ -62,7 +68,8 @@ struct DynamicRunResult {
   double max_mar = 0.0;
   std::size_t keyframes = 0;  // in the map at the end of the run
   std::size_t points = 0;
-  tracking::TrackerCounters tracker_counters;  // at the end of the run
+  std::optional<loop::LoopClosingStats> loop_stats;  // when the loop closer ran
+  tracking::TrackerCounters tracker_counters;        // at the end of the run
 
   double coverage_ok() const;  // frames OK / frames
   double ate_m() const;        // RMSE, NaN without evaluation

@@ -14,9 +14,12 @@
 //   3. apply_group_correction (write): the poses and points set (and
 //      those of keyframes inserted since step 1, by the same C), the
 //      duplicates fused with the loop side's point kept (the map around
-//      the loop is the older, better-anchored one), covisibility updated;
-//      returns the new covisibility links the fusion made ("loop
-//      connections");
+//      the loop is the older, better-anchored one); then
+//      count_group_connections (read) and connect_group (write): the fused
+//      points' descriptors and the group's covisibility, counted under the
+//      read lock and set under a second short write lock (counted again
+//      there if the tracker inserted a keyframe in between), and the new
+//      covisibility links the fusion made ("loop connections") found;
 //   4. build_essential_graph (read): nodes = every keyframe; edges = the
 //      spanning tree, covisibility links of weight >= min_weight, every
 //      loop edge, and the new loop connections of weight >= min_weight.
@@ -31,6 +34,7 @@
 //      T_world_k^-1 * p.
 
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -71,15 +75,29 @@ GroupCorrection plan_group_correction(const StereoCamera& camera, const map::Sca
 struct GroupApplied {
   int keyframes_moved = 0;
   int points_moved = 0;
-  int points_fused = 0;                        // a group point replaced by a loop point
-  int observations_added = 0;                  // a loop point seen by a group keypoint that had none
-  std::vector<KeyFramePair> loop_connections;  // (group keyframe, newly covisible keyframe)
+  int points_fused = 0;        // a group point replaced by a loop point
+  int observations_added = 0;  // a loop point seen by a group keypoint that had none
+  std::unordered_set<map::PointId>
+      points_with_new_views;                   // loop points fused into: connect_group refreshes them
+  std::vector<KeyFramePair> loop_connections;  // (group keyframe, newly covisible keyframe): connect_group
   // Keyframes the tracker inserted since copy_group, and the points created
   // with them, moved with the group (they were placed in its old frame).
   std::unordered_map<map::PointId, map::KeyFrameId> corrected_by;
 };
 
 GroupApplied apply_group_correction(map::MapData& map, const GroupCopy& group, const GroupCorrection& plan);
+
+// What connect_group sets, counted under the read lock.
+struct GroupConnections {
+  map::KeyFrameId last_keyframe = map::kNoKeyFrame;  // the map's newest when counted
+  std::vector<std::pair<map::PointId, map::Descriptor>> descriptors;
+  std::vector<std::pair<map::KeyFrameId, map::MapData::SharedPointCounts>> shared_points;
+};
+
+GroupConnections count_group_connections(const map::MapData& map, const GroupCorrection& plan,
+                                         const GroupApplied& applied);
+void connect_group(map::MapData& map, const GroupCopy& group, const GroupCorrection& plan,
+                   const GroupConnections& counted, GroupApplied& applied);
 
 struct EssentialGraph {
   std::vector<map::KeyFrameId> ids;    // node -> keyframe
@@ -106,8 +124,10 @@ struct GraphApplied {
   SE3 newest_correction;
 };
 
+// set_by_caller: points the caller sets itself (the global BA's), not moved.
 GraphApplied apply_essential_graph(map::MapData& map, const EssentialGraph& graph,
                                    const std::vector<SE3>& T_world_cam_optimised,
-                                   const std::unordered_map<map::PointId, map::KeyFrameId>& corrected_by);
+                                   const std::unordered_map<map::PointId, map::KeyFrameId>& corrected_by,
+                                   const std::unordered_set<map::PointId>* set_by_caller = nullptr);
 
 }  // namespace sitepose::loop

@@ -73,12 +73,28 @@ class MapData {
   // missing or bad, or they are the same.
   bool add_loop_edge(KeyFrameId a, KeyFrameId b);
   // Replaces `old_point` by `new_point` in every keyframe that observed it.
-  void replace_point(PointId old_point, PointId new_point);
+  // kDeferred: the caller refreshes new_point's appearance (descriptor,
+  // normal, depth range) later with update_point_appearance, e.g. under a
+  // second, shorter write lock.
+  enum class AppearanceUpdate { kNow, kDeferred };
+  void replace_point(PointId old_point, PointId new_point,
+                     AppearanceUpdate appearance = AppearanceUpdate::kNow);
 
-  // Recomputes the covisibility edges of a keyframe from its points.
+  // Recomputes the covisibility edges of a keyframe from its points:
+  // set_connections(keyframe, shared_point_counts(keyframe)). The two halves
+  // let a caller count under a read lock and set under a short write lock.
   void update_connections(KeyFrameId keyframe);
-  // Representative descriptor, mean normal and distance range of a point.
+  // Per other keyframe (by id), how many of this keyframe's good points it
+  // also observes.
+  using SharedPointCounts = std::vector<std::pair<KeyFrameId, int>>;
+  SharedPointCounts shared_point_counts(KeyFrameId keyframe) const;
+  void set_connections(KeyFrameId keyframe, const SharedPointCounts& counts);
+  // Representative descriptor, mean normal and distance range of a point:
+  // the descriptor of representative_descriptor, then update_point_geometry.
   void update_point_appearance(PointId point);
+  // The view's descriptor with the least median distance to the others (the
+  // first of equals); nullopt for a missing or bad point or one without views.
+  std::optional<Descriptor> representative_descriptor(PointId point) const;
   // Mean normal and distance range only (ORB-SLAM2 UpdateNormalAndDepth):
   // what changes when a point or a keyframe moves but its views do not.
   void update_point_geometry(PointId point);
