@@ -15,6 +15,7 @@
 #include "sitepose/geo/nmea.hpp"
 #include "sitepose/io/output_path.hpp"
 #include "sitepose/pipeline/detect_stage.hpp"
+#include "sitepose/pipeline/frame_source.hpp"
 #include "sitepose/pipeline/replay_source.hpp"
 #include "sitepose/pipeline/slam_tracker.hpp"
 #include "sitepose/pipeline/supervisor.hpp"
@@ -90,7 +91,7 @@ detect::IsolationOptions isolation_options(const DaemonConfig& config, double de
 constexpr double kLosslessDeadlineMs = 5000.0;
 double detector_deadline_ms(const DaemonConfig& config, const pipeline::FrameSource& source) {
   if (config.detect_deadline.detector_deadline_ms > 0.0) return config.detect_deadline.detector_deadline_ms;
-  const double fps = source.frame_rate_hz() > 0.0 ? source.frame_rate_hz() : 30.0;
+  const double fps = pipeline::known_or_assumed_frame_rate_hz(source.frame_rate_hz());
   return source.live() ? 1000.0 / fps : kLosslessDeadlineMs;
 }
 

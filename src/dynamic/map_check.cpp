@@ -10,8 +10,8 @@
 namespace sitepose::dynamic {
 namespace {
 
-// chi2 3 dof, 99.9 %: like the reference-frame test's object-level gate.
-constexpr double kMapGate = 16.27;
+// The reference-frame test's object-level gate.
+constexpr double kMapGate = detail::kChi2ThreeDof999;
 // The map points of one object share an error that does not average out
 // over them (the keyframe poses and local BA they came from), modelled as
 // this fraction of one point's stereo noise, with margin: the truly static

@@ -36,9 +36,8 @@ constexpr double kRingSeconds = 2.0;
 // Object-level test (sitepose mode): the mean displacement of the object's
 // inlier points against its covariance. Pixel noise averages out over the
 // points, the pose terms do not (common to all), so a machine that has just
-// started moving shows long before most single points do. chi2 3 dof,
-// 99.9 %: a static object trips it once in a thousand frames.
-constexpr double kPooledGate = 16.27;
+// started moving shows long before most single points do.
+constexpr double kPooledGate = detail::kChi2ThreeDof999;
 // When the point test fails as well, two independent signs of motion agree
 // and a lower object-level gate (chi2 3 dof, 97.5 %) suffices: a slowly
 // starting machine is caught about a frame earlier.
@@ -52,7 +51,7 @@ constexpr double kMinConsistentFraction = 0.5;
 // displacement and each fail the point gate on their own (chi2 3 dof 99.9 %)
 // (the common displacement alone would let the standing tracks outvote the
 // turning house) ...
-constexpr double kMovingPointGate = 16.27;
+constexpr double kMovingPointGate = detail::kChi2ThreeDof999;
 // ... and whose shift across the image fails chi2 2 dof 99.9 % (a wrong
 // stereo match moves a point in depth only, which the 3D gate alone would
 // take for motion).

@@ -4,6 +4,16 @@
 #include <algorithm>
 
 namespace sitepose::optim {
+namespace {
+
+// Writes the row-major Rows x Cols matrix [I, 0] (or [I; 0]): Eigen's
+// identity of a non-square matrix is the square identity padded with zeros.
+template <int Rows, int Cols>
+void write_padded_identity(double* out) {
+  Eigen::Map<Eigen::Matrix<double, Rows, Cols, Eigen::RowMajor>>(out).setIdentity();
+}
+
+}  // namespace
 
 PoseBlock to_pose_block(const SE3& T_cam_world) {
   const Eigen::Quaterniond& q = T_cam_world.rotation();
@@ -26,9 +36,7 @@ bool Se3LeftManifold::Plus(const double* x, const double* delta, double* x_plus_
 }
 
 bool Se3LeftManifold::PlusJacobian(const double* /*x*/, double* jacobian) const {
-  Eigen::Map<Eigen::Matrix<double, 7, 6, Eigen::RowMajor>> J(jacobian);
-  J.setZero();
-  J.topRows<6>().setIdentity();
+  write_padded_identity<7, 6>(jacobian);  // [I6; 0]
   return true;
 }
 
@@ -49,9 +57,7 @@ bool Se3LeftManifold::Minus(const double* y, const double* x, double* y_minus_x)
 }
 
 bool Se3LeftManifold::MinusJacobian(const double* /*x*/, double* jacobian) const {
-  Eigen::Map<Eigen::Matrix<double, 6, 7, Eigen::RowMajor>> J(jacobian);
-  J.setZero();
-  J.leftCols<6>().setIdentity();
+  write_padded_identity<6, 7>(jacobian);  // [I6, 0]
   return true;
 }
 

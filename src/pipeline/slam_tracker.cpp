@@ -3,19 +3,16 @@
 #include <algorithm>
 
 #include "sitepose/dynamic/masking.hpp"
+#include "sitepose/pipeline/frame_source.hpp"
 
 namespace sitepose::pipeline {
-namespace {
-// The frame rate assumed when the source does not know its own.
-constexpr double kDefaultFps = 30.0;
-}  // namespace
 
 Expected<std::unique_ptr<SlamPoseTracker>> SlamPoseTracker::create(const StereoCamera& camera,
                                                                    const config::SiteposeConfig& config,
                                                                    double fps) {
   slam::SlamOptions options;
   options.mapper_thread = true;
-  options.fps = fps > 0.0 ? fps : kDefaultFps;
+  options.fps = known_or_assumed_frame_rate_hz(fps);
   SITEPOSE_TRY(auto system, slam::SlamSystem::create(camera, config, options));
   return std::unique_ptr<SlamPoseTracker>(new SlamPoseTracker(std::move(system)));
 }

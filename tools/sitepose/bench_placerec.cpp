@@ -184,12 +184,9 @@ void add_options(CLI::App& sub, Args& args) {
                  "Vocabulary file (sitepose vocab train); default: one trained on the keyframes")
       ->check(CLI::ExistingFile);
   sub.add_option("--frames", args.frames, "Frames (0 = all)")->capture_default_str();
-  sub.add_option("--keyframe-every", args.keyframe_every, "Every N-th frame is a keyframe")
-      ->capture_default_str()
-      ->check(CLI::Range(2, 1000));
-  sub.add_option("--queries", args.queries, "Query frames (spread over the frames between keyframes)")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 100000));
+  add_bounded(sub, "--keyframe-every", args.keyframe_every, "Every N-th frame is a keyframe", 2, 1000);
+  add_bounded(sub, "--queries", args.queries, "Query frames (spread over the frames between keyframes)", 1,
+              100000);
   sub.add_option("--keyframes", args.sizes, "Map sizes to measure (keyframes)")->capture_default_str();
 }
 

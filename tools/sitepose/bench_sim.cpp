@@ -62,15 +62,9 @@ int run_bench_sim(const BenchSimArgs& a) {
 
 void add_options(CLI::App& sub, BenchSimArgs& args) {
   sub.add_option("--scenario", args.scenario, "Scenario name or YAML path")->capture_default_str();
-  sub.add_option("--frames", args.frames, "Stereo frames to render")
-      ->capture_default_str()
-      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
-  sub.add_option("--width", args.width, "Image width")
-      ->capture_default_str()
-      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
-  sub.add_option("--height", args.height, "Image height")
-      ->capture_default_str()
-      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+  add_bounded(sub, "--frames", args.frames, "Stereo frames to render", 1, std::numeric_limits<int>::max());
+  add_bounded(sub, "--width", args.width, "Image width", 1, std::numeric_limits<int>::max());
+  add_bounded(sub, "--height", args.height, "Image height", 1, std::numeric_limits<int>::max());
 }
 
 const CommandRegistrar kBenchSim{make_command<BenchSimArgs>(

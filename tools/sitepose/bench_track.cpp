@@ -71,9 +71,7 @@ int bench_track(const BenchTrackArgs& args) {
 
 void add_options(CLI::App& sub, BenchTrackArgs& args) {
   add_frame_source_options(sub, args.input, "sitepose YAML config (mode is forced to none)");
-  sub.add_option("--frames", args.frames, "Frames to track (0 = all)")
-      ->capture_default_str()
-      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+  add_bounded(sub, "--frames", args.frames, "Frames to track (0 = all)", 0, std::numeric_limits<int>::max());
   sub.add_flag("!--inline-mapper", args.mapper_thread,
                "Run local mapping inline on the tracking thread instead of its own thread");
   sub.add_option("--rss-at", args.rss_at_frames, "Frame counts at which to report the resident set")

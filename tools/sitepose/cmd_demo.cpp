@@ -154,9 +154,7 @@ int run_demo(const DemoArgs& args) {
 void add_options(CLI::App& sub, DemoArgs& args) {
   sub.add_option("--scenario", args.scenario, "Scenario to simulate (see `sitepose sim --list`)")
       ->capture_default_str();
-  sub.add_option("--frames", args.frames, "Frames to simulate and track")
-      ->capture_default_str()
-      ->check(CLI::Range(3, 100000));
+  add_bounded(sub, "--frames", args.frames, "Frames to simulate and track", 3, 100000);
   sub.add_option("--mode", args.mode,
                  std::string("Masking mode: ") + config::masking_mode_names() +
                      " (none = plain stereo SLAM; full = the paper's system)")
@@ -166,9 +164,8 @@ void add_options(CLI::App& sub, DemoArgs& args) {
          "Where the trajectory (TUM), accuracy plot, debug record (run/), report.html and the annotated "
          "clip.avi go")
       ->capture_default_str();
-  sub.add_option("--clip-frames", args.clip_frames, "Frames in the annotated clip (the middle of the run)")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 100000));
+  add_bounded(sub, "--clip-frames", args.clip_frames, "Frames in the annotated clip (the middle of the run)",
+              1, 100000);
 }
 
 const CommandRegistrar kDemo{make_command<DemoArgs>(

@@ -122,9 +122,7 @@ void add_options(CLI::App& sub, TopArgs& args) {
                "exit 1 when "
                "nothing arrived");
   sub.add_option("--timeout-s", args.timeout_s, "How long --once waits")->capture_default_str();
-  sub.add_option("--interval-s", args.interval_s, "Refresh interval")
-      ->capture_default_str()
-      ->check(CLI::Range(0.05, 60.0));
+  add_bounded(sub, "--interval-s", args.interval_s, "Refresh interval", 0.05, 60.0);
   sub.add_flag("--no-colour", args.no_colour, "No ANSI colours");
 }
 

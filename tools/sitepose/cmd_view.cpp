@@ -69,9 +69,7 @@ void add_options(CLI::App& sub, ViewArgs& args) {
                  "NNNNNN.png (default: RUN/view.avi)");
   sub.add_option("--frames", args.frames, "A:B, frames A to B-1 of the run (default: all)");
   sub.add_option("--fps", args.fps, "Video frame rate (default: the sequence's)");
-  sub.add_option("--scale", args.scale, "Output size relative to the drawn frame")
-      ->capture_default_str()
-      ->check(CLI::Range(0.1, 4.0));
+  add_bounded(sub, "--scale", args.scale, "Output size relative to the drawn frame", 0.1, 4.0);
   sub.add_flag("--quiet", args.quiet, "No progress bar");
 }
 

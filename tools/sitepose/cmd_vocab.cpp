@@ -74,21 +74,13 @@ void add_options(CLI::App& sub, Args& args) {
   sub.add_option("--scenario", args.scenarios, "Scenario to simulate in-process (name or YAML; repeatable)");
   sub.add_option("--config", args.config_path, "sitepose YAML config (its orb section is used)");
   sub.add_option("--out", args.out, "Vocabulary file to write")->required();
-  sub.add_option("--every", args.every, "Use every N-th frame")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 1000));
+  add_bounded(sub, "--every", args.every, "Use every N-th frame", 1, 1000);
   sub.add_option("--frames", args.max_frames, "At most N frames per sequence (0 = all)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  sub.add_option("--branching", args.params.branching, "Children per node (k)")
-      ->capture_default_str()
-      ->check(CLI::Range(2, 64));
-  sub.add_option("--levels", args.params.levels, "Levels (L): up to k^L words")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 8));
-  sub.add_option("--iterations", args.params.max_iterations, "k-majority rounds per node")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 100));
+  add_bounded(sub, "--branching", args.params.branching, "Children per node (k)", 2, 64);
+  add_bounded(sub, "--levels", args.params.levels, "Levels (L): up to k^L words", 1, 8);
+  add_bounded(sub, "--iterations", args.params.max_iterations, "k-majority rounds per node", 1, 100);
   sub.add_option("--seed", args.params.seed, "Seed of the k-means++ draws")->capture_default_str();
 }
 

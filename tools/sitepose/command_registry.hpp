@@ -55,6 +55,14 @@ CLI::Option* add_required(CLI::App& sub, const std::string& flag, T& value, cons
   return sub.add_option(flag, value, help)->type_name(type_name)->required();
 }
 
+// An option whose help shows its default and the range [min, max] its value
+// must lie in.
+template <typename T, typename Bound>
+CLI::Option* add_bounded(CLI::App& sub, const std::string& flag, T& value, const std::string& help, Bound min,
+                         Bound max) {
+  return sub.add_option(flag, value, help)->capture_default_str()->check(CLI::Range(min, max));
+}
+
 // Prints "sitepose <command>: <message>" to stderr and returns `status`.
 int fail(const std::string& command, const std::string& message, int status);
 

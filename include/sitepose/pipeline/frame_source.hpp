@@ -29,6 +29,13 @@ struct SourceEvent {
   StereoFrame frame;  // kFrame only: rectified CV_8UC1 pair, seq and t_ns monotonic
 };
 
+// The frame rate to plan with: a source's frame_rate_hz(), or 30 Hz (a
+// common camera rate) when it does not know its own (0).
+constexpr double kAssumedFrameRateHz = 30.0;
+constexpr double known_or_assumed_frame_rate_hz(double frame_rate_hz) {
+  return frame_rate_hz > 0.0 ? frame_rate_hz : kAssumedFrameRateHz;
+}
+
 class FrameSource {
  public:
   virtual ~FrameSource() = default;

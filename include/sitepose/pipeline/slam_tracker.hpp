@@ -41,7 +41,7 @@ struct TrackerFallbackCounters {
 class SlamPoseTracker final : public PoseTracker {
  public:
   // fps: the source's frame rate (FrameSource::frame_rate_hz(); 0 = unknown,
-  // 30 assumed). Errors from SlamSystem::create (camera or config invalid).
+  // kAssumedFrameRateHz then). Errors from SlamSystem::create (camera or config invalid).
   static Expected<std::unique_ptr<SlamPoseTracker>> create(const StereoCamera& camera,
                                                            const config::SiteposeConfig& config,
                                                            double fps = 0.0);

@@ -11,6 +11,12 @@
 
 namespace sitepose::dynamic::detail {
 
+// chi2 quantile of 3 dof at 99.9 %: the gate of the object-level tests (the
+// reference-frame test's pooled statistic, the map test's common
+// displacement) and of a single moving point. A static object trips it once
+// in a thousand frames.
+constexpr double kChi2ThreeDof999 = 16.27;
+
 // Whether keypoint k of `frame` gives a stereo point the object tests can
 // use: it has depth, no deeper than max_depth_m, and an unambiguous stereo
 // match (a wrong one looks like motion of several metres).

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
 namespace sitepose::optim {
@@ -60,6 +61,24 @@ TEST(Se3LeftManifold, MinusJacobianIsLeftInverseOfPlusJacobian) {
   ASSERT_TRUE(m.PlusJacobian(x.data(), P.data()));
   ASSERT_TRUE(m.MinusJacobian(x.data(), M.data()));
   EXPECT_TRUE((M * P).isApprox(Matrix6d::Identity()));
+}
+
+TEST(Se3LeftManifold, JacobiansAreThePaddedIdentities) {
+  // The lifting note of the header: PlusJacobian [I6; 0], MinusJacobian
+  // [I6, 0], every entry written (the buffers start as NaN).
+  Se3LeftManifold m;
+  const PoseBlock x = to_pose_block(SE3::identity());
+  Eigen::Matrix<double, 7, 6, Eigen::RowMajor> P;
+  Eigen::Matrix<double, 6, 7, Eigen::RowMajor> M;
+  P.setConstant(std::numeric_limits<double>::quiet_NaN());
+  M.setConstant(std::numeric_limits<double>::quiet_NaN());
+  ASSERT_TRUE(m.PlusJacobian(x.data(), P.data()));
+  ASSERT_TRUE(m.MinusJacobian(x.data(), M.data()));
+  Eigen::Matrix<double, 7, 6, Eigen::RowMajor> expected_plus =
+      Eigen::Matrix<double, 7, 6, Eigen::RowMajor>::Zero();
+  expected_plus.topRows<6>().setIdentity();
+  EXPECT_TRUE(P == expected_plus);
+  EXPECT_TRUE(M == expected_plus.transpose());
 }
 
 TEST(PoseCovariance, InverseCarriesLeftPerturbationWithAdjoint) {
