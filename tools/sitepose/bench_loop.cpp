@@ -189,15 +189,11 @@ void add_options(CLI::App& sub, Args& args) {
   sub.add_option("--vocabulary", args.vocabulary,
                  "Vocabulary file (sitepose vocab train); default: one trained on the run's frames")
       ->check(CLI::ExistingFile);
-  sub.add_option("--frames", args.frames, "Frames to track, twice (0 = all)")
-      ->capture_default_str()
-      ->check(CLI::Range(0, std::numeric_limits<int>::max()));
-  sub.add_option("--train-every", args.train_every, "Without --vocabulary: train on every N-th frame")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 1000));
-  sub.add_option("--lanes", args.lanes, "Keyframes per pass of each synthetic lane to close")
-      ->capture_default_str()
-      ->check(CLI::Range(12, 2000));
+  add_bounded(sub, "--frames", args.frames, "Frames to track, twice (0 = all)", 0,
+              std::numeric_limits<int>::max());
+  add_bounded(sub, "--train-every", args.train_every, "Without --vocabulary: train on every N-th frame", 1,
+              1000);
+  add_bounded(sub, "--lanes", args.lanes, "Keyframes per pass of each synthetic lane to close", 12, 2000);
 }
 
 const CommandRegistrar kBenchLoop{make_command<Args>(
