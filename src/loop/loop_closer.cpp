@@ -24,6 +24,27 @@ LoopView view_of(const map::MapData& m, const map::KeyFrame& kf) {
   return v;
 }
 
+struct MovedMap {
+  GraphApplied applied;
+  double lock_ms = 0.0;  // under the write lock
+};
+
+// A map-wide move (MapMove) planned under the read lock and assigned under
+// the write lock; planned again there when the tracker inserted a keyframe
+// in between (the mapper is paused, so nothing else changes the map).
+template <typename PlanFn>
+MovedMap move_map(map::SharedMap& shared, PlanFn plan) {
+  MapMove move = shared.read([&](const map::MapData& m) { return plan(m); });
+  const auto lock_start = SteadyClock::now();
+  MovedMap out;
+  out.applied = shared.write([&](map::MapData& m) {
+    if (m.last_keyframe() != move.last_keyframe) move = plan(std::as_const(m));
+    return commit_map_move(m, move);
+  });
+  out.lock_ms = ms_since(lock_start);
+  return out;
+}
+
 // The good points of a keyframe and all its covisible keyframes, once each.
 std::vector<mapping::PointSnapshot> loop_side_points(const map::MapData& m, const map::KeyFrame& kf) {
   std::vector<mapping::PointSnapshot> out;
@@ -300,24 +321,24 @@ Status LoopCloser::optimise_essential_graph(map::KeyFrameId keyframe, const Grou
   }
   std::unordered_map<map::PointId, map::KeyFrameId> corrected_by = plan.corrected_by;
   corrected_by.insert(applied.corrected_by.begin(), applied.corrected_by.end());
-  const auto lock_start = SteadyClock::now();
-  const GraphApplied moved = map_.write(
-      [&](map::MapData& m) { return apply_essential_graph(m, graph, result->T_world_node, corrected_by); });
-  const double graph_lock_ms = ms_since(lock_start);
+  const MovedMap moved = move_map(map_, [&](const map::MapData& m) {
+    return plan_map_move(m, graph, result->T_world_node, corrected_by, {});
+  });
+  const double graph_lock_ms = moved.lock_ms;
   note_write_lock(graph_lock_ms);
   spdlog::info(
       "loop closing: keyframe={} essential graph {} nodes, {} edges ({} tree, {} covisibility, {} loop), "
       "cost {:.4g} -> {:.4g}, {:.1f} ms; {} keyframes, {} points moved in {:.1f} ms under the write lock",
       keyframe, graph.ids.size(), graph.input.edges.size(), graph.tree_edges, graph.covisibility_edges,
-      graph.loop_edges, result->initial_cost, result->final_cost, solve_ms, moved.keyframes_moved,
-      moved.points_moved, graph_lock_ms);
+      graph.loop_edges, result->initial_cost, result->final_cost, solve_ms, moved.applied.keyframes_moved,
+      moved.applied.points_moved, graph_lock_ms);
   std::lock_guard lock(mutex_);
   stats_.last_optimisation_ms = solve_ms;
   stats_.last_graph_nodes = static_cast<int>(graph.ids.size());
   stats_.last_graph_edges = static_cast<int>(graph.input.edges.size());
   stats_.last_graph_initial_cost = result->initial_cost;
   stats_.last_graph_final_cost = result->final_cost;
-  tracker_correction_ = moved.newest_correction * plan.correction;
+  tracker_correction_ = moved.applied.newest_correction * plan.correction;
   return ok_status();
 }
 
@@ -336,10 +357,10 @@ Status LoopCloser::run_global_ba(map::KeyFrameId keyframe) {
                                                ": global BA: " + result.error().message);
   }
   if (mapper_.pause) mapper_.pause();
-  const auto lock_start = SteadyClock::now();
-  const GlobalBaApplied applied =
-      map_.write([&](map::MapData& m) { return apply_global_ba(m, problem, *result); });
-  const double lock_ms = ms_since(lock_start);
+  const MovedMap moved =
+      move_map(map_, [&](const map::MapData& m) { return plan_global_ba_move(m, problem, *result); });
+  const GraphApplied& applied = moved.applied;
+  const double lock_ms = moved.lock_ms;
   if (mapper_.resume) mapper_.resume();
   note_write_lock(lock_ms);
   spdlog::info(
@@ -347,7 +368,7 @@ Status LoopCloser::run_global_ba(map::KeyFrameId keyframe) {
       "iterations{}, {:.1f} ms; {} keyframes moved and {} points set in {:.1f} ms under the write lock",
       keyframe, problem.keyframe_ids.size(), problem.point_ids.size(), result->initial_cost,
       result->final_cost, result->iterations, result->aborted ? " (stopped)" : "", solve_ms,
-      applied.keyframes_moved, applied.points_optimised, lock_ms);
+      applied.keyframes_moved, applied.points_set, lock_ms);
   std::lock_guard lock(mutex_);
   ++stats_.global_ba_runs;
   stats_.global_ba_stopped += result->aborted ? 1 : 0;

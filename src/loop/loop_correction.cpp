@@ -252,53 +252,80 @@ EssentialGraph build_essential_graph(const map::MapData& map,
   return g;
 }
 
-GraphApplied apply_essential_graph(map::MapData& map, const EssentialGraph& graph,
-                                   const std::vector<SE3>& T_world_cam_optimised,
-                                   const std::unordered_map<map::PointId, map::KeyFrameId>& corrected_by,
-                                   const std::unordered_set<map::PointId>* set_by_caller) {
-  GraphApplied out;
+MapMove plan_map_move(const map::MapData& map, const EssentialGraph& graph,
+                      const std::vector<SE3>& T_world_cam_optimised,
+                      const std::unordered_map<map::PointId, map::KeyFrameId>& corrected_by,
+                      const std::unordered_map<map::PointId, Eigen::Vector3d>& set_positions) {
+  MapMove move;
+  move.last_keyframe = map.last_keyframe();
   std::unordered_map<map::KeyFrameId, int> node;
   std::vector<SE3> correction(graph.ids.size());
   for (std::size_t i = 0; i < graph.ids.size(); ++i) {
     node[graph.ids[i]] = static_cast<int>(i);
     correction[i] = T_world_cam_optimised[i] * graph.T_world_cam_built[i].inverse();
   }
+  // Every keyframe moves with its nearest ancestor in the graph.
   std::unordered_map<map::KeyFrameId, int> node_of_keyframe;
+  std::unordered_map<map::KeyFrameId, Eigen::Vector3d> centre_after;
   map::KeyFrameId newest = map::kNoKeyFrame;
   for (const auto& [id, kf] : map.keyframes()) {
     const int n = node_of(map, id, node);
     node_of_keyframe[id] = n;
     newest = std::max(newest, id);
-  }
-  for (auto& [id, n] : node_of_keyframe) {
     if (n < 0) continue;
-    map::KeyFrame* kf = map.keyframe(id);
-    kf->T_world_cam = correction[static_cast<std::size_t>(n)] * kf->T_world_cam;
-    ++out.keyframes_moved;
+    const SE3 T_world_cam = correction[static_cast<std::size_t>(n)] * kf.T_world_cam;
+    move.T_world_cam.emplace_back(id, T_world_cam);
+    centre_after[id] = T_world_cam.translation();
   }
   if (const auto it = node_of_keyframe.find(newest); it != node_of_keyframe.end() && it->second >= 0) {
-    out.newest_correction = correction[static_cast<std::size_t>(it->second)];
+    move.newest_correction = correction[static_cast<std::size_t>(it->second)];
   }
-  // Each point with the correction of the keyframe it follows, found in
-  // one pass over the points, then moved: the write lock's cost is one
-  // lookup and one geometry update a point.
-  std::vector<std::pair<map::PointId, std::size_t>> moves;
+  const auto centre_of = [&](const map::KeyFrame& kf) {
+    const auto it = centre_after.find(kf.id);
+    return it != centre_after.end() ? it->second : kf.camera_center();
+  };
+  // Each point: the position it is given, else moved with the keyframe it
+  // follows; its geometry from the moved keyframes.
   for (const auto& [pid, p] : map.points()) {
-    if (p.bad || (set_by_caller != nullptr && set_by_caller->count(pid) != 0)) continue;
-    const auto by = corrected_by.find(pid);
-    const map::KeyFrameId ref =
-        by != corrected_by.end() && node.count(by->second) != 0 ? by->second : p.reference_keyframe;
-    const auto it = node_of_keyframe.find(ref);
-    if (it == node_of_keyframe.end() || it->second < 0) continue;
-    moves.emplace_back(pid, static_cast<std::size_t>(it->second));
+    if (p.bad) continue;
+    Eigen::Vector3d p_world;
+    if (const auto given = set_positions.find(pid); given != set_positions.end()) {
+      p_world = given->second;
+      ++move.points_set;
+    } else {
+      const auto by = corrected_by.find(pid);
+      const map::KeyFrameId ref =
+          by != corrected_by.end() && node.count(by->second) != 0 ? by->second : p.reference_keyframe;
+      const auto it = node_of_keyframe.find(ref);
+      if (it == node_of_keyframe.end() || it->second < 0) continue;
+      p_world = correction[static_cast<std::size_t>(it->second)] * p.p_world;
+    }
+    move.points.push_back(
+        {pid, p_world, map.point_geometry(pid, p_world, centre_of).value_or(map::PointGeometry{})});
   }
-  for (const auto& [pid, n] : moves) {
-    map::MapPoint* p = map.point(pid);
-    p->p_world = correction[n] * p->p_world;
-    map.update_point_geometry(pid);
-    ++out.points_moved;
+  return move;
+}
+
+GraphApplied commit_map_move(map::MapData& map, const MapMove& move) {
+  GraphApplied out;
+  out.newest_correction = move.newest_correction;
+  for (const auto& [id, T_world_cam] : move.T_world_cam) {
+    map.keyframe(id)->T_world_cam = T_world_cam;
+    ++out.keyframes_moved;
   }
+  for (const MapMove::Point& moved : move.points) {
+    map.point(moved.id)->p_world = moved.p_world;
+    map.set_point_geometry(moved.id, moved.geometry);
+  }
+  out.points_set = move.points_set;
+  out.points_moved = static_cast<int>(move.points.size()) - move.points_set;
   return out;
+}
+
+GraphApplied apply_essential_graph(map::MapData& map, const EssentialGraph& graph,
+                                   const std::vector<SE3>& T_world_cam_optimised,
+                                   const std::unordered_map<map::PointId, map::KeyFrameId>& corrected_by) {
+  return commit_map_move(map, plan_map_move(map, graph, T_world_cam_optimised, corrected_by, {}));
 }
 
 }  // namespace sitepose::loop

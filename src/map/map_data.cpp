@@ -410,25 +410,21 @@ std::optional<Descriptor> MapData::representative_descriptor(PointId point_id) c
 }
 
 void MapData::update_point_geometry(PointId point_id) {
+  const MapPoint* p = point(point_id);
+  if (p == nullptr) return;
+  const auto geometry =
+      point_geometry(point_id, p->p_world, [](const KeyFrame& kf) { return kf.camera_center(); });
+  if (geometry) set_point_geometry(point_id, *geometry);
+}
+
+void MapData::set_point_geometry(PointId point_id, const PointGeometry& geometry) {
   MapPoint* p = point(point_id);
-  if (p == nullptr || p->bad || p->observations.empty()) return;
-  Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
-  for (const auto& [kf_id, index] : p->observations) {
-    if (const KeyFrame* kf = keyframe(kf_id); kf != nullptr) {
-      normal_sum += (p->p_world - kf->camera_center()).normalized();
-    }
+  if (p == nullptr) return;
+  if (geometry.normal) p->normal = *geometry.normal;
+  if (geometry.has_distances) {
+    p->min_distance_m = geometry.min_distance_m;
+    p->max_distance_m = geometry.max_distance_m;
   }
-  if (normal_sum.squaredNorm() > 0.0) p->normal = normal_sum.normalized();
-  // Scale invariance range from the reference keyframe's view.
-  const KeyFrame* ref = keyframe(p->reference_keyframe);
-  if (ref == nullptr || p->observations.count(ref->id) == 0) {
-    ref = keyframe(p->observations.begin()->first);
-  }
-  if (ref == nullptr) return;
-  const int level = ref->keypoints[p->observations.at(ref->id)].octave;
-  const double distance = (p->p_world - ref->camera_center()).norm();
-  p->max_distance_m = distance * pyramid_.scale(level);
-  p->min_distance_m = p->max_distance_m / pyramid_.scale(pyramid_.n_levels - 1);
 }
 
 std::vector<KeyFrameId> MapData::best_covisible(KeyFrameId keyframe_id, int n) const {

@@ -7,7 +7,8 @@
 //      lock, the first keyframe held fixed;
 //   2. solve: optim::LocalBa (Huber stage, then the inliers) without any
 //      lock; a stop flag ends it early with the last accepted iterate;
-//   3. apply (apply_global_ba) under the write lock, with the mapper paused:
+//   3. apply (plan_global_ba_move under the read lock, then commit_map_move
+//      under the write lock; apply_global_ba does both), the mapper paused:
 //      each keyframe of the copy takes its optimised pose, a keyframe made
 //      since moves with its nearest ancestor in the copy (spanning tree);
 //      each point of the copy takes its optimised position, a point made
@@ -16,6 +17,7 @@
 // Thread: free functions on values; the caller holds the locks named above.
 
 #include "sitepose/core/se3.hpp"
+#include "sitepose/loop/loop_correction.hpp"
 #include "sitepose/map/map_data.hpp"
 #include "sitepose/mapping/local_ba_problem.hpp"
 #include "sitepose/optim/local_ba.hpp"
@@ -30,6 +32,11 @@ struct GlobalBaApplied {
   SE3 newest_correction;
 };
 
+// Step 3 in two halves (loop_correction.hpp, MapMove): planned under the
+// read lock, committed under the write lock.
+MapMove plan_global_ba_move(const map::MapData& map, const mapping::LocalBaProblem& problem,
+                            const optim::LocalBaResult& result);
+// Both halves under one (write) lock.
 GlobalBaApplied apply_global_ba(map::MapData& map, const mapping::LocalBaProblem& problem,
                                 const optim::LocalBaResult& result);
 

@@ -118,16 +118,43 @@ EssentialGraph build_essential_graph(const map::MapData& map,
 
 struct GraphApplied {
   int keyframes_moved = 0;
-  int points_moved = 0;
+  int points_moved = 0;  // with a keyframe's correction
+  int points_set = 0;    // to a given position (the global BA's)
   // T_world' * T_world^-1 of the newest keyframe: what moves the tracker's
   // last pose with the map.
   SE3 newest_correction;
 };
 
-// set_by_caller: points the caller sets itself (the global BA's), not moved.
+// Step 6 (and the global BA's apply) in two halves, so that the work is
+// done under the read lock and the write lock only assigns: plan_map_move
+// computes every keyframe's new pose, every good point's new position (one
+// in set_positions takes it, the others move as in step 6) and geometry;
+// commit_map_move assigns them. Valid while the map has not changed in
+// between: the caller plans again under the write lock when the map's
+// last keyframe is no longer move.last_keyframe (the mapper is paused, so
+// only the tracker's keyframe insertion can change it).
+struct MapMove {
+  struct Point {
+    map::PointId id = map::kNoPoint;
+    Eigen::Vector3d p_world = Eigen::Vector3d::Zero();
+    map::PointGeometry geometry;
+  };
+  map::KeyFrameId last_keyframe = map::kNoKeyFrame;  // the map's newest when planned
+  std::vector<std::pair<map::KeyFrameId, SE3>> T_world_cam;
+  std::vector<Point> points;
+  int points_set = 0;
+  SE3 newest_correction;
+};
+
+MapMove plan_map_move(const map::MapData& map, const EssentialGraph& graph,
+                      const std::vector<SE3>& T_world_cam_optimised,
+                      const std::unordered_map<map::PointId, map::KeyFrameId>& corrected_by,
+                      const std::unordered_map<map::PointId, Eigen::Vector3d>& set_positions);
+GraphApplied commit_map_move(map::MapData& map, const MapMove& move);
+
+// Both halves under one (write) lock.
 GraphApplied apply_essential_graph(map::MapData& map, const EssentialGraph& graph,
                                    const std::vector<SE3>& T_world_cam_optimised,
-                                   const std::unordered_map<map::PointId, map::KeyFrameId>& corrected_by,
-                                   const std::unordered_set<map::PointId>* set_by_caller = nullptr);
+                                   const std::unordered_map<map::PointId, map::KeyFrameId>& corrected_by);
 
 }  // namespace sitepose::loop

@@ -32,6 +32,14 @@ struct ScalePyramid {
 // Minimum shared points for a covisibility edge (ORB-SLAM2 uses 15).
 inline constexpr int kCovisibilityThreshold = 15;
 
+// A point's mean viewing direction and scale-invariance distance range.
+struct PointGeometry {
+  std::optional<Eigen::Vector3d> normal;  // none when the views cancel out (the old one stays)
+  bool has_distances = false;             // false without a reference view (the old ones stay)
+  double min_distance_m = 0.0;
+  double max_distance_m = 0.0;
+};
+
 class MapData {
  public:
   explicit MapData(ScalePyramid pyramid = {}) : pyramid_(pyramid) {}
@@ -97,7 +105,17 @@ class MapData {
   std::optional<Descriptor> representative_descriptor(PointId point) const;
   // Mean normal and distance range only (ORB-SLAM2 UpdateNormalAndDepth):
   // what changes when a point or a keyframe moves but its views do not.
+  // = set_point_geometry(point, point_geometry(point, its p_world, the
+  // keyframes' camera centres)).
   void update_point_geometry(PointId point);
+  // The geometry `point` would have at p_world with each observing keyframe's
+  // camera centre given by centre_of(const KeyFrame&): e.g. after a
+  // correction planned under the read lock and not yet applied. nullopt
+  // for a missing or bad point or one without views.
+  template <typename CentreOf>
+  std::optional<PointGeometry> point_geometry(PointId point, const Eigen::Vector3d& p_world,
+                                              CentreOf&& centre_of) const;
+  void set_point_geometry(PointId point, const PointGeometry& geometry);
 
   // Keyframes sharing most points with `keyframe`, best first (up to n).
   std::vector<KeyFrameId> best_covisible(KeyFrameId keyframe, int n) const;
@@ -147,5 +165,29 @@ class MapData {
   KeyFrameId last_keyframe_ = kNoKeyFrame;
   std::vector<KeyFrameId> tracker_keyframes_;
 };
+
+template <typename CentreOf>
+std::optional<PointGeometry> MapData::point_geometry(PointId point_id, const Eigen::Vector3d& p_world,
+                                                     CentreOf&& centre_of) const {
+  const MapPoint* p = point(point_id);
+  if (p == nullptr || p->bad || p->observations.empty()) return std::nullopt;
+  PointGeometry geometry;
+  Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
+  for (const auto& [kf_id, index] : p->observations) {
+    if (const KeyFrame* kf = keyframe(kf_id); kf != nullptr)
+      normal_sum += (p_world - centre_of(*kf)).normalized();
+  }
+  if (normal_sum.squaredNorm() > 0.0) geometry.normal = normal_sum.normalized();
+  // Scale invariance range from the reference keyframe's view.
+  const KeyFrame* ref = keyframe(p->reference_keyframe);
+  if (ref == nullptr || p->observations.count(ref->id) == 0) ref = keyframe(p->observations.begin()->first);
+  if (ref == nullptr) return geometry;
+  const int level = ref->keypoints[p->observations.at(ref->id)].octave;
+  const double distance = (p_world - centre_of(*ref)).norm();
+  geometry.has_distances = true;
+  geometry.max_distance_m = distance * pyramid_.scale(level);
+  geometry.min_distance_m = geometry.max_distance_m / pyramid_.scale(pyramid_.n_levels - 1);
+  return geometry;
+}
 
 }  // namespace sitepose::map

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "sitepose/testing/cameras.hpp"
 
 namespace sitepose::loop {
@@ -110,6 +112,74 @@ TEST(GlobalBaApply, SetsTheCopyAndMovesWhatWasMadeSinceWithItsAncestor) {
       m.keyframe(made_since)->T_world_cam.matrix().isApprox((shift * made_since_before).matrix(), 1e-12));
   EXPECT_TRUE(m.point(point_since)->p_world.isApprox(shift * point_since_before, 1e-12));
   EXPECT_TRUE(applied.newest_correction.matrix().isApprox(shift.matrix(), 1e-12));
+}
+
+// A "solve" that moves every free keyframe 0.1 m along y and puts every
+// point 0.2 m lower.
+optim::LocalBaResult shifted_solve(const mapping::LocalBaProblem& problem) {
+  const SE3 shift(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.0, 0.1, 0.0));
+  optim::LocalBaResult result;
+  for (std::size_t k = 0; k < problem.keyframe_ids.size(); ++k) {
+    const SE3 T_world_cam = problem.input.T_cam_world[k].inverse();
+    result.T_cam_world.push_back(problem.input.keyframe_fixed[k] != 0 ? problem.input.T_cam_world[k]
+                                                                      : (shift * T_world_cam).inverse());
+  }
+  for (const Eigen::Vector3d& p : problem.input.p_world)
+    result.p_world.push_back(p + Eigen::Vector3d(0, 0, -0.2));
+  return result;
+}
+
+// The move planned under the read lock and committed later leaves the map
+// exactly as the apply under one lock, geometry included (computed from the
+// moved keyframes before they moved).
+TEST(GlobalBaApply, PlannedThenCommittedEqualsAppliedAtOnce) {
+  map::MapData m;
+  std::vector<map::PointId> ids(kPoints, map::kNoPoint);
+  for (int k = 0; k < 3; ++k) add_keyframe(m, camera_at(0.5 * k), ids);
+  const mapping::LocalBaProblem problem = mapping::build_global_ba_problem(m);
+  const optim::LocalBaResult result = shifted_solve(problem);
+  const Eigen::Vector3d normal_before = m.point(ids.front())->normal;
+  map::MapData at_once = m;
+  apply_global_ba(at_once, problem, result);
+  const MapMove move = plan_global_ba_move(m, problem, result);
+  EXPECT_EQ(move.last_keyframe, m.last_keyframe());
+  const GraphApplied committed = commit_map_move(m, move);
+  EXPECT_EQ(committed.points_set, kPoints);
+  for (const auto& [id, kf] : at_once.keyframes()) {
+    EXPECT_EQ(m.keyframe(id)->T_world_cam.matrix(), kf.T_world_cam.matrix());
+  }
+  for (const auto& [pid, p] : at_once.points()) {
+    const map::MapPoint& got = *m.point(pid);
+    EXPECT_EQ(got.p_world, p.p_world);
+    EXPECT_EQ(got.normal, p.normal);
+    EXPECT_EQ(got.min_distance_m, p.min_distance_m);
+    EXPECT_EQ(got.max_distance_m, p.max_distance_m);
+    // ... and it is the geometry of the committed keyframes.
+    m.update_point_geometry(pid);
+    EXPECT_EQ(m.point(pid)->normal, p.normal);
+    EXPECT_EQ(m.point(pid)->max_distance_m, p.max_distance_m);
+  }
+  // The move turned the viewing directions: the geometry was recomputed.
+  EXPECT_GT((m.point(ids.front())->normal - normal_before).norm(), 1e-3);
+}
+
+// A keyframe the tracker inserts after the plan is not in it (the map's last
+// keyframe says so): the caller plans again under the write lock.
+TEST(GlobalBaApply, APlanMadeBeforeAKeyFrameWasInsertedMissesIt) {
+  map::MapData m;
+  std::vector<map::PointId> ids(kPoints, map::kNoPoint);
+  for (int k = 0; k < 3; ++k) add_keyframe(m, camera_at(0.5 * k), ids);
+  const mapping::LocalBaProblem problem = mapping::build_global_ba_problem(m);
+  const optim::LocalBaResult result = shifted_solve(problem);
+  const MapMove stale = plan_global_ba_move(m, problem, result);
+  const map::KeyFrameId inserted = add_keyframe(m, camera_at(1.5), ids);
+  EXPECT_NE(m.last_keyframe(), stale.last_keyframe);
+  const auto moves = [&](const MapMove& move) {
+    return std::any_of(move.T_world_cam.begin(), move.T_world_cam.end(),
+                       [&](const auto& entry) { return entry.first == inserted; });
+  };
+  EXPECT_FALSE(moves(stale));
+  EXPECT_TRUE(moves(plan_global_ba_move(m, problem, result)));
 }
 
 TEST(GlobalBaApply, SolvesADisturbedMapBackToItsObservations) {
