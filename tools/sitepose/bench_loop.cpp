@@ -41,20 +41,6 @@ struct Args {
   std::vector<int> lanes{41, 121};
 };
 
-Expected<std::shared_ptr<const placerec::Vocabulary>> tracking_vocabulary(
-    const Args& args, const experiments::LabelledSource& source, const config::OrbConfig& orb) {
-  if (!args.vocabulary.empty()) {
-    SITEPOSE_TRY(placerec::Vocabulary loaded, placerec::Vocabulary::load(args.vocabulary));
-    return std::make_shared<const placerec::Vocabulary>(std::move(loaded));
-  }
-  // Frames 0, every, 2 every, ... below --frames.
-  const int max_images = args.frames > 0 ? (args.frames + args.train_every - 1) / args.train_every : 0;
-  SITEPOSE_TRY(std::vector<cv::Mat> training,
-               experiments::left_image_descriptors(source, orb, args.train_every, max_images));
-  SITEPOSE_TRY(placerec::Vocabulary trained, placerec::Vocabulary::train(training));
-  return std::make_shared<const placerec::Vocabulary>(std::move(trained));
-}
-
 double mean_ms(double total_ms, std::int64_t count) {
   return count > 0 ? total_ms / static_cast<double>(count) : 0.0;
 }
@@ -81,8 +67,12 @@ int measure_tracking(const Args& args) {
   config.dynamic.mode = config::MaskingMode::kNone;
   auto source = open_frame_source(args.input, args.frames);
   if (!source) return fail(kCommand, source.error().message, 2);
-  auto vocabulary = tracking_vocabulary(args, **source, config.orb);
-  if (!vocabulary) return fail(kCommand, vocabulary.error().message, 2);
+  auto vocabulary = load_or_train_vocabulary(args.vocabulary, [&] {
+    // Frames 0, every, 2 every, ... below --frames.
+    const int max_images = args.frames > 0 ? (args.frames + args.train_every - 1) / args.train_every : 0;
+    return experiments::left_image_descriptors(**source, config.orb, args.train_every, max_images);
+  });
+  if (!vocabulary) return fail(kCommand, vocabulary.error().message, args.vocabulary.empty() ? 1 : 2);
   std::printf(
       "bench loop: tracking %s, %d frames, mode none, mapper and closer on their own threads, "
       "vocabulary %s (%zu words%s)\n",
@@ -177,18 +167,14 @@ int run(const Args& args) {
     if (auto st = measure_closing(lane); !st) return fail(kCommand, st.error().message, 1);
     ++lanes_done;
   }
-  if (lanes_done < args.lanes.size()) {
-    std::printf("%zu of %zu lanes measured (interrupted: partial)\n", lanes_done, args.lanes.size());
-    return report_interrupted(kCommand, "printed the rows of the lanes measured");
-  }
+  if (lanes_done < args.lanes.size())
+    return report_rows_interrupted(kCommand, lanes_done, args.lanes.size(), "lanes");
   return 0;
 }
 
 void add_options(CLI::App& sub, Args& args) {
   add_frame_source_options(sub, args.input, "sitepose YAML config (mode is forced to none)");
-  sub.add_option("--vocabulary", args.vocabulary,
-                 "Vocabulary file (sitepose vocab train); default: one trained on the run's frames")
-      ->check(CLI::ExistingFile);
+  add_bench_vocabulary_option(sub, args.vocabulary, "one trained on the run's frames");
   add_bounded(sub, "--frames", args.frames, "Frames to track, twice (0 = all)", 0,
               std::numeric_limits<int>::max());
   add_bounded(sub, "--train-every", args.train_every, "Without --vocabulary: train on every N-th frame", 1,
@@ -196,10 +182,9 @@ void add_options(CLI::App& sub, Args& args) {
   add_bounded(sub, "--lanes", args.lanes, "Keyframes per pass of each synthetic lane to close", 12, 2000);
 }
 
-const CommandRegistrar kBenchLoop{make_command<Args>(
-    "bench", "loop", add_options, run,
-    "Loop-closing cost in one run: tracking frame time with loop closing off vs on, and the times of "
-    "closing a synthetic drifted loop (pose graph, global BA, longest map write lock)")};
+const CommandRegistrar kBenchLoop{
+    make_command<Args>("bench", "loop", add_options, run,
+                       "Loop-closing cost: frame time with it off vs on; closing a synthetic drifted loop")};
 
 }  // namespace
 }  // namespace sitepose::cli

@@ -136,19 +136,15 @@ int run(const Args& args) {
   }
   std::vector<int> keyframes;
   for (int i = 0; i < n_frames; i += args.keyframe_every) keyframes.push_back(i);
-  std::shared_ptr<const placerec::Vocabulary> vocabulary;
-  if (!args.vocabulary.empty()) {
-    auto loaded = placerec::Vocabulary::load(args.vocabulary);
-    if (!loaded) return fail(kCommand, loaded.error().message, 2);
-    vocabulary = std::make_shared<const placerec::Vocabulary>(std::move(*loaded));
-  } else {
+  auto loaded = load_or_train_vocabulary(args.vocabulary, [&]() -> Expected<std::vector<cv::Mat>> {
     std::vector<cv::Mat> training;
     training.reserve(keyframes.size());
     for (int i : keyframes) training.push_back(frames[i].descriptors);
-    auto trained = placerec::Vocabulary::train(training);
-    if (!trained) return fail(kCommand, trained.error().message, 1);
-    vocabulary = std::make_shared<const placerec::Vocabulary>(std::move(*trained));
-  }
+    return training;
+  });
+  // A file given: bad input (2); else the training failed (1).
+  if (!loaded) return fail(kCommand, loaded.error().message, args.vocabulary.empty() ? 1 : 2);
+  const std::shared_ptr<const placerec::Vocabulary>& vocabulary = *loaded;
   std::printf("bench placerec: %s, %d frames, %zu keyframes (every %d), vocabulary %s (%zu words%s)\n",
               (*source)->name().c_str(), n_frames, keyframes.size(), args.keyframe_every,
               vocabulary->id().c_str(), vocabulary->word_count(),
@@ -171,18 +167,13 @@ int run(const Args& args) {
     }
     ++sizes_done;
   }
-  if (interrupted()) {
-    std::printf("%zu of %zu map sizes measured (interrupted: partial)\n", sizes_done, args.sizes.size());
-    return report_interrupted(kCommand, "printed the rows of the map sizes measured");
-  }
+  if (interrupted()) return report_rows_interrupted(kCommand, sizes_done, args.sizes.size(), "map sizes");
   return 0;
 }
 
 void add_options(CLI::App& sub, Args& args) {
   add_frame_source_options(sub, args.input, "sitepose YAML config (its orb section is used)");
-  sub.add_option("--vocabulary", args.vocabulary,
-                 "Vocabulary file (sitepose vocab train); default: one trained on the keyframes")
-      ->check(CLI::ExistingFile);
+  add_bench_vocabulary_option(sub, args.vocabulary, "one trained on the keyframes");
   sub.add_option("--frames", args.frames, "Frames (0 = all)")->capture_default_str();
   add_bounded(sub, "--keyframe-every", args.keyframe_every, "Every N-th frame is a keyframe", 2, 1000);
   add_bounded(sub, "--queries", args.queries, "Query frames (spread over the frames between keyframes)", 1,

@@ -69,19 +69,36 @@ int run_eval(const EvalArgs& args) {
   return 0;
 }
 
+// A trajectory file (required) and the timestamps file of its KITTI form.
+struct TrajectoryOption {
+  const char* flag;
+  const char* type_name;
+  const char* help;
+  const char* times_flag;
+  const char* times_help;
+};
+
+void add_trajectory_option(CLI::App& sub, const TrajectoryOption& option, std::string& path,
+                           std::string& times_path) {
+  add_required(sub, option.flag, path, option.type_name, option.help);
+  sub.add_option(option.times_flag, times_path, option.times_help)->type_name("TIMES");
+}
+
 void add_options(CLI::App& sub, EvalArgs& args) {
-  add_required(sub, "--gt", args.gt_path, "POSES",
-               "Ground-truth poses, T_world_cam: TUM (t x y z qx qy qz qw), KITTI (12 numbers a "
-               "line, with --times) or EuRoC CSV (e.g. the sequence's poses_tum.txt, or poses.txt)");
-  sub.add_option("--times", args.times_path,
-                 "Timestamps of KITTI ground-truth poses (s), one a line (times.txt)")
-      ->type_name("TIMES");
-  add_required(sub, "--est", args.est_path, "TRAJ",
-               "Estimated trajectory: TUM, KITTI (times from --est-times, default TRAJ.times.txt "
-               "as `run --format kitti` writes it) or EuRoC CSV");
-  sub.add_option("--est-times", args.est_times_path,
-                 "Timestamps of a KITTI estimate (s), one a line (default: TRAJ.times.txt)")
-      ->type_name("TIMES");
+  add_trajectory_option(sub,
+                        {"--gt", "POSES",
+                         "Ground-truth poses, T_world_cam: TUM (t x y z qx qy qz qw), KITTI (12 numbers a "
+                         "line, with --times) or "
+                         "EuRoC CSV (e.g. the sequence's poses_tum.txt, or poses.txt)",
+                         "--times", "Timestamps of KITTI ground-truth poses (s), one a line (times.txt)"},
+                        args.gt_path, args.times_path);
+  add_trajectory_option(
+      sub,
+      {"--est", "TRAJ",
+       "Estimated trajectory: TUM, KITTI (times from --est-times, default TRAJ.times.txt as "
+       "`run --format kitti` writes it) or EuRoC CSV",
+       "--est-times", "Timestamps of a KITTI estimate (s), one a line (default: TRAJ.times.txt)"},
+      args.est_path, args.est_times_path);
   sub.add_flag("--json", args.json, "Print the figures as JSON on stdout instead of text");
   sub.add_option("--plot", args.plot_path,
                  "Write a PNG: top view of ground truth vs aligned estimate coloured by "

@@ -41,4 +41,20 @@ Expected<std::unique_ptr<experiments::LabelledSource>> open_frame_source(const F
                                  : experiments::open_labelled_sequence(source.sequence, false);
 }
 
+void add_bench_vocabulary_option(CLI::App& sub, std::string& path, const std::string& without_it) {
+  sub.add_option("--vocabulary", path, "Vocabulary file (sitepose vocab train); default: " + without_it)
+      ->check(CLI::ExistingFile);
+}
+
+Expected<std::shared_ptr<const placerec::Vocabulary>> load_or_train_vocabulary(
+    const std::string& path, const std::function<Expected<std::vector<cv::Mat>>()>& training_images) {
+  if (!path.empty()) {
+    SITEPOSE_TRY(placerec::Vocabulary loaded, placerec::Vocabulary::load(path));
+    return std::make_shared<const placerec::Vocabulary>(std::move(loaded));
+  }
+  SITEPOSE_TRY(std::vector<cv::Mat> images, training_images());
+  SITEPOSE_TRY(placerec::Vocabulary trained, placerec::Vocabulary::train(images));
+  return std::make_shared<const placerec::Vocabulary>(std::move(trained));
+}
+
 }  // namespace sitepose::cli

@@ -2,12 +2,17 @@
 // The sitepose settings most commands start from: --config loaded (or the
 // built-in defaults) and --mode applied.
 
+#include <functional>
 #include <memory>
 #include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "sitepose/config/sitepose_config.hpp"
 #include "sitepose/core/expected.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
+#include "sitepose/placerec/vocabulary.hpp"
 
 namespace CLI {
 class App;
@@ -49,5 +54,14 @@ void add_frame_source_options(CLI::App& sub, FrameSourceArgs& source, const std:
 // the scenario (0 = all).
 Expected<std::unique_ptr<experiments::LabelledSource>> open_frame_source(const FrameSourceArgs& source,
                                                                          int frames);
+
+// --vocabulary FILE of the benches that train a vocabulary without one;
+// `without_it` ends the help: what they train on.
+void add_bench_vocabulary_option(CLI::App& sub, std::string& path, const std::string& without_it);
+
+// The vocabulary in `path`, or, when it is empty, one trained on
+// training_images() with the default parameters.
+Expected<std::shared_ptr<const placerec::Vocabulary>> load_or_train_vocabulary(
+    const std::string& path, const std::function<Expected<std::vector<cv::Mat>>()>& training_images);
 
 }  // namespace sitepose::cli

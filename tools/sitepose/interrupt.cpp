@@ -31,4 +31,10 @@ int report_interrupted(const char* command, const char* what_was_written) {
   return kInterruptedStatus;
 }
 
+int report_rows_interrupted(const char* command, std::size_t measured, std::size_t total,
+                            const std::string& rows) {
+  std::printf("%zu of %zu %s measured (interrupted: partial)\n", measured, total, rows.c_str());
+  return report_interrupted(command, ("printed the rows of the " + rows + " measured").c_str());
+}
+
 }  // namespace sitepose::cli
