@@ -182,8 +182,10 @@ void connect_group(map::MapData& map, const GroupCopy& group, const GroupCorrect
     for (const auto& [id, T] : plan.T_world_cam) map.update_connections(id);
   } else {
     for (const auto& [pid, descriptor] : counted.descriptors) {
-      map.point(pid)->descriptor = descriptor;
-      map.update_point_geometry(pid);
+      if (map::MapPoint* p = map.point(pid); p != nullptr && !p->bad) {
+        p->descriptor = descriptor;
+        map.update_point_geometry(pid);
+      }
     }
     for (const auto& [id, counts] : counted.shared_points) map.set_connections(id, counts);
   }
@@ -309,13 +311,19 @@ MapMove plan_map_move(const map::MapData& map, const EssentialGraph& graph,
 GraphApplied commit_map_move(map::MapData& map, const MapMove& move) {
   GraphApplied out;
   out.newest_correction = move.newest_correction;
+  // Everything planned still exists (the caller planned again if the map
+  // changed); the checks only keep a broken promise from crashing.
   for (const auto& [id, T_world_cam] : move.T_world_cam) {
-    map.keyframe(id)->T_world_cam = T_world_cam;
-    ++out.keyframes_moved;
+    if (map::KeyFrame* kf = map.keyframe(id); kf != nullptr) {
+      kf->T_world_cam = T_world_cam;
+      ++out.keyframes_moved;
+    }
   }
   for (const MapMove::Point& moved : move.points) {
-    map.point(moved.id)->p_world = moved.p_world;
-    map.set_point_geometry(moved.id, moved.geometry);
+    if (map::MapPoint* p = map.point(moved.id); p != nullptr) {
+      p->p_world = moved.p_world;
+      map.set_point_geometry(moved.id, moved.geometry);
+    }
   }
   out.points_set = move.points_set;
   out.points_moved = static_cast<int>(move.points.size()) - move.points_set;
