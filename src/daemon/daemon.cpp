@@ -9,6 +9,7 @@
 
 #include "sitepose/config/config.hpp"
 #include "sitepose/core/build_info.hpp"
+#include "sitepose/core/centred_camera.hpp"
 #include "sitepose/core/log.hpp"
 #include "sitepose/drivers/aravis/aravis_camera.hpp"
 #include "sitepose/drivers/aravis/feature_file.hpp"
@@ -60,16 +61,7 @@ namespace {
 
 // A start finds the camera in the source; a check without a camera source
 // (it may be off) loads the detector with a nominal one.
-StereoCamera nominal_camera() {
-  StereoCamera camera;
-  camera.fx = camera.fy = 500.0;
-  camera.cx = 320.0;
-  camera.cy = 240.0;
-  camera.width = 640;
-  camera.height = 480;
-  camera.baseline_m = 0.12;
-  return camera;
-}
+StereoCamera nominal_camera() { return centred_camera(640, 480, 500.0, 0.12); }
 
 // dynamic.detector_isolation. A hung host is killed once a call has taken
 // as long again as its deadline (and at least 100 ms more): the detect

@@ -21,6 +21,7 @@
 #include "command_config.hpp"
 #include "command_registry.hpp"
 #include "interrupt.hpp"
+#include "sitepose/core/centred_camera.hpp"
 #include "sitepose/experiments/dynamic_run.hpp"
 #include "sitepose/experiments/labelled_source.hpp"
 #include "sitepose/experiments/synthetic_loop.hpp"
@@ -110,24 +111,13 @@ int measure_tracking(const Args& args) {
   return 0;
 }
 
-// The rig of tests/unit/loop: 640 x 360, f 500 px, 0.5 m baseline.
-StereoCamera lane_camera() {
-  StereoCamera camera;
-  camera.fx = camera.fy = 500.0;
-  camera.cx = 320.0;
-  camera.cy = 180.0;
-  camera.baseline_m = 0.5;
-  camera.width = 640;
-  camera.height = 360;
-  return camera;
-}
-
 // Part 2, one lane size.
 Status measure_closing(int lane_keyframes) {
   const double lane_m = lane_keyframes - 1;
   // The wall's density of the 40 m lane (6000 points over 56 m), for every length.
   const int points = static_cast<int>(6000.0 * (lane_m + 16.0) / 56.0);
-  const StereoCamera camera = lane_camera();
+  // The rig of tests/unit/loop.
+  const StereoCamera camera = centred_camera(640, 360, 500.0, 0.5);
   const experiments::DriftedReturn lane = experiments::make_drifted_return(
       camera, experiments::make_textured_wall(7, lane_m, points), lane_keyframes);
   SITEPOSE_TRY(auto vocabulary, experiments::vocabulary_of(lane.map));

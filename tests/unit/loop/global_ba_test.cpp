@@ -44,11 +44,39 @@ map::KeyFrameId add_keyframe(map::MapData& m, const SE3& T_world_cam, std::vecto
   return id;
 }
 
-TEST(GlobalBa, CopiesTheWholeMapWithTheFirstKeyFrameFixed) {
+// Three keyframes 0.5 m apart seeing every point, and the global BA's copy.
+struct ThreeKeyFrames {
   map::MapData m;
-  std::vector<map::PointId> ids(kPoints, map::kNoPoint);
-  for (int k = 0; k < 3; ++k) add_keyframe(m, camera_at(0.5 * k), ids);
-  const mapping::LocalBaProblem problem = mapping::build_global_ba_problem(m);
+  std::vector<map::PointId> ids = std::vector<map::PointId>(kPoints, map::kNoPoint);
+  mapping::LocalBaProblem problem;
+};
+
+ThreeKeyFrames three_keyframes() {
+  ThreeKeyFrames t;
+  for (int k = 0; k < 3; ++k) add_keyframe(t.m, camera_at(0.5 * k), t.ids);
+  t.problem = mapping::build_global_ba_problem(t.m);
+  return t;
+}
+
+// A "solve" that moves every free keyframe 0.1 m along y and puts every
+// point 0.2 m lower.
+const SE3 kSolveShift(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.0, 0.1, 0.0));
+
+optim::LocalBaResult shifted_solve(const mapping::LocalBaProblem& problem) {
+  optim::LocalBaResult result;
+  for (std::size_t k = 0; k < problem.keyframe_ids.size(); ++k) {
+    const SE3 T_world_cam = problem.input.T_cam_world[k].inverse();
+    result.T_cam_world.push_back(problem.input.keyframe_fixed[k] != 0
+                                     ? problem.input.T_cam_world[k]
+                                     : (kSolveShift * T_world_cam).inverse());
+  }
+  for (const Eigen::Vector3d& p : problem.input.p_world)
+    result.p_world.push_back(p + Eigen::Vector3d(0, 0, -0.2));
+  return result;
+}
+
+TEST(GlobalBa, CopiesTheWholeMapWithTheFirstKeyFrameFixed) {
+  auto [m, ids, problem] = three_keyframes();
   ASSERT_EQ(problem.keyframe_ids.size(), 3u);
   EXPECT_EQ(problem.n_fixed_keyframes, 1);
   EXPECT_EQ(problem.n_free_keyframes, 2);
@@ -60,10 +88,7 @@ TEST(GlobalBa, CopiesTheWholeMapWithTheFirstKeyFrameFixed) {
 }
 
 TEST(GlobalBaApply, SetsTheCopyAndMovesWhatWasMadeSinceWithItsAncestor) {
-  map::MapData m;
-  std::vector<map::PointId> ids(kPoints, map::kNoPoint);
-  for (int k = 0; k < 3; ++k) add_keyframe(m, camera_at(0.5 * k), ids);
-  const mapping::LocalBaProblem problem = mapping::build_global_ba_problem(m);
+  auto [m, ids, problem] = three_keyframes();
 
   // The mapper goes on meanwhile: a keyframe past the last one, and a
   // point only it sees.
@@ -82,17 +107,8 @@ TEST(GlobalBaApply, SetsTheCopyAndMovesWhatWasMadeSinceWithItsAncestor) {
   const Eigen::Vector3d point_since_before = m.point(point_since)->p_world;
   const SE3 made_since_before = m.keyframe(made_since)->T_world_cam;
 
-  // A "solve" that moves every free keyframe 0.1 m along y and puts every
-  // point 0.2 m lower.
-  const SE3 shift(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.0, 0.1, 0.0));
-  optim::LocalBaResult result;
-  for (std::size_t k = 0; k < problem.keyframe_ids.size(); ++k) {
-    const SE3 T_world_cam = problem.input.T_cam_world[k].inverse();
-    result.T_cam_world.push_back(problem.input.keyframe_fixed[k] != 0 ? problem.input.T_cam_world[k]
-                                                                      : (shift * T_world_cam).inverse());
-  }
-  for (const Eigen::Vector3d& p : problem.input.p_world)
-    result.p_world.push_back(p + Eigen::Vector3d(0, 0, -0.2));
+  const optim::LocalBaResult result = shifted_solve(problem);
+  const SE3& shift = kSolveShift;
   const SE3 first_before = m.keyframe(m.first_keyframe())->T_world_cam;
 
   const GlobalBaApplied applied = apply_global_ba(m, problem, result);
@@ -114,29 +130,11 @@ TEST(GlobalBaApply, SetsTheCopyAndMovesWhatWasMadeSinceWithItsAncestor) {
   EXPECT_TRUE(applied.newest_correction.matrix().isApprox(shift.matrix(), 1e-12));
 }
 
-// A "solve" that moves every free keyframe 0.1 m along y and puts every
-// point 0.2 m lower.
-optim::LocalBaResult shifted_solve(const mapping::LocalBaProblem& problem) {
-  const SE3 shift(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.0, 0.1, 0.0));
-  optim::LocalBaResult result;
-  for (std::size_t k = 0; k < problem.keyframe_ids.size(); ++k) {
-    const SE3 T_world_cam = problem.input.T_cam_world[k].inverse();
-    result.T_cam_world.push_back(problem.input.keyframe_fixed[k] != 0 ? problem.input.T_cam_world[k]
-                                                                      : (shift * T_world_cam).inverse());
-  }
-  for (const Eigen::Vector3d& p : problem.input.p_world)
-    result.p_world.push_back(p + Eigen::Vector3d(0, 0, -0.2));
-  return result;
-}
-
 // The move planned under the read lock and committed later leaves the map
 // exactly as the apply under one lock, geometry included (computed from the
 // moved keyframes before they moved).
 TEST(GlobalBaApply, PlannedThenCommittedEqualsAppliedAtOnce) {
-  map::MapData m;
-  std::vector<map::PointId> ids(kPoints, map::kNoPoint);
-  for (int k = 0; k < 3; ++k) add_keyframe(m, camera_at(0.5 * k), ids);
-  const mapping::LocalBaProblem problem = mapping::build_global_ba_problem(m);
+  auto [m, ids, problem] = three_keyframes();
   const optim::LocalBaResult result = shifted_solve(problem);
   const Eigen::Vector3d normal_before = m.point(ids.front())->normal;
   map::MapData at_once = m;
@@ -166,10 +164,7 @@ TEST(GlobalBaApply, PlannedThenCommittedEqualsAppliedAtOnce) {
 // A keyframe the tracker inserts after the plan is not in it (the map's last
 // keyframe says so): the caller plans again under the write lock.
 TEST(GlobalBaApply, APlanMadeBeforeAKeyFrameWasInsertedMissesIt) {
-  map::MapData m;
-  std::vector<map::PointId> ids(kPoints, map::kNoPoint);
-  for (int k = 0; k < 3; ++k) add_keyframe(m, camera_at(0.5 * k), ids);
-  const mapping::LocalBaProblem problem = mapping::build_global_ba_problem(m);
+  auto [m, ids, problem] = three_keyframes();
   const optim::LocalBaResult result = shifted_solve(problem);
   const MapMove stale = plan_global_ba_move(m, problem, result);
   const map::KeyFrameId inserted = add_keyframe(m, camera_at(1.5), ids);

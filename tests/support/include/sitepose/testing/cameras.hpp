@@ -2,23 +2,13 @@
 // Stereo cameras for tests: a centred rig of any size and the named rigs the
 // synthetic scenes use.
 
-#include "sitepose/core/stereo_camera.hpp"
+#include "sitepose/core/centred_camera.hpp"
 
 namespace sitepose::testing {
 
 // Rectified rig with square pixels and the principal point at the image
 // centre (as the simulator makes them).
-inline StereoCamera centred_camera(int width, int height, double f_px, double baseline_m) {
-  StereoCamera camera;
-  camera.fx = f_px;
-  camera.fy = f_px;
-  camera.cx = width / 2.0;
-  camera.cy = height / 2.0;
-  camera.baseline_m = baseline_m;
-  camera.width = width;
-  camera.height = height;
-  return camera;
-}
+using sitepose::centred_camera;
 
 // The simulator's default rig: 960 x 540, f 700 px, 1 m baseline.
 inline StereoCamera test_camera() { return centred_camera(960, 540, 700.0, 1.0); }
