@@ -27,11 +27,12 @@
 //      measured), except the new loop's edges, measured after it; the
 //      map's first keyframe is fixed;
 //   5. optimise_pose_graph (pose_graph.hpp; no lock);
-//   6. apply_essential_graph (write): each keyframe gets its optimised
-//      pose (one created since step 4 moves with its nearest ancestor in
-//      the graph); each point moves with the keyframe it was corrected by
-//      in step 2, else its reference keyframe: p' = T_world_k' *
-//      T_world_k^-1 * p.
+//   6. plan_map_move (read), then commit_map_move (write): each keyframe
+//      gets its optimised pose (one created since step 4 moves with its
+//      nearest ancestor in the graph); each point moves with the keyframe
+//      it was corrected by in step 2, else its reference keyframe: p' =
+//      T_world_k' * T_world_k^-1 * p (apply_essential_graph does both
+//      under one lock).
 
 #include <unordered_map>
 #include <unordered_set>
