@@ -267,9 +267,8 @@ Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
   const double connect_lock_ms = ms_since(lock_start);
   note_write_lock(connect_lock_ms);
   spdlog::info(
-      "loop closing: keyframe={} group applied in {:.1f} + {:.1f} ms under the write lock: {} points moved, "
-      "{} "
-      "fused, {} observations added",
+      "loop closing: keyframe={} group applied in {:.1f} + {:.1f} ms under the write lock: "
+      "{} points moved, {} fused, {} observations added",
       keyframe, group_lock_ms, connect_lock_ms, applied.points_moved, applied.points_fused,
       applied.observations_added);
   const double correction_ms = ms_since(start);

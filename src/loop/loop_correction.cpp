@@ -1,6 +1,7 @@
 #include "sitepose/loop/loop_correction.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <set>
 #include <unordered_set>
 
@@ -176,19 +177,16 @@ void connect_group(map::MapData& map, const GroupCopy& group, const GroupCorrect
                    const GroupConnections& counted, GroupApplied& out) {
   // Only a keyframe the tracker inserted since the count changes what was
   // counted (the mapper is paused): then count again here.
-  const bool recount = map.last_keyframe() != counted.last_keyframe;
-  if (recount) {
-    for (map::PointId pid : out.points_with_new_views) map.update_point_appearance(pid);
-    for (const auto& [id, T] : plan.T_world_cam) map.update_connections(id);
-  } else {
-    for (const auto& [pid, descriptor] : counted.descriptors) {
-      if (map::MapPoint* p = map.point(pid); p != nullptr && !p->bad) {
-        p->descriptor = descriptor;
-        map.update_point_geometry(pid);
-      }
+  std::optional<GroupConnections> recounted;
+  if (map.last_keyframe() != counted.last_keyframe) recounted = count_group_connections(map, plan, out);
+  const GroupConnections& connections = recounted ? *recounted : counted;
+  for (const auto& [pid, descriptor] : connections.descriptors) {
+    if (map::MapPoint* p = map.point(pid); p != nullptr && !p->bad) {
+      p->descriptor = descriptor;
+      map.update_point_geometry(pid);
     }
-    for (const auto& [id, counts] : counted.shared_points) map.set_connections(id, counts);
   }
+  for (const auto& [id, counts] : connections.shared_points) map.set_connections(id, counts);
   std::set<map::KeyFrameId> in_group;
   for (const auto& [id, T] : plan.T_world_cam) in_group.insert(id);
   for (map::KeyFrameId id : in_group) {
