@@ -96,6 +96,7 @@ Section<TrackingConfig> tracking_section() {
       .key("trust_established_map", &T::trust_established_map)
       .key("keep_tracked_corners", &T::keep_tracked_corners)
       .key("keyframe_travel_depth_share", &T::keyframe_travel_depth_share, non_negative(), at_most(1.0))
+      .key("new_map_after_lost_s", &T::new_map_after_lost_s, non_negative(), at_most(3600.0))
       .check([](const ReadKeys& keys, const T& tracking) {
         if (keys.valid("min_inliers_recovering") &&
             tracking.min_inliers_recovering > tracking.min_inliers_ok) {

@@ -476,4 +476,36 @@ std::size_t MapData::purge_bad_points() {
   return std::erase_if(points_, [](const auto& entry) { return entry.second.bad; });
 }
 
+void MapData::move_keyframes_from(KeyFrameId first, const SE3& correction) {
+  for (auto& [id, kf] : keyframes_) {
+    if (id >= first) kf.T_world_cam = correction * kf.T_world_cam;
+  }
+  const Eigen::Matrix3d R = correction.rotation_matrix();
+  for (auto& [id, p] : points_) {
+    if (p.first_keyframe < first) continue;
+    p.p_world = correction * p.p_world;
+    p.normal = R * p.normal;
+  }
+}
+
+std::vector<KeyFrameId> MapData::drop_keyframes_from(KeyFrameId first) {
+  std::vector<KeyFrameId> dropped;
+  for (const auto& [id, kf] : keyframes_) {
+    if (id >= first && id != first_keyframe_) dropped.push_back(id);
+  }
+  std::sort(dropped.begin(), dropped.end(), std::greater<>());
+  for (const KeyFrameId id : dropped) {
+    // A loop edge protects a keyframe from culling, not from this.
+    for (const KeyFrameId other : keyframes_.at(id).loop_edges) {
+      if (KeyFrame* o = keyframe(other); o != nullptr) o->loop_edges.erase(id);
+    }
+    keyframes_.at(id).loop_edges.clear();
+    set_keyframe_bad(id);
+  }
+  last_keyframe_ = kNoKeyFrame;
+  for (const auto& [id, kf] : keyframes_) last_keyframe_ = std::max(last_keyframe_, id);
+  provisional_since_ = kNoKeyFrame;
+  return dropped;
+}
+
 }  // namespace sitepose::map

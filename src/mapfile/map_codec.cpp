@@ -110,6 +110,13 @@ void write_loop_edges(ByteWriter& out, const map::KeyFrame& kf) {
 }  // namespace
 
 std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta& meta) {
+  if (map.provisional_since() != map::kNoKeyFrame) {
+    // A provisional map is placed by dead reckoning: a later start must not
+    // relocalise in it and call the pose OK. The site map is saved alone.
+    map::MapData site_map = map;
+    site_map.drop_keyframes_from(map.provisional_since());
+    return encode_map(site_map, meta);
+  }
   const auto keyframes = by_id(map.keyframes());
   std::vector<const map::MapPoint*> points = by_id(map.points());
   std::erase_if(points, [](const map::MapPoint* p) { return p->bad; });

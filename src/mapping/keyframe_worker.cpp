@@ -81,7 +81,7 @@ void KeyFrameWorker::run(const std::stop_token& stop_token) {
     map::KeyFrameId id = map::kNoKeyFrame;
     {
       std::unique_lock lock(mutex_);
-      if (!queue_cv_.wait(lock, stop_token, [this] { return !queue_.empty() && !held_; })) break;
+      if (!queue_cv_.wait(lock, stop_token, [this] { return !queue_.empty() && holds_ == 0; })) break;
       id = queue_.front();
       queue_.pop_front();
       busy_ = true;
@@ -98,7 +98,7 @@ void KeyFrameWorker::run(const std::stop_token& stop_token) {
 
 void KeyFrameWorker::hold() {
   std::unique_lock lock(mutex_);
-  held_ = true;
+  ++holds_;
   interrupt_.store(true);
   idle_cv_.wait(lock, [this] { return !running_.load() || !busy_; });
 }
@@ -106,7 +106,7 @@ void KeyFrameWorker::hold() {
 void KeyFrameWorker::release() {
   {
     std::lock_guard lock(mutex_);
-    held_ = false;
+    if (holds_ > 0) --holds_;
   }
   queue_cv_.notify_one();
 }
@@ -133,7 +133,7 @@ std::size_t KeyFrameWorker::queue_size() const {
 
 bool KeyFrameWorker::begin_interruptible_step() {
   std::lock_guard lock(mutex_);
-  if (!queue_.empty() || held_) return false;
+  if (!queue_.empty() || holds_ > 0) return false;
   interrupt_.store(false);
   return true;
 }

@@ -134,9 +134,21 @@ std::vector<PlaceCandidateGroup> group_candidates(
 std::vector<map::KeyFrameId> relocalisation_candidates(const KeyFrameDatabase& database,
                                                        const map::SharedMap& map, const cv::Mat& descriptors,
                                                        const std::vector<std::uint8_t>& usable,
-                                                       int max_candidates, const CandidateQuery& params) {
+                                                       int max_candidates, const CandidateQuery& params,
+                                                       map::KeyFrameId only_before) {
   const BowVector query = database.vocabulary().transform(descriptors, usable);
-  const std::vector<ScoredKeyFrame> scored = database.score(query, params);
+  // Left out before the most shared words are counted: the provisional map
+  // sees the same place best and would push the site map's keyframes out.
+  std::unordered_set<map::KeyFrameId> exclude;
+  if (only_before != map::kNoKeyFrame) {
+    map.read([&](const map::MapData& data) {
+      for (const auto& [id, kf] : data.keyframes()) {
+        if (id >= only_before) exclude.insert(id);
+      }
+    });
+  }
+  const std::vector<ScoredKeyFrame> scored =
+      database.score_excluding(query, exclude, -std::numeric_limits<double>::infinity(), params);
   if (scored.empty()) return {};
   const std::vector<PlaceCandidateGroup> groups = map.read([&](const map::MapData& data) {
     return group_candidates(

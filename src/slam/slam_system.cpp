@@ -61,6 +61,11 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
     link.enqueue = [this](map::KeyFrameId id) { mapper_->enqueue(id); };
     link.queue_size = [this] { return static_cast<int>(mapper_->queue_size()); };
     link.is_idle = [this] { return mapper_->is_idle(); };
+    if (options_.mapper_thread) {
+      link.pause = [this] { mapper_->pause(); };
+      link.resume = [this] { mapper_->resume(); };
+    }
+    if (database_) link.removed = [this](map::KeyFrameId id) { database_->erase(id); };
   }
   features::TaskPool* pool = options.extraction_pool;
   if (pool == nullptr) {
@@ -70,9 +75,9 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
   tracker_ = std::make_unique<tracking::Tracker>(camera, config, map_, std::move(link), pool);
   if (database_) {
     tracker_->set_place_source([this](const map::SharedMap& map, const cv::Mat& descriptors,
-                                      const std::vector<std::uint8_t>& usable) {
+                                      const std::vector<std::uint8_t>& usable, map::KeyFrameId only_before) {
       std::vector<map::KeyFrameId> candidates = placerec::relocalisation_candidates(
-          *database_, map, descriptors, usable, kMaxRelocalisationCandidates);
+          *database_, map, descriptors, usable, kMaxRelocalisationCandidates, {}, only_before);
       ++place_queries_.queries;
       place_queries_.candidates += static_cast<long>(candidates.size());
       return candidates;

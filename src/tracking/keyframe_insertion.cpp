@@ -16,8 +16,7 @@ namespace sitepose::tracking {
 namespace {
 
 // ORB-SLAM2 thresholds, named (METHOD.md "Core tracker").
-constexpr int kMinInitialisationPoints = 100;  // stereo points to start a map
-constexpr int kMinNewClosePoints = 100;        // new keyframe: create at least this many
+constexpr int kMinNewClosePoints = 100;  // new keyframe: create at least this many
 // A camera this close to its reference keyframe (translation as a share of
 // the frame's median stereo depth, and rotation) sees from the same
 // viewpoint: a keyframe there adds no geometry.
@@ -110,10 +109,14 @@ std::optional<SE3> most_shared_keyframe_pose(const map::MapData& map, const Pass
 
 }  // namespace
 
-bool Tracker::initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable) {
+int Tracker::usable_stereo_points(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable) const {
   int n_stereo = 0;
   for (int k = 0; k < frame.size(); ++k) n_stereo += (usable[k] && frame.features.has_depth(k)) ? 1 : 0;
-  if (n_stereo < kMinInitialisationPoints) return false;
+  return n_stereo;
+}
+
+bool Tracker::initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable) {
+  if (usable_stereo_points(frame, usable) < kMinInitialisationPoints) return false;
   // The world frame is the first keyframe's left camera.
   PassResult origin;
   origin.valid = true;
@@ -220,7 +223,7 @@ bool Tracker::stood_for_a_second(std::int64_t t_ns, const Eigen::Vector3d& centr
 }
 
 void Tracker::create_keyframe(const PreparedFrame& frame, const PassResult& result,
-                              const std::vector<std::uint8_t>& usable) {
+                              const std::vector<std::uint8_t>& usable, bool starts_provisional_map) {
   map::KeyFrame kf;
   kf.frame_seq = frame.seq;
   kf.t_ns = frame.t_ns;
@@ -247,6 +250,7 @@ void Tracker::create_keyframe(const PreparedFrame& frame, const PassResult& resu
   const SE3 T_world_cam = kf.T_world_cam;
   const map::KeyFrameId id = map_.write([&](map::MapData& map) {
     const map::KeyFrameId kf_id = map.add_keyframe(std::move(kf));
+    if (starts_provisional_map) map.set_provisional_since(kf_id);
     int created = 0;
     int considered = 0;
     for (const auto& [depth, k] : by_depth) {

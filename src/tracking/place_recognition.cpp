@@ -7,14 +7,19 @@
 
 namespace sitepose::tracking {
 
-PlaceIndex make_place_index(const map::MapData& map) {
+PlaceIndex make_place_index(const map::MapData& map, map::KeyFrameId only_before) {
+  const auto included = [&](map::KeyFrameId id) {
+    return only_before == map::kNoKeyFrame || id < only_before;
+  };
   PlaceIndex index;
   index.descriptors.reserve(map.point_count());
   index.offset.reserve(map.point_count() + 1);
   for (const auto& [id, point] : map.points()) {
-    if (point.bad || point.observations.empty()) continue;
+    if (point.bad || point.observations.empty() || !included(point.first_keyframe)) continue;
     index.descriptors.push_back(point.descriptor);
-    for (const auto& [keyframe, keypoint] : point.observations) index.keyframes.push_back(keyframe);
+    for (const auto& [keyframe, keypoint] : point.observations) {
+      if (included(keyframe)) index.keyframes.push_back(keyframe);
+    }
     index.offset.push_back(index.keyframes.size());
   }
   return index;

@@ -130,6 +130,11 @@ bool precise_pose(const PassResult& result, int min_inliers_ok) {
   return result.n_inliers >= min_inliers_ok && position_sigma_m(result) <= kMaxOkPositionSigmaM;
 }
 
+double found_share(const PassResult& result) {
+  if (result.visible_points.empty()) return 0.0;
+  return static_cast<double>(result.n_inliers) / static_cast<double>(result.visible_points.size());
+}
+
 double map_aware_position_sigma_m(const StereoCamera& camera, const map::ScalePyramid& pyramid,
                                   const PreparedFrame& frame, const map::MapData& map,
                                   const PassResult& result) {
@@ -183,13 +188,13 @@ Relocaliser::Relocaliser(const StereoCamera& camera, const config::TrackingConfi
 
 bool Relocaliser::relocalise(const map::SharedMap& shared_map, const PreparedFrame& frame,
                              const std::vector<std::uint8_t>& usable, PassResult& result,
-                             const Verify& verify) const {
+                             const Verify& verify, map::KeyFrameId only_before) const {
   // Candidates from the whole map, ranked by place recognition; per
   // candidate: brute-force descriptor matching, PnP RANSAC, motion-only BA,
   // then a projection search over its neighbourhood and BA again. The
   // caller tracks the local map next, and commit() keeps the state
   // RECOVERING until the pose has held for a few frames.
-  const std::vector<map::KeyFrameId> places = candidate_places(shared_map, frame, usable);
+  const std::vector<map::KeyFrameId> places = candidate_places(shared_map, frame, usable, only_before);
   // Every candidate is tried: where the scene repeats (fence, containers,
   // site offices), two places can both give a precise pose, and then
   // neither is trusted; the next frame tries again.
@@ -221,9 +226,11 @@ bool Relocaliser::relocalise(const map::SharedMap& shared_map, const PreparedFra
 
 std::vector<map::KeyFrameId> Relocaliser::candidate_places(const map::SharedMap& shared_map,
                                                            const PreparedFrame& frame,
-                                                           const std::vector<std::uint8_t>& usable) const {
-  if (place_source_) return place_source_(shared_map, frame.features.descriptors, usable);
-  const PlaceIndex index = shared_map.read([](const map::MapData& map) { return make_place_index(map); });
+                                                           const std::vector<std::uint8_t>& usable,
+                                                           map::KeyFrameId only_before) const {
+  if (place_source_) return place_source_(shared_map, frame.features.descriptors, usable, only_before);
+  const PlaceIndex index =
+      shared_map.read([&](const map::MapData& map) { return make_place_index(map, only_before); });
   std::vector<map::KeyFrameId> places;
   for (const PlaceCandidate& c : rank_places(index, frame.features.descriptors, usable))
     places.push_back(c.keyframe);

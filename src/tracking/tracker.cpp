@@ -6,6 +6,7 @@
 #include <set>
 #include <unordered_set>
 
+#include "sitepose/core/log.hpp"
 #include "sitepose/core/stopwatch.hpp"
 #include "sitepose/optim/reprojection_costs.hpp"
 #include "sitepose/tracking/pose_refinement.hpp"
@@ -350,9 +351,16 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     // frame, try again (on repeated structure a weak one landed 2.7 m off).
     relocalised = relocaliser_.relocalise(map_, frame, usable, result, [&](PassResult& r) {
       track_local_map(frame, usable, anchor, r);
-      return precise_pose(r, config_.tracking.min_inliers_ok);
+      return precise_pose(r, config_.tracking.min_inliers_ok) &&
+             found_share(r) >= kMinRelocalisationFoundShare;
     });
     tracked = relocalised;
+    if (relocalised)
+      spdlog::debug(
+          "tracking: relocalised at frame {}: {} inliers, {} map points in view ({:.2f} found), sigma {:.4f} "
+          "m",
+          frame.seq, result.n_inliers, result.visible_points.size(), found_share(result),
+          position_sigma_m(result));
   }
   result.timings.motion_model_ms =
       ms_since(t_motion) - result.timings.motion_ba_ms - result.timings.local_map_ms;
@@ -457,6 +465,10 @@ bool Tracker::update_state(const PassResult& result, bool precise, bool confirme
 
 std::string Tracker::state_reason(const PassResult& result) const {
   if (state_ != TrackingState::kRecovering) return "";
+  if (provisional_since_ != map::kNoKeyFrame) {
+    return "provisional map since keyframe " + std::to_string(provisional_since_) +
+           ": not joined to the site map";
+  }
   if (!hold_.holding()) {
     if (result.n_inliers < config_.tracking.min_inliers_ok)
       return "only " + std::to_string(result.n_inliers) + " inliers";
@@ -469,7 +481,7 @@ std::string Tracker::state_reason(const PassResult& result) const {
          std::to_string(hold_.hold_frames()) + " frames";
 }
 
-PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& result,
+PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& tracked,
                              const std::vector<std::uint8_t>& usable) {
   ++counters_.frames;
   PoseEstimate pose;
@@ -477,7 +489,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
   pose.seq = frame.seq;
   pose.counters.features_extracted = frame.size();
 
-  if (result.needs_initialisation) {
+  if (tracked.needs_initialisation) {
     if (initialise(frame, usable)) {
       state_ = TrackingState::kOk;
       pose.state = TrackingState::kOk;
@@ -502,23 +514,36 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& resul
     return pose;
   }
 
-  const HoldVerdict verdict = judge_hold(frame, result);
-  if (!result.valid || verdict.dropped) {
+  HoldVerdict verdict = judge_hold(frame, tracked);
+  if (!tracked.valid || verdict.dropped) {
     if (verdict.dropped) hold_.stop();
+    if (start_provisional_map_if_due(frame, usable, pose)) return pose;
     ++counters_.frames_lost;
     state_ = TrackingState::kLost;
     has_velocity_ = false;
     last_close_points_.clear();
     recent_centres_.clear();
     pose.state = TrackingState::kLost;
-    pose.state_reason = verdict.dropped ? not_precise_reason(result) : result.failure;
+    pose.state_reason = verdict.dropped ? not_precise_reason(tracked) : tracked.failure;
     // Keep the last pose for relocalisation; the outputs carry LOST.
     if (has_last_) pose.T_world_cam = last_T_cam_world_.inverse();
     return pose;
   }
+  frames_lost_in_a_row_ = 0;
+  lost_with_view_since_ns_ = -1;
+  PassResult joined;
+  const PassResult& result = provisional_since_ == map::kNoKeyFrame
+                                 ? tracked
+                                 : settle_provisional_map(frame, usable, tracked, joined);
+  if (&result == &joined) verdict = judge_hold(frame, joined);  // held as a relocalisation
 
   const bool relocalised = update_state(result, verdict.precise, verdict.confirmed);
-  has_velocity_ = has_last_ && !relocalised;
+  // Precise where it is, but where it is was guessed.
+  if (provisional_since_ != map::kNoKeyFrame) state_ = TrackingState::kRecovering;
+  // A join is a relocalisation of a tracked frame: the last pose moved with
+  // the map (apply_map_correction), so the velocity is still good.
+  const bool joined_now = &result == &joined;
+  has_velocity_ = has_last_ && (!relocalised || joined_now);
   if (has_velocity_) velocity_ = result.T_cam_world * last_T_cam_world_.inverse();
   last_T_cam_world_ = result.T_cam_world;
   remember_centre(frame.t_ns, result.T_cam_world.inverse().translation());

@@ -80,6 +80,11 @@ struct TrackingConfig {
   // sharing most of its matches; 0 = off (the ORB-SLAM2 rules alone).
   // keep_tracked_corners wants it (docs/tracking/extraction.md).
   double keyframe_travel_depth_share = 0.05;
+  // Lost this long (counted from the first lost frame with enough stereo
+  // points for a map): a provisional map at the dead-reckoned pose, RECOVERING
+  // until relocalised in the site map and joined to it; 0 = stay LOST
+  // (tracking/tracker.hpp, docs/tracking/provisional_map.md).
+  double new_map_after_lost_s = 3.0;
 
   bool operator==(const TrackingConfig&) const = default;
 };

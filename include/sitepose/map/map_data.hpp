@@ -155,6 +155,24 @@ class MapData {
   // mapper calls this once per keyframe to reclaim the memory.
   std::size_t purge_bad_points();
 
+  // A provisional map (tracking/provisional_map.hpp): the keyframes with ids
+  // >= provisional_since(), started by the tracker after it lost the site
+  // map, placed by dead reckoning and not yet joined to the site map. Their
+  // points are those they created. kNoKeyFrame: none. Not part of a saved
+  // map (encode_map leaves the provisional keyframes out).
+  KeyFrameId provisional_since() const { return provisional_since_; }
+  void set_provisional_since(KeyFrameId first) { provisional_since_ = first; }
+  // Moves the keyframes with ids >= first and the points they created
+  // rigidly: T_world_cam' = correction * T_world_cam, p' = correction * p
+  // (normals turn with it; distance ranges stay). The join of a
+  // provisional map to the site map.
+  void move_keyframes_from(KeyFrameId first, const SE3& correction);
+  // Removes the keyframes with ids >= first (set_keyframe_bad, newest
+  // first; their points lose those observations) and clears the
+  // provisional mark; last_keyframe() becomes the newest one left. The
+  // first keyframe is never removed. Returns the ids removed.
+  std::vector<KeyFrameId> drop_keyframes_from(KeyFrameId first);
+
  private:
   ScalePyramid pyramid_;
   std::unordered_map<KeyFrameId, KeyFrame> keyframes_;
@@ -164,6 +182,7 @@ class MapData {
   KeyFrameId first_keyframe_ = kNoKeyFrame;
   KeyFrameId last_keyframe_ = kNoKeyFrame;
   std::vector<KeyFrameId> tracker_keyframes_;
+  KeyFrameId provisional_since_ = kNoKeyFrame;
 };
 
 template <typename CentreOf>

@@ -8,7 +8,8 @@
 //   * or on the caller's thread: process_pending() (deterministic runs),
 //     never while the thread runs.
 // hold() stops the thread taking keyframes until release() (the loop
-// closer's pause of the mapper, ORB-SLAM2 RequestStop / Release).
+// closer's pause of the mapper, ORB-SLAM2 RequestStop / Release, and the
+// tracker's while it joins a provisional map); holds nest.
 //
 // Threading: start(), stop() and the destructor belong to the owner's
 // thread; every other member may be called from any thread. `process` is
@@ -60,7 +61,8 @@ class KeyFrameWorker {
   Status process_pending();
 
   // Raises the interrupt flag and returns once the keyframe in progress is
-  // finished; no further keyframe is taken until release(). enqueue() still
+  // finished; no further keyframe is taken until every hold() is
+  // release()d (two holders cannot end each other's hold). enqueue() still
   // queues. No effect on process_pending().
   void hold();
   void release();
@@ -94,7 +96,7 @@ class KeyFrameWorker {
   std::condition_variable idle_cv_;       // guarded by mutex_: became idle
   std::deque<map::KeyFrameId> queue_;     // guarded by mutex_
   bool busy_ = false;                     // guarded by mutex_
-  bool held_ = false;                     // guarded by mutex_
+  int holds_ = 0;                         // guarded by mutex_: hold() calls not yet released
   std::atomic<bool> interrupt_{false};
   std::atomic<bool> running_{false};
   std::jthread thread_;  // owner's thread only

@@ -129,7 +129,8 @@ class LocalMapper {
   void stop();
   bool running() const;
 
-  // The loop closer's hold (ORB-SLAM2 RequestStop / Release): pause()
+  // The loop closer's and the tracker's hold (ORB-SLAM2 RequestStop /
+  // Release; KeyFrameWorker::hold, which nests): pause()
   // aborts a running local BA and returns once the keyframe in progress is
   // finished; no further keyframe is taken from the queue until resume().
   // The tracker may still enqueue. No effect on process_pending().

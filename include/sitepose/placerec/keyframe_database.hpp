@@ -92,10 +92,12 @@ std::vector<PlaceCandidateGroup> group_candidates(
 // The whole query for relocalisation: the usable rows of `descriptors`
 // (N x 32 CV_8UC1) as a bag of words, scored in `database`, grouped by the
 // covisibility of `map` (taken under its read lock), best first, at most
-// max_candidates.
+// max_candidates. only_before: only keyframes with smaller ids (the site map
+// while a provisional map is tracked); kNoKeyFrame = all.
 std::vector<map::KeyFrameId> relocalisation_candidates(const KeyFrameDatabase& database,
                                                        const map::SharedMap& map, const cv::Mat& descriptors,
                                                        const std::vector<std::uint8_t>& usable,
-                                                       int max_candidates, const CandidateQuery& params = {});
+                                                       int max_candidates, const CandidateQuery& params = {},
+                                                       map::KeyFrameId only_before = map::kNoKeyFrame);
 
 }  // namespace sitepose::placerec

@@ -46,8 +46,9 @@ struct PlaceCandidate {
   int votes = 0;
 };
 
-// Copies what a query needs; call under SharedMap::read().
-PlaceIndex make_place_index(const map::MapData& map);
+// Copies what a query needs; call under SharedMap::read(). only_before:
+// the keyframes with smaller ids and their points only; kNoKeyFrame = all.
+PlaceIndex make_place_index(const map::MapData& map, map::KeyFrameId only_before = map::kNoKeyFrame);
 
 // Keyframes ranked by votes, best first (ties: the newer keyframe first),
 // at most query.max_candidates of them. descriptors: N x 32 CV_8UC1;

@@ -51,6 +51,17 @@ double position_sigma_m(const PassResult& result);
 // position sigma within kMaxOkPositionSigmaM.
 bool precise_pose(const PassResult& result, int min_inliers_ok);
 
+// A relocalisation (or a provisional map's join) has no usable prior: a
+// repeated pattern (paving, a fence) can give a precise pose at the wrong
+// place, and there the rest of the map predicted in view is not found. It
+// must find this share of the map points its local-map search predicted in
+// view (inliers / visible_points). Measured on scenario lostmap, seeds
+// 13-15: wrong places (its ground texture repeats every 8.2 m) 0.08-0.10,
+// the right place 0.29-0.58 (docs/tracking/provisional_map.md).
+inline constexpr double kMinRelocalisationFoundShare = 0.2;
+// inliers / visible points of result's local-map search; 0 without any.
+double found_share(const PassResult& result);
+
 // The position sigma of result's pose when its map points are not exact:
 // each inlier's point carries the error of a stereo point triangulated at
 // its present distance along its mean viewing direction (depth z^2 / bf,
@@ -76,11 +87,13 @@ class Relocaliser {
 
   // Where candidate keyframes come from: the usable rows of the frame's
   // descriptors -> keyframe ids, best first (the place-recognition
-  // database, placerec/keyframe_database.hpp). Without one, every query
-  // descriptor votes for the keyframes of its nearest map point
-  // (place_recognition.hpp): exact, but its cost grows with the map.
+  // database, placerec/keyframe_database.hpp), only ids below only_before
+  // unless it is kNoKeyFrame. Without one, every query descriptor votes for
+  // the keyframes of its nearest map point (place_recognition.hpp): exact,
+  // but its cost grows with the map.
   using PlaceSource = std::function<std::vector<map::KeyFrameId>(
-      const map::SharedMap& map, const cv::Mat& descriptors, const std::vector<std::uint8_t>& usable)>;
+      const map::SharedMap& map, const cv::Mat& descriptors, const std::vector<std::uint8_t>& usable,
+      map::KeyFrameId only_before)>;
   void set_place_source(PlaceSource source) { place_source_ = std::move(source); }
 
   // The caller's last word on a candidate's pose (e.g. track the local map
@@ -91,10 +104,12 @@ class Relocaliser {
   // and verify (when given). True with result's pose, matches and
   // relocalised = true when at least one place passes and no other place
   // more than 0.5 m away passes too (a repeated scene: neither
-  // is trusted). On false, result is as given.
+  // is trusted). On false, result is as given. only_before: candidates
+  // among the keyframes with smaller ids only (the site map while a
+  // provisional map is tracked); kNoKeyFrame = the whole map.
   bool relocalise(const map::SharedMap& map, const PreparedFrame& frame,
-                  const std::vector<std::uint8_t>& usable, PassResult& result,
-                  const Verify& verify = {}) const;
+                  const std::vector<std::uint8_t>& usable, PassResult& result, const Verify& verify = {},
+                  map::KeyFrameId only_before = map::kNoKeyFrame) const;
 
   // One candidate place; see relocalise().
   bool relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -103,7 +118,8 @@ class Relocaliser {
  private:
   // Candidate keyframes for `frame`, best first (see PlaceSource).
   std::vector<map::KeyFrameId> candidate_places(const map::SharedMap& map, const PreparedFrame& frame,
-                                                const std::vector<std::uint8_t>& usable) const;
+                                                const std::vector<std::uint8_t>& usable,
+                                                map::KeyFrameId only_before) const;
 
   StereoCamera camera_;
   PlaceSource place_source_;

@@ -41,6 +41,14 @@ struct MapperLink {
   std::function<int()> queue_size;               // keyframes not processed yet
   std::function<bool()> is_idle;                 // nothing queued or running
   std::function<void()> interrupt;               // abort a running local BA
+  // Hold the mapper between keyframes while the tracker moves or drops a
+  // provisional map (LocalMapper::pause / resume); unset: nothing runs
+  // beside the tracker (inline mapping).
+  std::function<void()> pause;
+  std::function<void()> resume;
+  // A keyframe the tracker removed (a dropped provisional map): e.g. out of
+  // the place-recognition database, as the mapper's culling does.
+  std::function<void(map::KeyFrameId)> removed;
 };
 
 struct TrackerCounters {
@@ -54,6 +62,12 @@ struct TrackerCounters {
   // matched again. rematched / previous = share re-found.
   long close_points_previous = 0;
   long close_points_rematched = 0;
+  // Provisional maps (provisional_map.cpp): started after the site map was
+  // lost for tracking.new_map_after_lost_s, joined to it when relocalised
+  // in it, dropped when tracking left one before it was joined.
+  int provisional_maps_started = 0;
+  int provisional_maps_joined = 0;
+  int provisional_maps_dropped = 0;
 };
 
 class Tracker {
@@ -129,6 +143,8 @@ class Tracker {
   void apply_map_correction(const SE3& correction);
 
  private:
+  static constexpr int kMinInitialisationPoints = 100;  // stereo points to start a map (ORB-SLAM2)
+
   // The motion model (relocaliser_ when it fails), then the local map; see
   // estimate().
   bool track_motion_model(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -180,7 +196,37 @@ class Tracker {
   // relocalised.
   bool update_state(const PassResult& result, bool precise, bool confirmed);
   std::string state_reason(const PassResult& result) const;  // empty when OK
+  // The map's first keyframe at the world origin from a frame with enough
+  // usable stereo points (false without).
   bool initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable);
+  int usable_stereo_points(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable) const;
+
+  // Provisional maps (provisional_map.cpp; docs/tracking/provisional_map.md).
+  // A frame the site map could not track: counts the time lost with a view
+  // and, once tracking.new_map_after_lost_s has passed, starts a
+  // provisional map at the dead-reckoned pose (dropping an earlier one that
+  // was never joined). True when it started one: `pose` is then filled.
+  bool start_provisional_map_if_due(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                                    PoseEstimate& pose);
+  // A tracked frame while a provisional map exists. Relocalised into the
+  // site map: the provisional map is dropped and `result` stands. Else a
+  // relocalisation among the site map's keyframes; when it holds, the
+  // provisional map is moved onto the site map and `joined` (that
+  // relocalisation) is what the frame commits. Returns the result to commit.
+  const PassResult& settle_provisional_map(const PreparedFrame& frame,
+                                           const std::vector<std::uint8_t>& usable, const PassResult& result,
+                                           PassResult& joined);
+  void drop_provisional_map(const char* why);
+  // The reference keyframe becomes the one sharing most of result's matches
+  // (it stays when none is shared).
+  void refer_to_most_shared_keyframe(const PassResult& result);
+  // Whether most of result's matched points belong to the site map.
+  bool matched_in_site_map(const PassResult& result) const;
+  // The site map lost for tracking.new_map_after_lost_s: the last pose
+  // carried on by the velocity at the loss, one step per frame lost.
+  SE3 dead_reckoned_T_cam_world() const;
+  // Runs `change` on the map with the mapper held between keyframes.
+  void with_mapper_held(const std::function<void(map::MapData&)>& change);
   // The motion model's pose for the next frame (the last pose without a
   // velocity).
   SE3 predicted_T_cam_world() const;
@@ -193,8 +239,10 @@ class Tracker {
   // The camera stood (moved less than `max_m`) over the last second; false
   // with less than a second of tracked frames behind it.
   bool stood_for_a_second(std::int64_t t_ns, const Eigen::Vector3d& centre_world, double max_m) const;
+  // starts_provisional_map: the keyframe is the first of a provisional map
+  // (marked so under the same lock).
   void create_keyframe(const PreparedFrame& frame, const PassResult& result,
-                       const std::vector<std::uint8_t>& usable);
+                       const std::vector<std::uint8_t>& usable, bool starts_provisional_map = false);
   // Updates the close-point repeatability counters with a committed frame.
   void count_close_repeatability(const PreparedFrame& frame, const PassResult& result);
   // The map points' visible / found counts and the keyframes the frame uses.
@@ -224,6 +272,19 @@ class Tracker {
   // (t_ns, camera centre in the world) of the tracked frames of the last
   // two seconds, oldest first; cleared when tracking is lost.
   std::deque<std::pair<std::int64_t, Eigen::Vector3d>> recent_centres_;
+  // Since the site map was lost: frames lost, the velocity before the loss,
+  // and the first lost frame with enough stereo points for a new map (-1:
+  // none yet). A frame tracked again resets them.
+  int frames_lost_in_a_row_ = 0;
+  SE3 velocity_at_loss_;
+  std::int64_t lost_with_view_since_ns_ = -1;
+  // The first keyframe of the provisional map (MapData::provisional_since,
+  // kept here by its only writer); kNoKeyFrame: none.
+  map::KeyFrameId provisional_since_ = map::kNoKeyFrame;
+  // The join the last frames found (p_site = correction * p_provisional)
+  // and in how many frames in a row it was found again.
+  std::optional<SE3> join_correction_;
+  int join_agreements_ = 0;
   TrackerCounters counters_;
 };
 

@@ -48,5 +48,16 @@ TEST(BlackoutSweep, DISABLED_TruckstopEverySeedComesBackRightOrNotOk) {
   }
 }
 
+// The provisional map (provisional_map_test.cpp) over three renderings.
+TEST(BlackoutSweep, LostMapEverySeedJoinsAndNeverReportsAWrongPoseOk) {
+  for (const int seed : {13, 14, 15}) {
+    blind_spell::LostMapRun r;
+    ASSERT_NO_FATAL_FAILURE(blind_spell::run_lostmap(r, seed));
+    EXPECT_EQ(r.run.tracker_counters.provisional_maps_joined, 1) << "seed " << seed;
+    EXPECT_EQ(r.score.ok_frames_off, 0) << "seed " << seed << ": largest OK error " << r.score.max_ok_error_m;
+    EXPECT_EQ(r.ok_after_visible, r.frames_after_join) << "seed " << seed;
+  }
+}
+
 }  // namespace
 }  // namespace sitepose::experiments

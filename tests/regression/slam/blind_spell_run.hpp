@@ -139,4 +139,51 @@ inline void run_truckstop(TruckstopRun& out, std::optional<int> seed = std::null
   ASSERT_GT(s.first_visible, 0) << "the truck must hide the view and give it back";
 }
 
+// The lens is covered while the roller speeds past the end of its map
+// (scenario lostmap), then it reverses back over the first stretch: a
+// provisional map where dead reckoning puts it, joined to the site map on
+// the way back. Mode none at 640x360 (no machines in the scenario; a
+// third of mode full's time at 960x540).
+struct LostMapRun {
+  DynamicRunResult run;
+  BlackoutScore score;
+  int first_visible = -1;     // the first frame with a view after the covered ones
+  int first_ok_after = -1;    // the first OK frame after it
+  int ok_after_visible = 0;   // OK frames after first_visible
+  int frames_after_join = 0;  // from first_ok_after to the end
+};
+
+inline void run_lostmap(LostMapRun& out, std::optional<int> seed = std::nullopt) {
+  const std::string path = std::string(SITEPOSE_SCENARIO_DIR) + "/lostmap.yaml";
+  auto scenario = sim::load_scenario(path);
+  ASSERT_TRUE(scenario.has_value()) << scenario.error().message;
+  config::SiteposeConfig config;
+  config.dynamic.mode = config::MaskingMode::kNone;
+  auto source = open_simulated(path, 0, seed, 640, 360);
+  ASSERT_TRUE(source.has_value()) << source.error().message;
+  auto run = run_dynamic(**source, config);
+  ASSERT_TRUE(run.has_value()) << run.error().message;
+  ASSERT_EQ(run->ground_truth.size(), static_cast<std::size_t>(run->frames));
+  out.run = std::move(*run);
+  out.score = score(out.run, covered_frames(*scenario, out.run.frames));
+  out.first_visible = out.score.first_visible;
+  const auto& poses = out.run.recorder.poses();
+  for (int k = std::max(0, out.first_visible); k < out.run.frames; ++k) {
+    if (poses[k].state != TrackingState::kOk) continue;
+    if (out.first_ok_after < 0) out.first_ok_after = k;
+    ++out.ok_after_visible;
+  }
+  out.frames_after_join = out.first_ok_after < 0 ? 0 : out.run.frames - out.first_ok_after;
+  const tracking::TrackerCounters& c = out.run.tracker_counters;
+  std::printf(
+      "lostmap (seed %s): %d frames, view back at frame %d; provisional maps started %d, joined %d, dropped "
+      "%d; "
+      "first OK after the view came back: frame %d; OK on %d of the %d frames from there; largest OK error "
+      "%.4f m, OK poses > 0.05 m off: %d\n",
+      seed ? std::to_string(*seed).c_str() : "of the scenario", out.run.frames, out.first_visible,
+      c.provisional_maps_started, c.provisional_maps_joined, c.provisional_maps_dropped, out.first_ok_after,
+      out.ok_after_visible, out.frames_after_join, out.score.max_ok_error_m, out.score.ok_frames_off);
+  ASSERT_GT(out.first_visible, 0) << "the scenario must cover the lens and give the view back";
+}
+
 }  // namespace sitepose::experiments::blind_spell

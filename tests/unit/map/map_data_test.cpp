@@ -73,6 +73,56 @@ TEST(MapData, RemovingAKeyframeKeepsTheMapConsistent) {
   EXPECT_NE(m.map.keyframe(m.kf[0]), nullptr);
 }
 
+// ChainMap and a provisional map after it: keyframes 3 and 4, sharing the
+// points keyframe 3 made, nothing with the chain.
+struct ChainWithProvisionalMap : ChainMap {
+  KeyFrameId first_provisional = kNoKeyFrame;
+  std::vector<PointId> provisional_points;
+  ChainWithProvisionalMap() : ChainMap(20) {
+    first_provisional = map.add_keyframe(make_keyframe(20, 30.0));
+    map.set_provisional_since(first_provisional);
+    for (int i = 0; i < 20; ++i)
+      provisional_points.push_back(map.add_point({30.0 + 0.1 * i, 0, 5}, first_provisional, i));
+    KeyFrame next = make_keyframe(20, 31.0);
+    for (PointId id : provisional_points) next.point_of_keypoint.push_back(id);
+    map.add_keyframe(std::move(next));
+  }
+};
+
+TEST(MapData, MovingAProvisionalMapMovesItsKeyFramesAndPointsOnly) {
+  ChainWithProvisionalMap m;
+  const SE3 correction(Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ())),
+                       Eigen::Vector3d(-25.0, 1.0, 0.5));
+  const MapData before = m.map;
+  m.map.move_keyframes_from(m.first_provisional, correction);
+  for (const auto& [id, kf] : m.map.keyframes()) {
+    const SE3 expected = id >= m.first_provisional ? correction * before.keyframe(id)->T_world_cam
+                                                   : before.keyframe(id)->T_world_cam;
+    EXPECT_TRUE(kf.T_world_cam.matrix().isApprox(expected.matrix(), 1e-12)) << "keyframe " << id;
+  }
+  for (const auto& [id, p] : m.map.points()) {
+    const MapPoint& old = *before.point(id);
+    const bool provisional = p.first_keyframe >= m.first_provisional;
+    EXPECT_TRUE(p.p_world.isApprox(provisional ? correction * old.p_world : old.p_world, 1e-12)) << id;
+    EXPECT_TRUE(
+        p.normal.isApprox(provisional ? correction.rotation_matrix() * old.normal : old.normal, 1e-12));
+  }
+  EXPECT_EQ(m.map.provisional_since(), m.first_provisional) << "moving is not joining";
+}
+
+TEST(MapData, DroppingAProvisionalMapLeavesTheSiteMapAsItWas) {
+  ChainWithProvisionalMap m;
+  const std::vector<KeyFrameId> dropped = m.map.drop_keyframes_from(m.first_provisional);
+  EXPECT_EQ(dropped, (std::vector<KeyFrameId>{m.first_provisional + 1, m.first_provisional}));
+  EXPECT_EQ(m.map.keyframe_count(), 3u);
+  EXPECT_EQ(m.map.last_keyframe(), m.kf[2]);
+  EXPECT_EQ(m.map.provisional_since(), kNoKeyFrame);
+  for (PointId id : m.provisional_points) EXPECT_EQ(m.map.good_point(id), nullptr) << id;
+  EXPECT_EQ(m.map.good_point(m.points[0])->observations.size(), 3u);
+  // The next keyframe gets a fresh id, never a dropped one.
+  EXPECT_GT(m.map.add_keyframe(make_keyframe(1, 3.0)), m.first_provisional + 1);
+}
+
 TEST(MapData, ReplacePointMovesObservations) {
   ChainMap m(20);
   const PointId a = m.points[0];

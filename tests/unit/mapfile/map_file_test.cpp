@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <filesystem>
 #include <limits>
+#include <set>
 #include <string>
+#include <tuple>
 
 #include "map_fixture.hpp"
 #include "sitepose/mapfile/atomic_file.hpp"
@@ -157,6 +159,44 @@ TEST(MapFile, LoopEdgesRoundTripInTheirOwnSection) {
   EXPECT_EQ(loaded->map.keyframe(b)->loop_edges, (std::set<map::KeyFrameId>{a}));
   shared.read([&](const map::MapData& m) { expect_same_keyframes(m, loaded->map); });
   EXPECT_EQ(encode_map(loaded->map, loaded->meta), with);
+}
+
+// A provisional map is placed by dead reckoning: a file keeps the site map
+// alone, and saving leaves the running map as it is.
+TEST(MapFile, AProvisionalMapIsNotSaved) {
+  map::SharedMap shared;
+  test::build_map(shared, 11);
+  constexpr map::KeyFrameId kFirstProvisional = 8;
+  const auto [keyframes_before, site_keyframes, site_points] = shared.write([](map::MapData& m) {
+    m.set_provisional_since(kFirstProvisional);
+    std::size_t kfs = 0;
+    for (const auto& [id, kf] : m.keyframes()) kfs += id < kFirstProvisional ? 1 : 0;
+    // Points the site map keeps: untouched, or left with two views (a
+    // point losing views below two becomes bad, MapData::erase_observation).
+    std::set<map::PointId> points;
+    for (const auto& [id, p] : m.points()) {
+      int site_views = 0;
+      int provisional_views = 0;
+      for (const auto& [kf, index] : p.observations)
+        (kf < kFirstProvisional ? site_views : provisional_views)++;
+      if (!p.bad && site_views > 0 && (provisional_views == 0 || site_views >= 2)) points.insert(id);
+    }
+    return std::tuple{m.keyframe_count(), kfs, points};
+  });
+  ASSERT_GT(keyframes_before, site_keyframes);
+  const Bytes bytes = shared.read([](const map::MapData& m) { return encode_map(m, {}); });
+  auto loaded = decode_map(bytes);
+  ASSERT_TRUE(loaded) << loaded.error().message;
+  EXPECT_EQ(loaded->map.keyframe_count(), site_keyframes);
+  for (const auto& [id, kf] : loaded->map.keyframes()) EXPECT_LT(id, kFirstProvisional);
+  std::set<map::PointId> loaded_points;
+  for (const auto& [id, p] : loaded->map.points()) loaded_points.insert(id);
+  EXPECT_EQ(loaded_points, site_points) << "exactly the points the site map's keyframes observe";
+  EXPECT_EQ(loaded->map.provisional_since(), map::kNoKeyFrame);
+  shared.read([&](const map::MapData& m) {
+    EXPECT_EQ(m.keyframe_count(), keyframes_before);
+    EXPECT_EQ(m.provisional_since(), kFirstProvisional);
+  });
 }
 
 TEST(MapFile, LoadedMapGrowsWithFreshIds) {
