@@ -357,8 +357,7 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     tracked = relocalised;
     if (relocalised)
       spdlog::debug(
-          "tracking: relocalised at frame {}: {} inliers, {} map points in view ({:.2f} found), sigma {:.4f} "
-          "m",
+          "tracking: relocalised at frame {}: {} inliers of {} map points in view ({:.2f}), sigma {:.4f} m",
           frame.seq, result.n_inliers, result.visible_points.size(), found_share(result),
           position_sigma_m(result));
   }
@@ -481,6 +480,31 @@ std::string Tracker::state_reason(const PassResult& result) const {
          std::to_string(hold_.hold_frames()) + " frames";
 }
 
+void Tracker::commit_initialisation(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                                    PoseEstimate& pose) {
+  if (initialise(frame, usable)) {
+    state_ = TrackingState::kOk;
+    pose.state = TrackingState::kOk;
+    pose.T_world_cam = SE3();
+    pose.covariance = Matrix6d::Zero();  // the origin is exact by definition
+    last_matches_.clear();
+    map_.read([&](const map::MapData& map) {
+      const map::KeyFrame* kf = map.keyframe(reference_keyframe_);
+      for (int k = 0; k < static_cast<int>(kf->point_of_keypoint.size()); ++k) {
+        if (kf->point_of_keypoint[k] != map::kNoPoint) {
+          last_matches_.emplace_back(kf->point_of_keypoint[k], kf->keypoints[k].octave);
+        }
+      }
+    });
+    pose.counters.features_used = static_cast<int>(last_matches_.size());
+  } else {
+    state_ = TrackingState::kLost;
+    pose.state = TrackingState::kLost;
+    pose.state_reason = "too few stereo points to initialise the map";
+    ++counters_.frames_lost;
+  }
+}
+
 PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& tracked,
                              const std::vector<std::uint8_t>& usable) {
   ++counters_.frames;
@@ -490,27 +514,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
   pose.counters.features_extracted = frame.size();
 
   if (tracked.needs_initialisation) {
-    if (initialise(frame, usable)) {
-      state_ = TrackingState::kOk;
-      pose.state = TrackingState::kOk;
-      pose.T_world_cam = SE3();
-      pose.covariance = Matrix6d::Zero();  // the origin is exact by definition
-      last_matches_.clear();
-      map_.read([&](const map::MapData& map) {
-        const map::KeyFrame* kf = map.keyframe(reference_keyframe_);
-        for (int k = 0; k < static_cast<int>(kf->point_of_keypoint.size()); ++k) {
-          if (kf->point_of_keypoint[k] != map::kNoPoint) {
-            last_matches_.emplace_back(kf->point_of_keypoint[k], kf->keypoints[k].octave);
-          }
-        }
-      });
-      pose.counters.features_used = static_cast<int>(last_matches_.size());
-    } else {
-      state_ = TrackingState::kLost;
-      pose.state = TrackingState::kLost;
-      pose.state_reason = "too few stereo points to initialise the map";
-      ++counters_.frames_lost;
-    }
+    commit_initialisation(frame, usable, pose);
     return pose;
   }
 

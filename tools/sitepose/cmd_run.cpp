@@ -482,7 +482,7 @@ void add_options(CLI::App& sub, RunArgs& args) {
       ->check(CLI::IsMember({"tum", "kitti", "euroc"}));
   sub.add_option("--tracking-out", args.tracking_out,
                  "Tracking state of every frame, CSV frame,t_s,state (OK, RECOVERING or LOST; "
-                 "docs/run/tracking_states.md)");
+                 "docs/run/README.md, Tracking states)");
   sub.add_option("--states-out", args.states_out,
                  "Motion states CSV, frame,instance,class,state,score,points,reason (--mode full only; "
                  "reason: why unknown)");

@@ -11,7 +11,9 @@
 //                const: changes no tracker or map state, so pass 1 leaves no
 //                trace and pass 2 can start from pass 1's pose.
 //   commit()   — accepts one estimate: motion model, map statistics,
-//                keyframe decision and insertion, hand-over to the mapper.
+//                keyframe decision and insertion, hand-over to the mapper;
+//                a provisional map when the site map stays lost, and its
+//                join (provisional_map.cpp).
 //
 // Thread: one thread (the track stage) calls all three; the map is shared
 // with the local mapper through map::SharedMap (see its ownership rule).
@@ -199,6 +201,9 @@ class Tracker {
   // The map's first keyframe at the world origin from a frame with enough
   // usable stereo points (false without).
   bool initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable);
+  // commit() of a frame before the map exists: initialise() and the pose.
+  void commit_initialisation(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                             PoseEstimate& pose);
   int usable_stereo_points(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable) const;
 
   // Provisional maps (provisional_map.cpp; docs/tracking/provisional_map.md).
