@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <mutex>
+#include <thread>
 #include <vector>
 
 namespace sitepose::mapping {
@@ -70,6 +72,28 @@ TEST(KeyFrameWorker, HeldThreadKeepsKeyframesQueuedUntilReleased) {
   worker.release();
   worker.wait_until_idle();
   EXPECT_EQ(recorder.snapshot(), (std::vector<map::KeyFrameId>{1}));
+  worker.stop();
+}
+
+// The loop closer and the tracker (joining a provisional map) may hold the
+// mapper at once: one release must not end the other's hold.
+TEST(KeyFrameWorker, HoldsNestUntilEachIsReleased) {
+  Recorder recorder;
+  KeyFrameWorker worker(test_options(), recorder.process());
+  worker.start();
+  worker.hold();
+  worker.hold();
+  worker.release();
+  EXPECT_FALSE(worker.begin_interruptible_step()) << "still held by the second holder";
+  worker.enqueue(1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_EQ(worker.queue_size(), 1U);
+  EXPECT_TRUE(recorder.snapshot().empty());
+  worker.release();
+  worker.wait_until_idle();
+  EXPECT_EQ(recorder.snapshot(), (std::vector<map::KeyFrameId>{1}));
+  worker.release();  // one release too many is harmless
+  EXPECT_TRUE(worker.begin_interruptible_step());
   worker.stop();
 }
 
