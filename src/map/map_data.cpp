@@ -451,6 +451,12 @@ std::map<KeyFrameId, int> MapData::keyframes_sharing(const std::vector<PointId>&
   return shared;
 }
 
+KeyFrameId keyframe_sharing_most(const std::map<KeyFrameId, int>& votes) {
+  const auto most = std::max_element(votes.begin(), votes.end(),
+                                     [](const auto& a, const auto& b) { return a.second < b.second; });
+  return most == votes.end() ? kNoKeyFrame : most->first;
+}
+
 int MapData::observation_weight(PointId point_id) const {
   const MapPoint* p = good_point(point_id);
   if (p == nullptr) return 0;

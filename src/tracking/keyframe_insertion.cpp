@@ -99,11 +99,8 @@ KeyframeContext read_keyframe_context(const map::MapData& map, map::KeyFrameId r
 // The pose of the keyframe observing most of the frame's inlier matches
 // (none when nothing is matched).
 std::optional<SE3> most_shared_keyframe_pose(const map::MapData& map, const PassResult& result) {
-  const std::map<map::KeyFrameId, int> shared = map.keyframes_sharing(result.point_of_keypoint);
-  const auto most = std::max_element(shared.begin(), shared.end(),
-                                     [](const auto& a, const auto& b) { return a.second < b.second; });
-  if (most == shared.end()) return std::nullopt;
-  const map::KeyFrame* kf = map.keyframe(most->first);
+  const map::KeyFrame* kf =
+      map.keyframe(map::keyframe_sharing_most(map.keyframes_sharing(result.point_of_keypoint)));
   return kf != nullptr ? std::optional<SE3>(kf->T_world_cam) : std::nullopt;
 }
 

@@ -23,9 +23,9 @@ namespace {
 
 // A join is made when this many frames in a row found it, agreeing within
 // the bounds below (loop closing asks 3 consistent keyframes, ORB-SLAM2).
-// One frame can find a wrong place on a repeated pattern; on scenario
-// lostmap (seeds 13-15) such finds agreed in at most 2 frames in a row, the
-// right place in every frame once in view (docs/tracking/provisional_map.md).
+// One frame can find a wrong place on a repeated pattern, which the next
+// frames do not confirm; the right place is found in every frame once in
+// view (measurements: docs/tracking/provisional_map.md).
 constexpr int kJoinConfirmFrames = 5;
 constexpr double kJoinAgreementM = 0.2;
 constexpr double kJoinAgreementRad = 2.0 * std::numbers::pi / 180.0;
@@ -114,15 +114,10 @@ bool Tracker::start_provisional_map_if_due(const PreparedFrame& frame,
 }
 
 void Tracker::refer_to_most_shared_keyframe(const PassResult& result) {
-  map_.read([&](const map::MapData& map) {
-    int most = 0;
-    for (const auto& [id, shared] : map.keyframes_sharing(result.point_of_keypoint)) {
-      if (shared > most) {
-        most = shared;
-        reference_keyframe_ = id;
-      }
-    }
+  const map::KeyFrameId most = map_.read([&](const map::MapData& map) {
+    return map::keyframe_sharing_most(map.keyframes_sharing(result.point_of_keypoint));
   });
+  if (most != map::kNoKeyFrame) reference_keyframe_ = most;
 }
 
 bool Tracker::matched_in_site_map(const PassResult& result) const {
@@ -151,12 +146,7 @@ const PassResult& Tracker::settle_provisional_map(const PreparedFrame& frame,
   joined.n_usable_keypoints = result.n_usable_keypoints;
   const bool found = relocaliser_.relocalise(
       map_, frame, usable, joined,
-      [&](PassResult& r) {
-        track_local_map(frame, usable, nullptr, r);
-        return precise_pose(r, config_.tracking.min_inliers_ok) &&
-               found_share(r) >= kMinRelocalisationFoundShare;
-      },
-      provisional_since_);
+      [&](PassResult& r) { return holds_as_relocalisation(frame, usable, nullptr, r); }, provisional_since_);
   if (!found) {
     join_correction_.reset();
     join_agreements_ = 0;

@@ -185,6 +185,10 @@ class MapData {
   KeyFrameId provisional_since_ = kNoKeyFrame;
 };
 
+// The keyframe with most of keyframes_sharing()'s votes (the smallest id of
+// equals); kNoKeyFrame without votes.
+KeyFrameId keyframe_sharing_most(const std::map<KeyFrameId, int>& votes);
+
 template <typename CentreOf>
 std::optional<PointGeometry> MapData::point_geometry(PointId point_id, const Eigen::Vector3d& p_world,
                                                      CentreOf&& centre_of) const {

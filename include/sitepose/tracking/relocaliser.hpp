@@ -55,9 +55,8 @@ bool precise_pose(const PassResult& result, int min_inliers_ok);
 // repeated pattern (paving, a fence) can give a precise pose at the wrong
 // place, and there the rest of the map predicted in view is not found. It
 // must find this share of the map points its local-map search predicted in
-// view (inliers / visible_points). Measured on scenario lostmap, seeds
-// 13-15: wrong places (its ground texture repeats every 8.2 m) 0.08-0.10,
-// the right place 0.29-0.58 (docs/tracking/provisional_map.md).
+// view (inliers / visible_points); the measurements behind the value are in
+// docs/tracking/provisional_map.md.
 inline constexpr double kMinRelocalisationFoundShare = 0.2;
 // inliers / visible points of result's local-map search; 0 without any.
 double found_share(const PassResult& result);

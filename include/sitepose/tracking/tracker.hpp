@@ -162,6 +162,11 @@ class Tracker {
   bool track_from_prediction(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                              const SE3& predicted, const std::vector<PointView>& points, SearchParams params,
                              std::vector<int>& match, PassResult& result) const;
+  // A relocalisation candidate's last word (Relocaliser::Verify): its local
+  // map tracked (as track_local_map), then a precise pose that finds
+  // kMinRelocalisationFoundShare of the map points in view.
+  bool holds_as_relocalisation(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
+                               const PassResult* anchor, PassResult& candidate) const;
   // Without anchor: the local map of result's own matches, which stay.
   // With anchor: the anchor's local map, every keypoint matched afresh.
   void track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
