@@ -45,6 +45,15 @@ RelocalisationCandidate relocalisation_candidate(const map::MapData& map, const 
   return c;
 }
 
+std::optional<RelocalisationCandidate> relocalisation_candidate(const map::SharedMap& shared_map,
+                                                                map::KeyFrameId id) {
+  return shared_map.read([&](const map::MapData& map) -> std::optional<RelocalisationCandidate> {
+    const map::KeyFrame* kf = map.keyframe(id);
+    if (kf == nullptr || kf->bad) return std::nullopt;
+    return relocalisation_candidate(map, *kf);
+  });
+}
+
 // Brute-force descriptor matches of the usable keypoints to `points`
 // (ratio test 0.75): per keypoint the point index or -1, and the 3D-2D pairs
 // for PnP with the keypoint of each.
@@ -201,12 +210,7 @@ bool Relocaliser::relocalise(const map::SharedMap& shared_map, const PreparedFra
   const PassResult initial = result;
   std::optional<PassResult> accepted;
   for (const map::KeyFrameId place : places) {
-    const std::optional<RelocalisationCandidate> c =
-        shared_map.read([&](const map::MapData& map) -> std::optional<RelocalisationCandidate> {
-          const map::KeyFrame* kf = map.keyframe(place);
-          if (kf == nullptr || kf->bad) return std::nullopt;
-          return relocalisation_candidate(map, *kf);
-        });
+    const std::optional<RelocalisationCandidate> c = relocalisation_candidate(shared_map, place);
     if (!c) continue;
     if (accepted && accepted_near(*accepted, c->T_cam_world)) continue;  // same place, already verified
     PassResult attempt = initial;
@@ -235,6 +239,17 @@ std::vector<map::KeyFrameId> Relocaliser::candidate_places(const map::SharedMap&
   for (const PlaceCandidate& c : rank_places(index, frame.features.descriptors, usable))
     places.push_back(c.keyframe);
   return places;
+}
+
+bool Relocaliser::track_against_keyframe(const map::SharedMap& map, const PreparedFrame& frame,
+                                         const std::vector<std::uint8_t>& usable, map::KeyFrameId keyframe,
+                                         PassResult& result) const {
+  const std::optional<RelocalisationCandidate> c = relocalisation_candidate(map, keyframe);
+  if (!c) return false;
+  PassResult attempt = result;
+  if (!relocalise_against(frame, usable, *c, attempt)) return false;
+  result = std::move(attempt);
+  return true;
 }
 
 bool Relocaliser::relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,

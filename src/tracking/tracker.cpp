@@ -329,6 +329,16 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     result.T_cam_world = anchor->T_cam_world;
     result.relocalised = anchor->relocalised;
     tracked = true;
+  } else if (has_last_ && state_ != TrackingState::kLost && !has_velocity_) {
+    // Motion unknown (the frame after a relocalisation or the first map): a
+    // search around the last pose looks for a moving camera's points where
+    // they were, and at 0.5 m a frame it matched the wrong ones, which the
+    // hold then confirmed (docs/tracking/provisional_map.md, "The frame
+    // after a relocalisation"). Descriptors need no prediction; without
+    // enough of them, relocalisation.
+    tracked = relocaliser_.track_against_keyframe(map_, frame, usable, reference_keyframe_, result);
+    spdlog::debug("tracking: frame {} against keyframe {} by descriptors: {} ({} inliers)", frame.seq,
+                  reference_keyframe_, tracked ? "tracked" : "failed", result.n_inliers);
   } else if (has_last_ && state_ != TrackingState::kLost) {
     const SE3 predicted = predicted_T_cam_world();
     tracked = track_motion_model(frame, usable, predicted, result);

@@ -160,6 +160,9 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
   // the map (apply_map_correction), so the velocity is still good.
   const bool joined_now = &result == &joined;
   has_velocity_ = has_last_ && (!relocalised || joined_now);
+  // The next frame is tracked against this keyframe (estimate()); the one
+  // from before the loss may be far away.
+  if (relocalised && !joined_now) refer_to_most_shared_keyframe(result);
   if (has_velocity_) velocity_ = result.T_cam_world * last_T_cam_world_.inverse();
   last_T_cam_world_ = result.T_cam_world;
   remember_centre(frame.t_ns, result.T_cam_world.inverse().translation());

@@ -114,6 +114,16 @@ class Relocaliser {
   bool relocalise_against(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                           const RelocalisationCandidate& candidate, PassResult& result) const;
 
+  // The frame after a relocalisation, whose motion is unknown: its pose from
+  // `keyframe`'s points by descriptor matching and PnP, as relocalise_against
+  // does, with no prior from the last pose (ORB-SLAM2 tracks that frame
+  // against its reference keyframe by descriptors too). result.relocalised is
+  // left as given: the caller tracks the local map next. False, with result
+  // as given, when the keyframe is gone or too few matches hold.
+  bool track_against_keyframe(const map::SharedMap& map, const PreparedFrame& frame,
+                              const std::vector<std::uint8_t>& usable, map::KeyFrameId keyframe,
+                              PassResult& result) const;
+
  private:
   // Candidate keyframes for `frame`, best first (see PlaceSource).
   std::vector<map::KeyFrameId> candidate_places(const map::SharedMap& map, const PreparedFrame& frame,

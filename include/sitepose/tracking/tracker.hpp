@@ -6,8 +6,10 @@
 //   prepare()  — ORB extraction (features::StereoExtractor: left and right
 //                concurrently on the lent pool) and stereo matching, once
 //                per frame; tags keypoints with instance ids.
-//   estimate() — a pose from the keypoints marked usable: motion model (or
-//                relocalisation), then the local map, with motion-only BA.
+//   estimate() — a pose from the keypoints marked usable: motion model
+//                (descriptors against the reference keyframe when the motion
+//                is unknown; relocalisation when both fail), then the local
+//                map, with motion-only BA.
 //                const: changes no tracker or map state, so pass 1 leaves no
 //                trace and pass 2 can start from pass 1's pose.
 //   commit()   — accepts one estimate: motion model, map statistics,
@@ -91,7 +93,9 @@ class Tracker {
   // usable: per keypoint of `frame`, 1 = may be used. anchor: an earlier
   // pass on the same frame (pass 2 gets pass 1) whose pose to start from
   // and whose local map to search, matching every keypoint afresh;
-  // default: the motion model.
+  // default: the motion model, or without a velocity (after a
+  // relocalisation) Relocaliser::track_against_keyframe on the reference
+  // keyframe.
   PassResult estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                       const PassResult* anchor = nullptr) const;
 

@@ -59,5 +59,16 @@ TEST(BlackoutSweep, LostMapEverySeedJoinsAndNeverReportsAWrongPoseOk) {
   }
 }
 
+// Blackout.AtSpeedTheFramesAfterARelocalisationAreRight over three renderings.
+TEST(BlackoutSweep, LostMapWithoutProvisionalMapsNeverReportsAWrongPoseOk) {
+  for (const int seed : {13, 14, 15}) {
+    blind_spell::LostMapRun r;
+    ASSERT_NO_FATAL_FAILURE(blind_spell::run_lostmap(r, seed, false));
+    EXPECT_EQ(r.score.ok_frames_off, 0) << "seed " << seed << ": largest OK error " << r.score.max_ok_error_m;
+    EXPECT_GT(r.first_ok_after, 0) << "seed " << seed << ": never OK again";
+    EXPECT_EQ(r.ok_after_visible, r.frames_after_join) << "seed " << seed;
+  }
+}
+
 }  // namespace
 }  // namespace sitepose::experiments

@@ -143,7 +143,9 @@ inline void run_truckstop(TruckstopRun& out, std::optional<int> seed = std::null
 // (scenario lostmap), then it reverses back over the first stretch: a
 // provisional map where dead reckoning puts it, joined to the site map on
 // the way back. Mode none at 640x360 (no machines in the scenario; a
-// third of mode full's time at 960x540).
+// third of mode full's time at 960x540). Without provisional maps
+// (provisional_maps false: tracking.new_map_after_lost_s 0) the tracker is
+// LOST until it relocalises in the site map on the way back, at 3 m/s.
 struct LostMapRun {
   DynamicRunResult run;
   BlackoutScore score;
@@ -153,12 +155,14 @@ struct LostMapRun {
   int frames_after_join = 0;  // from first_ok_after to the end
 };
 
-inline void run_lostmap(LostMapRun& out, std::optional<int> seed = std::nullopt) {
+inline void run_lostmap(LostMapRun& out, std::optional<int> seed = std::nullopt,
+                        bool provisional_maps = true) {
   const std::string path = std::string(SITEPOSE_SCENARIO_DIR) + "/lostmap.yaml";
   auto scenario = sim::load_scenario(path);
   ASSERT_TRUE(scenario.has_value()) << scenario.error().message;
   config::SiteposeConfig config;
   config.dynamic.mode = config::MaskingMode::kNone;
+  if (!provisional_maps) config.tracking.new_map_after_lost_s = 0.0;
   auto source = open_simulated(path, 0, seed, 640, 360);
   ASSERT_TRUE(source.has_value()) << source.error().message;
   auto run = run_dynamic(**source, config);
@@ -176,11 +180,11 @@ inline void run_lostmap(LostMapRun& out, std::optional<int> seed = std::nullopt)
   out.frames_after_join = out.first_ok_after < 0 ? 0 : out.run.frames - out.first_ok_after;
   const tracking::TrackerCounters& c = out.run.tracker_counters;
   std::printf(
-      "lostmap (seed %s): %d frames, view back at frame %d; provisional maps started %d, joined %d, dropped "
-      "%d; "
-      "first OK after the view came back: frame %d; OK on %d of the %d frames from there; largest OK error "
-      "%.4f m, OK poses > 0.05 m off: %d\n",
-      seed ? std::to_string(*seed).c_str() : "of the scenario", out.run.frames, out.first_visible,
+      "lostmap (seed %s%s): %d frames, view back at frame %d; provisional maps started %d, joined %d, "
+      "dropped %d; first OK after the view came back: frame %d; OK on %d of the %d frames from there; "
+      "largest OK error %.4f m, OK poses > 0.05 m off: %d\n",
+      seed ? std::to_string(*seed).c_str() : "of the scenario",
+      provisional_maps ? "" : ", provisional maps off", out.run.frames, out.first_visible,
       c.provisional_maps_started, c.provisional_maps_joined, c.provisional_maps_dropped, out.first_ok_after,
       out.ok_after_visible, out.frames_after_join, out.score.max_ok_error_m, out.score.ok_frames_off);
   ASSERT_GT(out.first_visible, 0) << "the scenario must cover the lens and give the view back";
