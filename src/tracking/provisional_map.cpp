@@ -109,7 +109,7 @@ bool Tracker::start_provisional_map_if_due(const PreparedFrame& frame,
   pose.state = TrackingState::kRecovering;
   pose.state_reason = "provisional map started at the dead-reckoned pose: not joined to the site map";
   pose.T_world_cam = T_cam_world.inverse();
-  pose.covariance = Matrix6d::Identity() * 1e6;  // the place is a guess
+  pose.covariance = Matrix6d::Identity() * kGuessedPlaceVariance;
   return true;
 }
 

@@ -182,7 +182,10 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
   pose.state = state_;
   pose.state_reason = state_reason(result);
   pose.T_world_cam = result.T_cam_world.inverse();
-  pose.covariance = result.covariance_world_cam.value_or(Matrix6d::Identity() * 1e6);
+  pose.covariance = result.covariance_world_cam.value_or(Matrix6d::Identity() * kGuessedPlaceVariance);
+  // Precise within a provisional map, which was put where dead reckoning
+  // guessed (26 m off on lostmap): the covariance must not claim the place.
+  if (provisional_since_ != map::kNoKeyFrame) pose.covariance += Matrix6d::Identity() * kGuessedPlaceVariance;
   pose.counters.features_used = result.n_inliers;
   pose.counters.features_used_pass1 = result.n_inliers;
   return pose;

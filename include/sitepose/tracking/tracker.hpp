@@ -150,6 +150,11 @@ class Tracker {
 
  private:
   static constexpr int kMinInitialisationPoints = 100;  // stereo points to start a map (ORB-SLAM2)
+  // A pose whose place is a guess (a provisional map) has this added to
+  // each variance of its covariance (m², rad²): a place not known within a
+  // kilometre, so that the published protection level raises the
+  // integrity alert.
+  static constexpr double kGuessedPlaceVariance = 1e6;
 
   // The motion model (relocaliser_ when it fails), then the local map; see
   // estimate().

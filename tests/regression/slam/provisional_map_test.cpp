@@ -5,7 +5,8 @@
 // dead-reckoned pose (about 26 m short) and tracks RECOVERING in it. On the
 // way back over the first stretch the provisional map is joined to the site
 // map, and the pose is OK and right from then on. No pose before the join
-// may be OK (docs/tracking/provisional_map.md).
+// may be OK, nor claim its place in its covariance
+// (docs/tracking/provisional_map.md).
 
 #include <gtest/gtest.h>
 
@@ -30,6 +31,17 @@ TEST(ProvisionalMap, LostPastTheMapStartsOneAndJoinsItToTheSiteMapOnTheWayBack) 
   EXPECT_GT(r.first_ok_after, 250) << "an OK pose before the site map was in view";
   EXPECT_LT(r.first_ok_after, 315) << "joined late or never";
   EXPECT_EQ(r.ok_after_visible, r.frames_after_join) << "once joined, every frame OK";
+  // Poses in the provisional map are 26 m off: their covariance must say
+  // the place is not known (protection level far over any alert limit).
+  int provisional = 0;
+  int claiming_the_place = 0;
+  for (const PoseEstimate& pose : r.run.recorder.poses()) {
+    if (!pose.state_reason.starts_with("provisional map")) continue;
+    ++provisional;
+    if (pose.covariance.topLeftCorner<3, 3>().diagonal().minCoeff() < 1e6) ++claiming_the_place;
+  }
+  EXPECT_GT(provisional, 100);
+  EXPECT_EQ(claiming_the_place, 0);
 }
 
 }  // namespace
