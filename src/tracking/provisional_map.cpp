@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <numbers>
 #include <string>
 
@@ -30,6 +31,9 @@ constexpr int kJoinConfirmFrames = 5;
 constexpr double kJoinAgreementM = 0.2;
 constexpr double kJoinAgreementRad = 2.0 * std::numbers::pi / 180.0;
 
+// Dead reckoning carries the mean step of this long before the loss.
+constexpr std::int64_t kDeadReckoningWindowNs = 1'000'000'000;
+
 bool agree(const SE3& a, const SE3& b) {
   const SE3 d = a.inverse() * b;
   return d.translation().norm() <= kJoinAgreementM &&
@@ -37,6 +41,22 @@ bool agree(const SE3& a, const SE3& b) {
 }
 
 }  // namespace
+
+void Tracker::remember_step(std::int64_t t_ns, const std::optional<SE3>& step) {
+  if (!step || (!recent_steps_.empty() && t_ns < recent_steps_.back().first)) {
+    recent_steps_.clear();
+    if (!step) return;
+  }
+  recent_steps_.emplace_back(t_ns, *step);
+  while (recent_steps_.front().first < t_ns - kDeadReckoningWindowNs) recent_steps_.pop_front();
+}
+
+SE3 Tracker::mean_recent_step() const {
+  if (recent_steps_.empty()) return SE3();
+  Vector6d sum = Vector6d::Zero();
+  for (const auto& [t_ns, step] : recent_steps_) sum += step.log();
+  return SE3::exp(sum / static_cast<double>(recent_steps_.size()));
+}
 
 SE3 Tracker::dead_reckoned_T_cam_world() const {
   SE3 T_cam_world = last_T_cam_world_;
@@ -69,8 +89,8 @@ void Tracker::drop_provisional_map(const char* why) {
 bool Tracker::start_provisional_map_if_due(const PreparedFrame& frame,
                                            const std::vector<std::uint8_t>& usable, PoseEstimate& pose) {
   if (state_ != TrackingState::kLost) {
-    // The first lost frame: the motion of the last tracked step carries on.
-    velocity_at_loss_ = has_velocity_ ? velocity_ : SE3();
+    // The first lost frame: the motion of the last second carries on.
+    velocity_at_loss_ = mean_recent_step();
     frames_lost_in_a_row_ = 0;
     lost_with_view_since_ns_ = -1;
   }
@@ -174,10 +194,13 @@ const PassResult& Tracker::settle_provisional_map(const PreparedFrame& frame,
   provisional_since_ = map::kNoKeyFrame;
   refer_to_most_shared_keyframe(joined);
   ++counters_.provisional_maps_joined;
+  const double move_m = correction.translation().norm();
+  const double rotation_deg = Eigen::AngleAxisd(correction.rotation()).angle() * 180.0 / std::numbers::pi;
+  counters_.largest_join_move_m = std::max(counters_.largest_join_move_m, move_m);
+  counters_.largest_join_rotation_deg = std::max(counters_.largest_join_rotation_deg, rotation_deg);
   spdlog::warn(
       "tracking: provisional map from keyframe {} joined to the site map: moved {:.3f} m, {:.2f} deg", first,
-      correction.translation().norm(),
-      Eigen::AngleAxisd(correction.rotation()).angle() * 180.0 / std::numbers::pi);
+      move_m, rotation_deg);
   return joined;
 }
 

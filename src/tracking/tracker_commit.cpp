@@ -139,6 +139,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
     has_velocity_ = false;
     last_close_points_.clear();
     recent_centres_.clear();
+    recent_steps_.clear();
     pose.state = TrackingState::kLost;
     pose.state_reason = verdict.dropped ? not_precise_reason(tracked) : tracked.failure;
     // Keep the last pose for relocalisation; the outputs carry LOST.
@@ -164,6 +165,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
   // from before the loss may be far away.
   if (relocalised && !joined_now) refer_to_most_shared_keyframe(result);
   if (has_velocity_) velocity_ = result.T_cam_world * last_T_cam_world_.inverse();
+  remember_step(frame.t_ns, has_velocity_ ? std::optional<SE3>(velocity_) : std::nullopt);
   last_T_cam_world_ = result.T_cam_world;
   remember_centre(frame.t_ns, result.T_cam_world.inverse().translation());
   has_last_ = true;

@@ -72,6 +72,10 @@ struct TrackerCounters {
   int provisional_maps_started = 0;
   int provisional_maps_joined = 0;
   int provisional_maps_dropped = 0;
+  // The largest move a join made (translation, rotation): how far dead
+  // reckoning had put a provisional map.
+  double largest_join_move_m = 0.0;
+  double largest_join_rotation_deg = 0.0;
 };
 
 class Tracker {
@@ -242,8 +246,14 @@ class Tracker {
   // Whether most of result's matched points belong to the site map.
   bool matched_in_site_map(const PassResult& result) const;
   // The site map lost for tracking.new_map_after_lost_s: the last pose
-  // carried on by the velocity at the loss, one step per frame lost.
+  // carried on by the mean step before the loss, one step per frame lost.
   SE3 dead_reckoned_T_cam_world() const;
+  // A tracked frame's step (its velocity), kept for a second; a frame
+  // without one (lost, relocalised) forgets them.
+  void remember_step(std::int64_t t_ns, const std::optional<SE3>& step);
+  // The mean of the remembered steps (on the tangent space); identity
+  // without any.
+  SE3 mean_recent_step() const;
   // Runs `change` on the map with the mapper held between keyframes.
   void with_mapper_held(const std::function<void(map::MapData&)>& change);
   // The motion model's pose for the next frame (the last pose without a
@@ -291,9 +301,13 @@ class Tracker {
   // (t_ns, camera centre in the world) of the tracked frames of the last
   // two seconds, oldest first; cleared when tracking is lost.
   std::deque<std::pair<std::int64_t, Eigen::Vector3d>> recent_centres_;
-  // Since the site map was lost: frames lost, the velocity before the loss,
-  // and the first lost frame with enough stereo points for a new map (-1:
-  // none yet). A frame tracked again resets them.
+  // (t_ns, velocity) of the tracked steps of the last second, oldest
+  // first: dead reckoning carries their mean, not the last step, whose
+  // vibration (roll, pitch) it would repeat for every frame lost.
+  std::deque<std::pair<std::int64_t, SE3>> recent_steps_;
+  // Since the site map was lost: frames lost, the mean step of the second
+  // before the loss, and the first lost frame with enough stereo points for
+  // a new map (-1: none yet). A frame tracked again resets them.
   int frames_lost_in_a_row_ = 0;
   SE3 velocity_at_loss_;
   std::int64_t lost_with_view_since_ns_ = -1;

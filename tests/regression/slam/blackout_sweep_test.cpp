@@ -54,6 +54,7 @@ TEST(BlackoutSweep, LostMapEverySeedJoinsAndNeverReportsAWrongPoseOk) {
     blind_spell::LostMapRun r;
     ASSERT_NO_FATAL_FAILURE(blind_spell::run_lostmap(r, seed));
     EXPECT_EQ(r.run.tracker_counters.provisional_maps_joined, 1) << "seed " << seed;
+    EXPECT_LT(r.run.tracker_counters.largest_join_rotation_deg, 1.5) << "seed " << seed;
     EXPECT_EQ(r.score.ok_frames_off, 0) << "seed " << seed << ": largest OK error " << r.score.max_ok_error_m;
     EXPECT_EQ(r.ok_after_visible, r.frames_after_join) << "seed " << seed;
   }

@@ -25,6 +25,10 @@ TEST(ProvisionalMap, LostPastTheMapStartsOneAndJoinsItToTheSiteMapOnTheWayBack) 
   EXPECT_EQ(c.provisional_maps_started, 1);
   EXPECT_EQ(c.provisional_maps_joined, 1);
   EXPECT_EQ(c.provisional_maps_dropped, 0);
+  // Dead reckoning carries the mean step of the last second: the join
+  // turned the map by 0.65 deg here (3.0 deg when it carried the last step,
+  // whose vibration it repeated for each of the 97 frames lost).
+  EXPECT_LT(c.largest_join_rotation_deg, 1.5);
   EXPECT_EQ(r.score.ok_frames_off, 0) << "largest error of an OK pose: " << r.score.max_ok_error_m << " m";
   // The view is back at frame 138; the right place is in view from about
   // frame 290 (measured 292-297 on seeds 13-15 with the join after 5 frames).
