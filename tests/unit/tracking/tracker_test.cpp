@@ -167,6 +167,38 @@ class TrackerAtFrame10 : public ::testing::Test {
   PreparedFrame prepared;
 };
 
+// The frame after a relocalisation has no motion to predict from:
+// track_against_keyframe finds its pose from one keyframe's points by
+// descriptors and PnP, whatever pose the result holds when it starts.
+TEST_F(TrackerAtFrame10, TrackAgainstKeyframeNeedsNoPriorPose) {
+  const config::SiteposeConfig config = small_config();
+  const Relocaliser relocaliser(site.simulator.camera(), config.tracking,
+                                map::ScalePyramid{config.orb.scale_factor, config.orb.n_levels});
+  const std::vector<std::uint8_t> all(prepared.size(), 1);
+  const map::KeyFrameId first = map.read([](const map::MapData& m) { return m.first_keyframe(); });
+  const SE3 truth_T_world_cam = site.simulator.render(10).T_world_cam;
+  PassResult result;
+  result.point_of_keypoint.assign(prepared.size(), map::kNoPoint);
+  // 3 m and 10 degrees from where the camera is.
+  result.T_cam_world =
+      (truth_T_world_cam * SE3(so3_exp(Eigen::Vector3d(0.0, 0.17, 0.0)), Eigen::Vector3d(3.0, 0.0, 0.5)))
+          .inverse();
+  ASSERT_TRUE(relocaliser.track_against_keyframe(map, prepared, all, first, result));
+  EXPECT_FALSE(result.relocalised);
+  EXPECT_GE(result.n_inliers, config.tracking.min_inliers_ok);
+  EXPECT_LT((result.T_cam_world.inverse().translation() - truth_T_world_cam.translation()).norm(), 0.03);
+
+  // A keyframe that is not in the map: false, and the result as it was.
+  const PassResult before = result;
+  EXPECT_FALSE(relocaliser.track_against_keyframe(map, prepared, all, first + 1000, result));
+  EXPECT_EQ(result.n_inliers, before.n_inliers);
+  EXPECT_EQ(result.point_of_keypoint, before.point_of_keypoint);
+  // No usable keypoint: too few matches, the result as it was.
+  const std::vector<std::uint8_t> none(prepared.size(), 0);
+  EXPECT_FALSE(relocaliser.track_against_keyframe(map, prepared, none, first, result));
+  EXPECT_LT((result.T_cam_world.matrix() - before.T_cam_world.matrix()).norm(), 1e-15);
+}
+
 TEST_F(TrackerAtFrame10, EstimateLeavesNoTrace) {
   const std::vector<std::uint8_t> all(prepared.size(), 1);
   const auto keyframes_before = map.read([](const map::MapData& m) { return m.keyframe_count(); });
