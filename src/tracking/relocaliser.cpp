@@ -244,10 +244,16 @@ std::vector<map::KeyFrameId> Relocaliser::candidate_places(const map::SharedMap&
 bool Relocaliser::track_against_keyframe(const map::SharedMap& map, const PreparedFrame& frame,
                                          const std::vector<std::uint8_t>& usable, map::KeyFrameId keyframe,
                                          PassResult& result) const {
-  const std::optional<RelocalisationCandidate> c = relocalisation_candidate(map, keyframe);
+  std::optional<RelocalisationCandidate> c = relocalisation_candidate(map, keyframe);
   if (!c) return false;
   PassResult attempt = result;
-  if (!relocalise_against(frame, usable, *c, attempt)) return false;
+  if (!relocalise_against(frame, usable, *c, attempt)) {
+    // The keyframe alone may share too little with a camera that moved on
+    // (lostmap seed 13: 0 inliers); its covisible neighbours as well.
+    c->points = c->neighbourhood_points;
+    attempt = result;
+    if (!relocalise_against(frame, usable, *c, attempt)) return false;
+  }
   result = std::move(attempt);
   return true;
 }
