@@ -117,9 +117,11 @@ class Relocaliser {
   // The frame after a relocalisation, whose motion is unknown: its pose from
   // `keyframe`'s points by descriptor matching and PnP, as relocalise_against
   // does, with no prior from the last pose (ORB-SLAM2 tracks that frame
-  // against its reference keyframe by descriptors too). result.relocalised is
-  // left as given: the caller tracks the local map next. False, with result
-  // as given, when the keyframe is gone or too few matches hold.
+  // against its reference keyframe by descriptors too); when too few of them
+  // match, from the points of the keyframe and its covisible neighbours.
+  // result.relocalised is left as given: the caller tracks the local map
+  // next. False, with result as given, when the keyframe is gone or too few
+  // matches hold.
   bool track_against_keyframe(const map::SharedMap& map, const PreparedFrame& frame,
                               const std::vector<std::uint8_t>& usable, map::KeyFrameId keyframe,
                               PassResult& result) const;
