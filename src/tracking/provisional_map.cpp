@@ -2,9 +2,8 @@
 #include <numbers>
 #include <string>
 
-#include <Eigen/Geometry>
-
 #include "sitepose/core/log.hpp"
+#include "sitepose/core/se3.hpp"
 #include "sitepose/tracking/tracker.hpp"
 
 // Tracker, continued: provisional maps (docs/tracking/provisional_map.md).
@@ -36,8 +35,7 @@ constexpr std::int64_t kDeadReckoningWindowNs = 1'000'000'000;
 
 bool agree(const SE3& a, const SE3& b) {
   const SE3 d = a.inverse() * b;
-  return d.translation().norm() <= kJoinAgreementM &&
-         Eigen::AngleAxisd(d.rotation()).angle() <= kJoinAgreementRad;
+  return d.translation().norm() <= kJoinAgreementM && rotation_angle_rad(d.rotation()) <= kJoinAgreementRad;
 }
 
 }  // namespace
@@ -112,7 +110,7 @@ bool Tracker::start_provisional_map_if_due(const PreparedFrame& frame,
   ++counters_.provisional_maps_started;
   spdlog::warn(
       "tracking: lost for {:.1f} s with a view: provisional map from keyframe {} at the dead-reckoned "
-      "pose ({} frames on the last velocity)",
+      "pose ({} frames on the mean step before the loss)",
       static_cast<double>(frame.t_ns - lost_with_view_since_ns_) * 1e-9, provisional_since_,
       frames_lost_in_a_row_);
 
@@ -157,8 +155,8 @@ const PassResult& Tracker::settle_provisional_map(const PreparedFrame& frame,
                                                   const std::vector<std::uint8_t>& usable,
                                                   const PassResult& result, PassResult& joined) {
   if (result.relocalised && matched_in_site_map(result)) {
+    // commit() refers to the relocalisation's keyframe, as after any.
     drop_provisional_map("relocalised in the site map while lost in it");
-    refer_to_most_shared_keyframe(result);
     return result;
   }
   joined = PassResult{};
@@ -195,7 +193,7 @@ const PassResult& Tracker::settle_provisional_map(const PreparedFrame& frame,
   refer_to_most_shared_keyframe(joined);
   ++counters_.provisional_maps_joined;
   const double move_m = correction.translation().norm();
-  const double rotation_deg = Eigen::AngleAxisd(correction.rotation()).angle() * 180.0 / std::numbers::pi;
+  const double rotation_deg = rotation_angle_rad(correction.rotation()) * 180.0 / std::numbers::pi;
   counters_.largest_join_move_m = std::max(counters_.largest_join_move_m, move_m);
   counters_.largest_join_rotation_deg = std::max(counters_.largest_join_rotation_deg, rotation_deg);
   spdlog::warn(

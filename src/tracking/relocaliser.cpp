@@ -248,8 +248,8 @@ bool Relocaliser::track_against_keyframe(const map::SharedMap& map, const Prepar
   if (!c) return false;
   PassResult attempt = result;
   if (!relocalise_against(frame, usable, *c, attempt)) {
-    // The keyframe alone may share too little with a camera that moved on
-    // (lostmap seed 13: 0 inliers); its covisible neighbours as well.
+    // The keyframe alone may share too little with a camera that moved on;
+    // its covisible neighbours as well.
     c->points = c->neighbourhood_points;
     attempt = result;
     if (!relocalise_against(frame, usable, *c, attempt)) return false;

@@ -155,7 +155,7 @@ class MapData {
   // mapper calls this once per keyframe to reclaim the memory.
   std::size_t purge_bad_points();
 
-  // A provisional map (tracking/provisional_map.hpp): the keyframes with ids
+  // A provisional map (docs/tracking/provisional_map.md): the keyframes with ids
   // >= provisional_since(), started by the tracker after it lost the site
   // map, placed by dead reckoning and not yet joined to the site map. Their
   // points are those they created. kNoKeyFrame: none. Not part of a saved
