@@ -2,13 +2,13 @@
 """Re-score and calibrate the published covariance from `sitepose bench nees --csv` files.
 
 Each CSV row is one scored OK frame with its error against ground truth, the
-distance travelled (the map-drift term's) and the tracker's own [dp; dtheta]
-covariance. The published covariance is rebuilt exactly as
+path length travelled, the map travel (the map-drift term's distance,
+PoseEstimate::map_travel_m) and the tracker's own [dp; dtheta] covariance. The published covariance is rebuilt exactly as
 output::published_pose forms it (no anchor, lever arm 0):
 
     P = scale * C_tracker + diag(s_p^2 I, s_a^2 I)
-    s_p = hypot(floor_position_m, drift_m_per_sqrt_m * sqrt(travelled_m))
-    s_a = hypot(floor_attitude_deg, drift_deg_per_sqrt_m * sqrt(travelled_m))  (in rad)
+    s_p = hypot(floor_position_m, drift_m_per_sqrt_m * sqrt(map_travel_m))
+    s_a = hypot(floor_attitude_deg, drift_deg_per_sqrt_m * sqrt(map_travel_m))  (in rad)
 
 so other settings are scored without re-running the tracker.
 
@@ -18,7 +18,7 @@ so other settings are scored without re-running the tracker.
       integrity counts at 0.03, 0.05 and 0.10 m.
   fit FILE... [--scale S --floor-position-m F --floor-attitude-deg A --short-m 2]
       on the calibration files: the mean position NEES before the map has
-      drifted (travelled < --short-m) for a few variance factors (to choose
+      drifted (map travel < --short-m) for a few variance factors (to choose
       --scale), then, at --scale, the smallest drift_m_per_sqrt_m for which
       no file's mean position NEES exceeds 3 (the chi2(3) mean) and the
       smallest drift_deg_per_sqrt_m for which no file's mean attitude NEES
@@ -47,6 +47,8 @@ def load(path):
         "ep": np.stack([rows["ex_m"], rows["ey_m"], rows["ez_m"]], axis=1),
         "er": np.stack([rows["erx_rad"], rows["ery_rad"], rows["erz_rad"]], axis=1),
         "travelled": rows["travelled_m"],
+        # CSVs written before the map travel existed: the path length was the drift's distance.
+        "map_travel": rows["map_travel_m"] if "map_travel_m" in rows.dtype.names else rows["travelled_m"],
     }
     n = len(rows)
     c = np.zeros((n, 6, 6))
@@ -62,8 +64,8 @@ def load(path):
 def published(run, p):
     """Published [dp; dtheta] covariance of every frame of `run` under settings `p`."""
     deg = math.pi / 180.0
-    sp2 = p["floor_position_m"] ** 2 + p["drift_m_per_sqrt_m"] ** 2 * run["travelled"]
-    sa2 = (p["floor_attitude_deg"] * deg) ** 2 + (p["drift_deg_per_sqrt_m"] * deg) ** 2 * run["travelled"]
+    sp2 = p["floor_position_m"] ** 2 + p["drift_m_per_sqrt_m"] ** 2 * run["map_travel"]
+    sa2 = (p["floor_attitude_deg"] * deg) ** 2 + (p["drift_deg_per_sqrt_m"] * deg) ** 2 * run["map_travel"]
     P = p["scale"] * run["tracker"].copy()
     for k in range(3):
         P[:, k, k] += sp2
@@ -109,7 +111,7 @@ def band(n, dof):
 
 def print_scores(runs, p):
     print("settings: " + ", ".join("%s %g" % kv for kv in p.items()))
-    print("| run | scored | travelled (m) | max error (cm) | mean 3σ (cm) | NEES pos [band] | NEES pose [band] "
+    print("| run | scored | travelled / largest map travel (m) | max error (cm) | mean 3σ (cm) | NEES pos [band] | NEES pose [band] "
           "| 3σ covers (%) | alerts/over/FA/MD at 0.03 | at 0.05 | at 0.10 |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     groups = collections.OrderedDict()
@@ -117,8 +119,8 @@ def print_scores(runs, p):
         s = score(run, p)
         groups.setdefault(run["scenario"], []).append(s)
         b3, b6 = band(s["n"], 3), band(s["n"], 6)
-        print("| %s | %d | %.1f | %.1f | %.1f | %.2f [%.2f, %.2f] | %.2f [%.2f, %.2f] | %.1f | %s | %s | %s |" % (
-            run["name"], s["n"], run["travelled"][-1], 100 * s["err"].max(), 100 * s["bound"].mean(),
+        print("| %s | %d | %.1f / %.1f | %.1f | %.1f | %.2f [%.2f, %.2f] | %.2f [%.2f, %.2f] | %.1f | %s | %s | %s |" % (
+            run["name"], s["n"], run["travelled"][-1], run["map_travel"].max(), 100 * s["err"].max(), 100 * s["bound"].mean(),
             s["nees3"].mean(), b3[0], b3[1], s["nees6"].mean(), b6[0], b6[1], 100 * s["covered"].mean(),
             "/".join(map(str, s[0.03])), "/".join(map(str, s[0.05])), "/".join(map(str, s[0.10]))))
     print()
@@ -151,15 +153,15 @@ def smallest(pred, lo, hi, steps=40):
 
 def fit(runs, base, short_m):
     """Calibrates on `runs`: the variance factor is checked on the short horizon, the drift rates fitted."""
-    # 1. Before the map has drifted (travelled < short_m) the error is the
+    # 1. Before the map has drifted (map travel < short_m) the error is the
     #    tracker's own: the mean NEES there, per file and pooled, for a few
     #    variance factors (the factor is chosen by hand from it: --scale).
-    print("short horizon (travelled < %g m), drift 0: mean position NEES" % short_m)
+    print("short horizon (map travel < %g m), drift 0: mean position NEES" % short_m)
     for scale in (0.5, 1.0, 2.0, 3.0):
         p = dict(base, scale=scale, drift_m_per_sqrt_m=0.0, drift_deg_per_sqrt_m=0.0)
         per, pooled = [], []
         for r in runs:
-            m = r["travelled"] < short_m
+            m = r["map_travel"] < short_m
             n3 = score(r, p)["nees3"][m]
             pooled.append(n3)
             per.append("%s %.2f (%d)" % (r["name"], n3.mean() if m.any() else float("nan"), m.sum()))
@@ -184,7 +186,7 @@ def main():
     ap.add_argument("--floor-attitude-deg", type=float, default=0.02)
     ap.add_argument("--drift-m-per-sqrt-m", type=float, default=0.0)
     ap.add_argument("--drift-deg-per-sqrt-m", type=float, default=0.0)
-    ap.add_argument("--short-m", type=float, default=2.0, help="fit: the short horizon, m travelled")
+    ap.add_argument("--short-m", type=float, default=2.0, help="fit: the short horizon, m of map travel")
     args = ap.parse_args()
     runs = [load(f) for f in args.files]
     p = collections.OrderedDict(scale=args.scale, floor_position_m=args.floor_position_m,

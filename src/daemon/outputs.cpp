@@ -149,10 +149,8 @@ const PublishedPose& Anchoring::published(const pipeline::PosePacket& packet) {
   const geo::SiteFrame* frame = site_frame(packet);
   const auto [anchor_position_m, anchor_attitude_rad] =
       frame != nullptr ? anchor_std() : std::pair<double, double>{0.0, 0.0};
-  if (!packet.from_stall) travelled_.update(pose);
-  published_.travelled_m = travelled_.metres();
   published_.pose = output::published_pose(pose, lever_arm_cam_m_, publish_.covariance, anchor_position_m,
-                                           anchor_attitude_rad, published_.travelled_m);
+                                           anchor_attitude_rad);
   published_.pose.t_ns = published_.utc_ns;
   if (frame != nullptr) {
     // Not finite or outside UTM/UPS: published without a site.

@@ -26,7 +26,7 @@ double chi_square_quantile(double z, double dof) {
 struct OkPose {
   int frame = 0;
   PoseEstimate pose;
-  double travelled_m = 0.0;  // TravelledDistance at this pose, as the daemon counts it
+  double travelled_m = 0.0;  // path length at this pose (reported; the drift term uses map_travel_m)
 };
 
 // e^T P^-1 e; NaN when P is not positive definite.
@@ -39,7 +39,7 @@ double nees(const Eigen::Matrix<double, N, 1>& e, const Eigen::Matrix<double, N,
 
 NeesSample score(const OkPose& ok, const SE3& T_slam_cam_gt, const NeesOptions& options) {
   const PoseEstimate published =
-      output::published_pose(ok.pose, Eigen::Vector3d::Zero(), options.covariance, 0.0, 0.0, ok.travelled_m);
+      output::published_pose(ok.pose, Eigen::Vector3d::Zero(), options.covariance, 0.0, 0.0);
   // [dp; dtheta] covariance, as the daemon forms it for its protection level.
   const Matrix6d P = geo::site_covariance(SE3::identity(), published.T_world_cam, published.covariance);
   NeesSample s;
@@ -56,6 +56,7 @@ NeesSample score(const OkPose& ok, const SE3& T_slam_cam_gt, const NeesOptions& 
   s.alert = output::integrity_alert(s.bound_3sigma_m, options.alert_limit_m);
   s.features_used = ok.pose.counters.features_used;
   s.travelled_m = ok.travelled_m;
+  s.map_travel_m = ok.pose.map_travel_m;
   s.position_m = published.T_world_cam.translation();
   s.tracker_covariance = geo::site_covariance(SE3::identity(), ok.pose.T_world_cam, ok.pose.covariance);
   return s;
@@ -125,7 +126,7 @@ double NeesResult::bound_coverage() const {
 Expected<NeesResult> run_nees(const LabelledSource& source, const config::SiteposeConfig& config,
                               const NeesOptions& options) {
   std::vector<OkPose> ok;
-  output::TravelledDistance travelled;  // over every pose the daemon would publish, OK or not
+  output::TravelledDistance travelled;  // over every pose, OK or not
   DynamicRunOptions run_options;
   run_options.frames = options.frames;
   run_options.stop = options.stop;

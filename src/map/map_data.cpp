@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <unordered_set>
 
 #include "sitepose/core/expected.hpp"
 #include "sitepose/features/hamming.hpp"
@@ -457,6 +458,23 @@ KeyFrameId keyframe_sharing_most(const std::map<KeyFrameId, int>& votes) {
   return most == votes.end() ? kNoKeyFrame : most->first;
 }
 
+std::optional<double> map_travel_at(const MapData& map, const std::map<KeyFrameId, int>& sharing,
+                                    const std::map<KeyFrameId, int>& sharing_close,
+                                    const Eigen::Vector3d& camera_centre_m) {
+  std::optional<double> least_m;
+  const auto consider = [&](KeyFrameId id) {
+    const KeyFrame* kf = map.keyframe(id);
+    if (kf == nullptr) return;
+    const double travel_m = kf->map_travel_m + (camera_centre_m - kf->camera_center()).norm();
+    if (!least_m || travel_m < *least_m) least_m = travel_m;
+  };
+  consider(keyframe_sharing_most(sharing));
+  for (const auto& [id, count] : sharing_close) {
+    if (count >= kCovisibilityThreshold) consider(id);
+  }
+  return least_m;
+}
+
 int MapData::observation_weight(PointId point_id) const {
   const MapPoint* p = good_point(point_id);
   if (p == nullptr) return 0;
@@ -492,6 +510,38 @@ void MapData::move_keyframes_from(KeyFrameId first, const SE3& correction) {
     p.p_world = correction * p.p_world;
     p.normal = R * p.normal;
   }
+}
+
+void MapData::set_map_travel_from(KeyFrameId first, const Eigen::Vector3d& place_m,
+                                  double travel_at_place_m) {
+  for (auto& [id, kf] : keyframes_) {
+    if (id >= first) kf.map_travel_m = travel_at_place_m + (kf.camera_center() - place_m).norm();
+  }
+}
+
+void MapData::set_map_travel_along_spanning_tree() {
+  std::unordered_map<KeyFrameId, double> travel_m;
+  for (const auto& [id, unused] : keyframes_) {
+    // Up from `id` to a root, a cycle's closing keyframe or a keyframe whose
+    // travel is known; then down again, adding each edge.
+    std::vector<KeyFrameId> chain;
+    std::unordered_set<KeyFrameId> on_chain;
+    for (KeyFrameId at = id; travel_m.count(at) == 0 && on_chain.insert(at).second;) {
+      chain.push_back(at);
+      const KeyFrameId parent = keyframes_.at(at).parent;
+      if (parent == kNoKeyFrame || keyframes_.count(parent) == 0) break;
+      at = parent;
+    }
+    for (auto at = chain.rbegin(); at != chain.rend(); ++at) {
+      const KeyFrame& kf = keyframes_.at(*at);
+      const auto parent = travel_m.find(kf.parent);
+      travel_m[*at] =
+          parent == travel_m.end()
+              ? 0.0
+              : parent->second + (kf.camera_center() - keyframes_.at(kf.parent).camera_center()).norm();
+    }
+  }
+  for (auto& [id, kf] : keyframes_) kf.map_travel_m = travel_m.at(id);
 }
 
 std::vector<KeyFrameId> MapData::drop_keyframes_from(KeyFrameId first) {

@@ -107,6 +107,11 @@ void write_loop_edges(ByteWriter& out, const map::KeyFrame& kf) {
   for (const map::KeyFrameId other : kf.loop_edges) out.i64(other);
 }
 
+void write_map_travel(ByteWriter& out, const map::KeyFrame& kf) {
+  out.i64(kf.id);
+  out.f64(kf.map_travel_m);
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta& meta) {
@@ -129,6 +134,7 @@ std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta&
   std::vector<const map::KeyFrame*> looped = keyframes;
   std::erase_if(looped, [](const map::KeyFrame* kf) { return kf->loop_edges.empty(); });
   if (!looped.empty()) write_records(out, kLoopEdgesTag, looped, write_loop_edges);
+  write_records(out, kMapTravelTag, keyframes, write_map_travel);
   write_frame_header(map_file_kind(), out.bytes());
   return std::move(out.bytes());
 }

@@ -179,6 +179,32 @@ Status read_loop_edges(const std::map<std::uint32_t, std::span<const std::uint8_
                              [](ByteReader& in, map::KeyFrame& kf) { kf.loop_edges.insert(in.i64()); });
 }
 
+// Optional: a map saved before it was added has none (false is returned;
+// decode_map then derives the distances from the spanning tree).
+Expected<bool> read_map_travel(const std::map<std::uint32_t, std::span<const std::uint8_t>>& sections,
+                               std::vector<map::KeyFrame>& keyframes) {
+  const auto it = sections.find(kMapTravelTag);
+  if (it == sections.end()) return false;
+  std::unordered_map<map::KeyFrameId, map::KeyFrame*> index;
+  for (map::KeyFrame& kf : keyframes) index[kf.id] = &kf;
+  ByteReader in(it->second);
+  const std::size_t n = in.count(kMapTravelBytes);
+  for (std::size_t i = 0; i < n && in.ok(); ++i) {
+    const map::KeyFrameId id = in.i64();
+    const double travel_m = in.f64();
+    if (!in.ok()) break;
+    const auto kf = index.find(id);
+    if (kf == index.end()) return refuse("section TRVL names keyframe " + std::to_string(id));
+    if (!(travel_m >= 0.0 && travel_m <= kMaxCoordinateM)) {
+      return refuse("section TRVL: keyframe " + std::to_string(id) +
+                    "'s map travel is negative, not finite or beyond 1e9 m");
+    }
+    kf->second->map_travel_m = travel_m;
+  }
+  if (!in.ok()) return refuse("section TRVL ends early");
+  return true;
+}
+
 // What the sections' bounds do not catch: a NaN, infinite or absurdly far
 // pose or position, a NaN or infinite measurement, or a keypoint on a level
 // the pyramid lacks,
@@ -228,10 +254,12 @@ Expected<LoadedMap> decode_map(std::span<const std::uint8_t> bytes) {
                             "section PNTS ends early or holds a broken point"));
   SITEPOSE_TRY_STATUS(read_covisibility(sections.at(kCovisibilityTag), keyframes));
   SITEPOSE_TRY_STATUS(read_loop_edges(sections, keyframes));
+  SITEPOSE_TRY(const bool has_map_travel, read_map_travel(sections, keyframes));
   SITEPOSE_TRY_STATUS(check_values(meta.pyramid, keyframes, points));
   auto restored =
       map::MapData::restore(meta.pyramid, std::move(keyframes), std::move(points), meta.first, meta.last);
   if (!restored) return refuse("inconsistent map: " + restored.error().message);
+  if (!has_map_travel) restored->set_map_travel_along_spanning_tree();
   return LoadedMap{std::move(restored).value(), std::move(meta.file), version};
 }
 

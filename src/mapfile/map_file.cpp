@@ -1,5 +1,6 @@
 #include "sitepose/mapfile/map_file.hpp"
 
+#include <algorithm>
 #include <map>
 
 #include "sitepose/mapfile/atomic_file.hpp"
@@ -39,6 +40,7 @@ MapSummary summarise(const LoadedMap& loaded, std::uint64_t file_bytes) {
     s.covisibility_edges += kf.covisibility.size();
     s.loop_edges += kf.loop_edges.size();
     centres[id] = kf.camera_center();
+    s.largest_map_travel_m = std::max(s.largest_map_travel_m, kf.map_travel_m);
   }
   for (const auto& [id, p] : map.points()) s.observations += p.observations.size();
   s.covisibility_edges /= 2;  // each edge is kept on both keyframes

@@ -45,16 +45,16 @@ Matrix6d isotropic_point_covariance(const Eigen::Vector3d& p_world, double posit
   return 0.5 * (out + out.transpose());
 }
 
-DriftStd drift_std(const CovarianceOptions& covariance, double travelled_m) {
-  const double root_m = std::isfinite(travelled_m) ? std::sqrt(std::max(travelled_m, 0.0)) : 0.0;
+DriftStd drift_std(const CovarianceOptions& covariance, double map_travel_m) {
+  const double root_m = std::isfinite(map_travel_m) ? std::sqrt(std::max(map_travel_m, 0.0)) : 0.0;
   return {covariance.drift_m_per_sqrt_m * root_m, covariance.drift_deg_per_sqrt_m * kDegToRad * root_m};
 }
 
 PoseEstimate published_pose(const PoseEstimate& camera, const Eigen::Vector3d& lever_arm_cam_m,
                             const CovarianceOptions& covariance, double extra_position_std_m,
-                            double extra_attitude_std_rad, double travelled_m) {
+                            double extra_attitude_std_rad) {
   PoseEstimate out = reference_pose(camera, lever_arm_cam_m);
-  const DriftStd drift = drift_std(covariance, travelled_m);
+  const DriftStd drift = drift_std(covariance, camera.map_travel_m);
   const double position_std_m =
       std::hypot(covariance.floor_position_m, extra_position_std_m, drift.position_m);
   const double attitude_std_rad =

@@ -52,8 +52,7 @@ Status check_pipeline_options(const PipelineOptions& o, const std::string& prefi
         ": must be in [1, 100]");
   }
   if (!(o.publish_retry_delay_s >= 0.0 && o.publish_retry_delay_s <= 1.0)) {
-    add(prefix + ".publish_retry_delay_s = " + number(o.publish_retry_delay_s) +
-        ": must be in [0, 1]");
+    add(prefix + ".publish_retry_delay_s = " + number(o.publish_retry_delay_s) + ": must be in [0, 1]");
   }
   if (!(o.health_interval_s >= 0.05 && o.health_interval_s <= 3600.0)) {
     add(prefix + ".health_interval_s = " + number(o.health_interval_s) + ": must be in [0.05, 3600]");
@@ -75,8 +74,8 @@ Expected<std::unique_ptr<Pipeline>> Pipeline::create(const PipelineOptions& opti
   for (const auto& output : outputs) {
     if (!output) return make_error(ErrorCode::kInvalidArgument, "pipeline: an output is null");
   }
-  return std::unique_ptr<Pipeline>(new Pipeline(options, std::move(source), std::move(detect),
-                                                std::move(tracker), std::move(outputs)));
+  return std::unique_ptr<Pipeline>(
+      new Pipeline(options, std::move(source), std::move(detect), std::move(tracker), std::move(outputs)));
 }
 
 Pipeline::Pipeline(const PipelineOptions& options, std::unique_ptr<FrameSource> source,
@@ -205,8 +204,7 @@ void Pipeline::record_track_rate(SteadyTime now) {
   const std::int64_t interval = now_ns - last;
   const std::int64_t avg = track_interval_ns_.load(std::memory_order_relaxed);
   // EWMA over ~8 frames: steady figures, yet a rate change shows in a second.
-  track_interval_ns_.store(avg == 0 ? interval : avg + (interval - avg) / 8,
-                           std::memory_order_relaxed);
+  track_interval_ns_.store(avg == 0 ? interval : avg + (interval - avg) / 8, std::memory_order_relaxed);
 }
 
 void Pipeline::track_loop(const std::stop_token& stop) {
@@ -223,6 +221,7 @@ void Pipeline::track_loop(const std::stop_token& stop) {
       out.pose.t_ns = last_pose.t_ns + packet->stall_ns;
       out.pose.T_world_cam = last_pose.T_world_cam;
       out.pose.covariance = last_pose.covariance;
+      out.pose.map_travel_m = last_pose.map_travel_m;
       out.pose.state = TrackingState::kLost;
       out.pose.state_reason =
           "source stalled: no frame for " + std::to_string(packet->stall_ns / 1'000'000) + " ms";
@@ -346,19 +345,22 @@ PipelineHealth Pipeline::health() const {
     h.state_reason = last_reason_;
   }
   auto stage = [](const char* name, const StageStats& s, std::uint64_t drops, std::uint64_t depth) {
-    return StageHealth{name, s.items.load(std::memory_order_relaxed), drops, depth,
-                       s.time.percentile_ms(0.5), s.time.percentile_ms(0.99)};
+    return StageHealth{name,
+                       s.items.load(std::memory_order_relaxed),
+                       drops,
+                       depth,
+                       s.time.percentile_ms(0.5),
+                       s.time.percentile_ms(0.99)};
   };
   h.stages.push_back(stage("capture", capture_stats_, 0, 0));
   h.stages.push_back(stage("detect", detect_stats_, to_detect_.drops(), to_detect_.depth()));
   h.stages.push_back(stage("track", track_stats_, to_track_.drops(), to_track_.depth()));
   h.stages.push_back(stage("publish", publish_stats_, to_publish_.drops(), to_publish_.depth()));
   for (const auto& slot : outputs_) {
-    h.outputs.push_back(OutputHealth{slot->name, slot->published.load(std::memory_order_relaxed),
-                                     slot->errors.load(std::memory_order_relaxed),
-                                     slot->retries.load(std::memory_order_relaxed),
-                                     slot->failed.load(std::memory_order_relaxed),
-                                     slot->health_errors.load(std::memory_order_relaxed)});
+    h.outputs.push_back(OutputHealth{
+        slot->name, slot->published.load(std::memory_order_relaxed),
+        slot->errors.load(std::memory_order_relaxed), slot->retries.load(std::memory_order_relaxed),
+        slot->failed.load(std::memory_order_relaxed), slot->health_errors.load(std::memory_order_relaxed)});
   }
   return h;
 }

@@ -119,6 +119,7 @@ bool Tracker::initialise(const PreparedFrame& frame, const std::vector<std::uint
   origin.valid = true;
   origin.T_cam_world = SE3();
   origin.point_of_keypoint.assign(frame.size(), map::kNoPoint);
+  map_travel_m_ = 0.0;
   create_keyframe(frame, origin, usable);
   last_T_cam_world_ = SE3();
   has_last_ = true;
@@ -225,6 +226,7 @@ void Tracker::create_keyframe(const PreparedFrame& frame, const PassResult& resu
   kf.frame_seq = frame.seq;
   kf.t_ns = frame.t_ns;
   kf.T_world_cam = result.T_cam_world.inverse();
+  kf.map_travel_m = map_travel_m_;
   kf.keypoints.resize(frame.size());
   for (int k = 0; k < frame.size(); ++k) {
     map::KeyPointData& kp = kf.keypoints[k];

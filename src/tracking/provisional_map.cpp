@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <numbers>
+#include <optional>
 #include <string>
 
 #include "sitepose/core/log.hpp"
@@ -128,6 +129,7 @@ bool Tracker::start_provisional_map_if_due(const PreparedFrame& frame,
   pose.state_reason = "provisional map started at the dead-reckoned pose: not joined to the site map";
   pose.T_world_cam = T_cam_world.inverse();
   pose.covariance = Matrix6d::Identity() * kGuessedPlaceVariance;
+  pose.map_travel_m = map_travel_m_;
   return true;
 }
 
@@ -187,6 +189,13 @@ const PassResult& Tracker::settle_provisional_map(const PreparedFrame& frame,
   with_mapper_held([&](map::MapData& map) {
     map.move_keyframes_from(first, correction);
     map.set_provisional_since(map::kNoKeyFrame);
+    // Joined where this frame found the site map: the provisional
+    // keyframes' drift starts from that place's (their chain began at a
+    // guess).
+    const Eigen::Vector3d place_world = joined.T_cam_world.inverse().translation();
+    const std::optional<double> travel_m =
+        map::map_travel_at(map, map.keyframes_sharing(joined.point_of_keypoint), {}, place_world);
+    if (travel_m) map.set_map_travel_from(first, place_world, *travel_m);
   });
   apply_map_correction(correction);
   provisional_since_ = map::kNoKeyFrame;

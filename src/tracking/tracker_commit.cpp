@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <iterator>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,7 @@ void Tracker::commit_initialisation(const PreparedFrame& frame, const std::vecto
     pose.state = TrackingState::kOk;
     pose.T_world_cam = SE3();
     pose.covariance = Matrix6d::Zero();  // the origin is exact by definition
+    pose.map_travel_m = 0.0;
     last_matches_.clear();
     map_.read([&](const map::MapData& map) {
       const map::KeyFrame* kf = map.keyframe(reference_keyframe_);
@@ -144,6 +146,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
     pose.state_reason = verdict.dropped ? not_precise_reason(tracked) : tracked.failure;
     // Keep the last pose for relocalisation; the outputs carry LOST.
     if (has_last_) pose.T_world_cam = last_T_cam_world_.inverse();
+    pose.map_travel_m = map_travel_m_;
     return pose;
   }
   frames_lost_in_a_row_ = 0;
@@ -188,16 +191,19 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
   // Precise within a provisional map, which was put where dead reckoning
   // guessed (26 m off on lostmap): the covariance must not claim the place.
   if (provisional_since_ != map::kNoKeyFrame) pose.covariance += Matrix6d::Identity() * kGuessedPlaceVariance;
+  pose.map_travel_m = map_travel_m_;
   pose.counters.features_used = result.n_inliers;
   pose.counters.features_used_pass1 = result.n_inliers;
   return pose;
 }
 
-// The map points' visible / found counts (culling of points), and, with
-// site-map culling, the keyframes this frame uses (it must leave them; no
-// other culling reads them, so the vote is skipped without it).
+// The map points' visible / found counts (culling of points), how far the
+// map was built out to this frame (map_travel_m_, from its close matches,
+// which count_close_repeatability() left in last_close_points_), and, with
+// site-map culling, the keyframes this frame uses (it must leave them).
 void Tracker::record_in_map(const PassResult& result) {
   const bool site_culling = config_.mapping.site_culling;
+  const Eigen::Vector3d centre_world = result.T_cam_world.inverse().translation();
   map_.write([&](map::MapData& map) {
     for (map::PointId pid : result.visible_points) {
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
@@ -205,10 +211,13 @@ void Tracker::record_in_map(const PassResult& result) {
     for (map::PointId pid : result.point_of_keypoint) {
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_found;
     }
-    if (site_culling) {
-      map.set_tracker_keyframes(
-          tracker_keyframes(reference_keyframe_, map.keyframes_sharing(result.point_of_keypoint)));
+    const std::map<map::KeyFrameId, int> sharing = map.keyframes_sharing(result.point_of_keypoint);
+    const std::map<map::KeyFrameId, int> sharing_close = map.keyframes_sharing(last_close_points_);
+    if (const std::optional<double> travel_m =
+            map::map_travel_at(map, sharing, sharing_close, centre_world)) {
+      map_travel_m_ = *travel_m;
     }
+    if (site_culling) map.set_tracker_keyframes(tracker_keyframes(reference_keyframe_, sharing));
   });
 }
 

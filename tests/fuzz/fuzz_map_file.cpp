@@ -84,7 +84,7 @@ bool same(const mapfile::MapSummary& a, const mapfile::MapSummary& b) {
          a.keypoints == b.keypoints && a.observations == b.observations &&
          a.covisibility_edges == b.covisibility_edges && a.centre_min_m == b.centre_min_m &&
          a.centre_max_m == b.centre_max_m && a.path_length_m == b.path_length_m &&
-         a.meta.vocabulary_id == b.meta.vocabulary_id &&
+         a.largest_map_travel_m == b.largest_map_travel_m && a.meta.vocabulary_id == b.meta.vocabulary_id &&
          a.meta.anchor.has_value() == b.meta.anchor.has_value();
 }
 
@@ -110,7 +110,7 @@ void check(const std::vector<std::uint8_t>& bytes) {
   fuzz::require(summary.keyframes == m.keyframe_count() && summary.points == m.point_count(),
                 "summary counts");
   fuzz::require(summary.centre_min_m.allFinite() && summary.centre_max_m.allFinite() &&
-                    std::isfinite(summary.path_length_m),
+                    std::isfinite(summary.path_length_m) && std::isfinite(summary.largest_map_travel_m),
                 "finite summary geometry");
 
   const std::vector<std::uint8_t> again = mapfile::encode_map(m, loaded->meta);

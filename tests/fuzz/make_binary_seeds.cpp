@@ -8,6 +8,7 @@
 #include <fstream>
 #include <random>
 
+#include "sitepose/mapfile/byte_io.hpp"
 #include "sitepose/mapfile/map_file.hpp"
 #include "sitepose/placerec/vocabulary.hpp"
 #include "sitepose/testing/framed_bytes.hpp"
@@ -31,6 +32,14 @@ Bytes other_version(Bytes bytes) {
   return bytes;
 }
 
+// A map file as saved before the optional TRVL section existed (it is
+// written last): read with distances derived from the spanning tree.
+Bytes without_map_travel(Bytes bytes, std::size_t keyframes) {
+  bytes.resize(bytes.size() - (12 + 8 + mapfile::kMapTravelBytes * keyframes));
+  testing::refit_frame(bytes);
+  return bytes;
+}
+
 Bytes cut(const Bytes& bytes) {
   return Bytes(bytes.begin(), bytes.begin() + static_cast<long>(bytes.size() / 2));
 }
@@ -42,7 +51,7 @@ map::Descriptor random_descriptor(std::mt19937& rng) {
 }
 
 // Three keyframes of six keypoints, five points seen from two or three of
-// them, a spanning tree, covisibility and an anchor; with_loop_edge joins
+// them, a spanning tree, map travel, covisibility and an anchor; with_loop_edge joins
 // keyframes 0 and 2 by a loop edge (the file's optional LOOP section).
 Bytes small_map(bool with_loop_edge) {
   std::mt19937 rng(7);
@@ -62,6 +71,7 @@ Bytes small_map(bool with_loop_edge) {
       kp.instance = i == 5 ? 3 : 0;
       kf.keypoints.push_back(kp);
     }
+    kf.map_travel_m = 0.5 * k;
     const map::KeyFrameId id = m.add_keyframe(kf);
     if (id > 0) m.keyframe(id)->parent = id - 1;
   }
@@ -126,6 +136,7 @@ int main(int argc, char** argv) {
   const Bytes map_bytes = small_map(false);
   write(corpus / "map_file" / "small_map", map_bytes);
   write(corpus / "map_file" / "small_map_loop_edge", small_map(true));
+  write(corpus / "map_file" / "small_map_without_travel", without_map_travel(map_bytes, 3));
   write(corpus / "map_file" / "empty_map", mapfile::encode_map(map::MapData{}, {}));
   write(corpus / "map_file" / "truncated", cut(map_bytes));
   write(corpus / "map_file" / "version_2", other_version(map_bytes));

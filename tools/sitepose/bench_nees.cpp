@@ -8,6 +8,7 @@
 // only, never pass/fail. Ctrl-C / SIGTERM: the figures and CSV of the frames
 // tracked, marked partial, exit 130.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -40,22 +41,24 @@ struct Args {
 Status write_csv(const std::string& path, const experiments::NeesResult& r) {
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "w"), &std::fclose);
   if (!f) return make_error(ErrorCode::kIoError, "--csv " + path + ": cannot open for writing");
-  std::fprintf(f.get(),
-               "frame,t_s,ex_m,ey_m,ez_m,erx_rad,ery_rad,erz_rad,error_position_m,error_rotation_deg,"
-               "nees_position,nees_pose,bound_3sigma_m,alert,features_used,travelled_m,x_m,y_m,z_m");
+  std::fprintf(
+      f.get(),
+      "frame,t_s,ex_m,ey_m,ez_m,erx_rad,ery_rad,erz_rad,error_position_m,error_rotation_deg,"
+      "nees_position,nees_pose,bound_3sigma_m,alert,features_used,travelled_m,map_travel_m,x_m,y_m,z_m");
   // The tracker's own [dp; dtheta] covariance, upper triangle row by row
   // (tools/nees_calibrate.py re-scores other settings from it).
   for (int i = 0; i < 6; ++i)
     for (int j = i; j < 6; ++j) std::fprintf(f.get(), ",tracker_c%d%d", i, j);
   std::fprintf(f.get(), "\n");
   for (const auto& s : r.samples) {
-    std::fprintf(f.get(),
-                 "%d,%.6f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%d,%d,%.6g,%.6g,%.6g,%.6g",
-                 s.frame, s.t_s, s.error_position_m.x(), s.error_position_m.y(), s.error_position_m.z(),
-                 s.error_rotation_rad.x(), s.error_rotation_rad.y(), s.error_rotation_rad.z(),
-                 s.error_position_m.norm(), s.error_rotation_rad.norm() * 180.0 / std::numbers::pi,
-                 s.nees_position, s.nees_pose, s.bound_3sigma_m, s.alert ? 1 : 0, s.features_used,
-                 s.travelled_m, s.position_m.x(), s.position_m.y(), s.position_m.z());
+    std::fprintf(
+        f.get(),
+        "%d,%.6f,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%d,%d,%.6g,%.6g,%.6g,%.6g,%.6g",
+        s.frame, s.t_s, s.error_position_m.x(), s.error_position_m.y(), s.error_position_m.z(),
+        s.error_rotation_rad.x(), s.error_rotation_rad.y(), s.error_rotation_rad.z(),
+        s.error_position_m.norm(), s.error_rotation_rad.norm() * 180.0 / std::numbers::pi, s.nees_position,
+        s.nees_pose, s.bound_3sigma_m, s.alert ? 1 : 0, s.features_used, s.travelled_m, s.map_travel_m,
+        s.position_m.x(), s.position_m.y(), s.position_m.z());
     for (int i = 0; i < 6; ++i)
       for (int j = i; j < 6; ++j) std::fprintf(f.get(), ",%.9g", s.tracker_covariance(i, j));
     std::fprintf(f.get(), "\n");
@@ -63,6 +66,12 @@ Status write_csv(const std::string& path, const experiments::NeesResult& r) {
   if (std::fflush(f.get()) != 0 || std::ferror(f.get()))
     return make_error(ErrorCode::kIoError, "--csv " + path + ": write failed");
   return {};
+}
+
+double largest_map_travel_m(const experiments::NeesResult& r) {
+  double largest_m = 0.0;
+  for (const auto& s : r.samples) largest_m = std::max(largest_m, s.map_travel_m);
+  return largest_m;
 }
 
 double share(int count, int total) { return total > 0 ? static_cast<double>(count) / total : 0.0; }
@@ -77,9 +86,11 @@ void print_result(const experiments::NeesResult& r, const Args& args) {
   const output::CovarianceOptions& c = args.nees.covariance;
   std::printf(
       "published covariance: scale %g x tracker + floor %g m / %g deg + drift %g m / %g deg x "
-      "sqrt(m travelled) (isotropic), no anchor; %.1f m travelled\n",
+      "sqrt(map travel, m) (isotropic), no anchor; %.1f m travelled, map travel at the end %.1f m (largest "
+      "%.1f m)\n",
       c.scale, c.floor_position_m, c.floor_attitude_deg, c.drift_m_per_sqrt_m, c.drift_deg_per_sqrt_m,
-      r.samples.empty() ? 0.0 : r.samples.back().travelled_m);
+      r.samples.empty() ? 0.0 : r.samples.back().travelled_m,
+      r.samples.empty() ? 0.0 : r.samples.back().map_travel_m, largest_map_travel_m(r));
   const auto band3 = experiments::chi_square_mean_band_95(n, 3);
   const auto band6 = experiments::chi_square_mean_band_95(n, 6);
   std::printf("mean NEES position (3 dof): %.3f   95 %% band of the mean [%.3f, %.3f]\n",

@@ -31,6 +31,8 @@ void print_summary(const std::string& path, const mapfile::MapSummary& s) {
       s.centre_min_m.x(), s.centre_max_m.x(), s.centre_min_m.y(), s.centre_max_m.y(), s.centre_min_m.z(),
       s.centre_max_m.z());
   std::printf("path          %.2f m (keyframe centres in order)\n", s.path_length_m);
+  std::printf("map travel    %.2f m at the farthest keyframe (the published drift term's distance)\n",
+              s.largest_map_travel_m);
   if (s.meta.anchor) {
     const auto& a = *s.meta.anchor;
     const Eigen::Vector3d t = a.T_site_slam.translation();

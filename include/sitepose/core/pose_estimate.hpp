@@ -17,9 +17,9 @@ enum class TrackingState {
 const char* to_string(TrackingState state);
 
 struct PoseCounters {
-  int features_extracted = 0;     // left keypoints this frame
-  int features_used_pass1 = 0;    // inliers of pass 1 (background only)
-  int features_used = 0;          // inliers of the final pose
+  int features_extracted = 0;   // left keypoints this frame
+  int features_used_pass1 = 0;  // inliers of pass 1 (background only)
+  int features_used = 0;        // inliers of the final pose
   int static_objects_unmasked = 0;
   double masked_area_ratio = 0.0;  // mar of Algorithm 1, [0, 1]
 };
@@ -31,6 +31,12 @@ struct PoseEstimate {
   // Covariance of the tangent perturbation [translation; rotation] applied on
   // the left of T_world_cam (m^2, rad^2).
   Matrix6d covariance = Matrix6d::Identity();
+  // How far the map this pose was tracked against had been built out from
+  // its origin, m: the distance its drift grew over (map::map_travel_at;
+  // the published covariance's drift term, docs/daemon/pose_quality.md).
+  // Bounded where the machine works over a map it has built; LOST: the
+  // last tracked pose's.
+  double map_travel_m = 0.0;
   TrackingState state = TrackingState::kLost;
   std::string state_reason;  // why RECOVERING / LOST, empty when OK
   PoseCounters counters;

@@ -154,7 +154,7 @@ struct DaemonConfig {
   CanOutputConfig can;
   LcmOutputConfig lcm;
   output::ReferencePointOptions reference_point;                         // outputs.reference_point
-  output::CovarianceOptions covariance{1.0, 0.005, 0.02, 0.005, 0.007};  // outputs.covariance
+  output::CovarianceOptions covariance{1.0, 0.005, 0.02, 0.005, 0.012};  // outputs.covariance
   double integrity_alert_limit_m = 0.10;                                 // outputs.integrity.alert_limit_m
   GeoConfig geo;
   config::SiteposeConfig sitepose;

@@ -22,7 +22,6 @@
 #include "sitepose/output/can_sink.hpp"
 #include "sitepose/output/lcm_publisher.hpp"
 #include "sitepose/output/published_pose.hpp"
-#include "sitepose/output/travelled_distance.hpp"
 #include "sitepose/pipeline/hooks.hpp"
 #include "sitepose/pipeline/spsc_ring.hpp"
 
@@ -80,7 +79,6 @@ struct PublishedPose {
   PoseEstimate pose;                    // the reference point: T_world_cam * lever arm, t_ns = utc_ns,
                                         // covariance scaled, floored and with the anchor's uncertainty
   const geo::SitePose* site = nullptr;  // the same in the site frame; nullptr without one
-  double travelled_m = 0.0;             // since the run's first pose (the map-drift term's distance)
   output::Velocity velocity;            // in the site frame when site, else the SLAM frame
   // Geoid height above the ellipsoid at the site position (geo.geoid);
   // NaN without a site position or a geoid.
@@ -146,7 +144,6 @@ class Anchoring {
   bool cached_stall_ = false, cache_valid_ = false;
   std::optional<geo::SitePose> cached_;
   PublishedPose published_;
-  output::TravelledDistance travelled_;  // for the map-drift term
   // The last position published (for the velocity): time, frame, [dp] covariance.
   struct LastPosition {
     std::int64_t t_ns = 0;

@@ -36,7 +36,7 @@ struct NeesOptions {
   // Copies of the daemon's shipped outputs.covariance and
   // outputs.integrity (the sitepose tool does not link the daemon module;
   // experiments_unit_test checks them against daemon::DaemonConfig).
-  output::CovarianceOptions covariance{1.0, 0.005, 0.02, 0.005, 0.007};
+  output::CovarianceOptions covariance{1.0, 0.005, 0.02, 0.005, 0.012};
   double alert_limit_m = 0.10;
   std::function<void(int, int)> on_frame;  // (frame done, frames)
   // Polled before each frame; true ends the run there, scored so far
@@ -54,7 +54,8 @@ struct NeesSample {
   double bound_3sigma_m = 0.0;  // protection level, as published
   bool alert = false;           // integrity flag, as published
   int features_used = 0;
-  double travelled_m = 0.0;  // distance of the map-drift term (output::TravelledDistance)
+  double travelled_m = 0.0;   // path length since the run's first pose (output::TravelledDistance)
+  double map_travel_m = 0.0;  // distance of the map-drift term (PoseEstimate::map_travel_m)
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  // the estimate (SLAM world, like the error)
   // The tracker's own covariance over [dp; dtheta] (before scale, floor and
   // drift), so a calibration can re-score other settings without re-running.

@@ -167,6 +167,16 @@ class MapData {
   // (normals turn with it; distance ranges stay). The join of a
   // provisional map to the site map.
   void move_keyframes_from(KeyFrameId first, const SE3& correction);
+  // After that join at `place_m`, where the site map had been built out
+  // over `travel_at_place_m`: each keyframe with id >= first gets that
+  // distance plus its straight distance from the place (map_travel_m).
+  void set_map_travel_from(KeyFrameId first, const Eigen::Vector3d& place_m, double travel_at_place_m);
+  // Sets every keyframe's map_travel_m to its path length along the
+  // spanning tree from the tree's root (0 there): for a map file saved
+  // without them. The parents are the keyframes each shared most with when
+  // it was made, so this comes close to what the tracker kept. A parent
+  // cycle (a corrupt file) is cut where it closes.
+  void set_map_travel_along_spanning_tree();
   // Removes the keyframes with ids >= first (set_keyframe_bad, newest
   // first; their points lose those observations) and clears the
   // provisional mark; last_keyframe() becomes the newest one left. The
@@ -188,6 +198,21 @@ class MapData {
 // The keyframe with most of keyframes_sharing()'s votes (the smallest id of
 // equals); kNoKeyFrame without votes.
 KeyFrameId keyframe_sharing_most(const std::map<KeyFrameId, int>& votes);
+
+// How far the map had been built out to a camera at `camera_centre_m`: the
+// least of map_travel_m plus the straight distance from the keyframe, over
+// the keyframe sharing most of the camera's matches (`sharing`,
+// keyframes_sharing() of all of them) and every keyframe that shares at
+// least kCovisibilityThreshold of its close matches (`sharing_close`: the
+// points that fix its position). A camera that re-finds the close points
+// of a place mapped earlier (a strip driven again, a standing machine) is
+// tied to the map as it was built there and gets that place's distance
+// back; one that extends the map adds what it drives. Far points alone,
+// which every keyframe of a site may share, do not count. nullopt when no
+// keyframe shares a match.
+std::optional<double> map_travel_at(const MapData& map, const std::map<KeyFrameId, int>& sharing,
+                                    const std::map<KeyFrameId, int>& sharing_close,
+                                    const Eigen::Vector3d& camera_centre_m);
 
 template <typename CentreOf>
 std::optional<PointGeometry> MapData::point_geometry(PointId point_id, const Eigen::Vector3d& p_world,

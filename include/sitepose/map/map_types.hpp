@@ -52,6 +52,10 @@ struct KeyFrame {
   // graph of each later loop keeps them, and such a keyframe is never
   // removed (ORB-SLAM2 mspLoopEdges, SetNotErase).
   std::set<KeyFrameId> loop_edges;
+  // How far the map had been built out from its first keyframe when this
+  // one was made: the map-drift distance of its place (map_travel_at,
+  // docs/daemon/pose_quality.md). Not changed by culling or loop closing.
+  double map_travel_m = 0.0;
   bool bad = false;
 
   SE3 T_cam_world() const { return T_world_cam.inverse(); }

@@ -34,12 +34,14 @@ inline constexpr std::uint32_t kKeyFramesTag = section_tag("KFRM");
 inline constexpr std::uint32_t kPointsTag = section_tag("PNTS");
 inline constexpr std::uint32_t kCovisibilityTag = section_tag("COVI");
 inline constexpr std::uint32_t kLoopEdgesTag = section_tag("LOOP");  // optional: maps without loops lack it
+inline constexpr std::uint32_t kMapTravelTag = section_tag("TRVL");  // optional: maps saved before it lack it
 inline constexpr std::size_t kKeyPointBytes = 67;
 inline constexpr std::size_t kKeyFrameBytes = 96;
 inline constexpr std::size_t kPointBytes = 136;
 inline constexpr std::size_t kObservationBytes = 12;
 inline constexpr std::size_t kCovisibilityBytes = 12;
 inline constexpr std::size_t kLoopEdgeBytes = 8;
+inline constexpr std::size_t kMapTravelBytes = 16;
 
 class ByteWriter {
  public:

@@ -11,8 +11,10 @@
 //   payload sections, each: 4-byte tag, u64 body bytes, body. Tags META,
 //           KFRM, PNTS, COVI are required; LOOP (loop edges, as COVI's
 //           records with bare i64 keyframe ids) only when the map has a
-//           loop; unknown tags are skipped, so a later minor addition does
-//           not need a new version.
+//           loop; TRVL (per keyframe: i64 id, f64 map_travel_m) in maps
+//           saved since it was added, derived from the spanning tree when
+//           missing; unknown tags are skipped, so a later minor addition
+//           does not need a new version.
 //
 // Reading checks, in order, and names the first that fails: size (a file
 // shorter than its header says is truncated), magic, header checksum,
@@ -79,6 +81,9 @@ struct MapSummary {
   Eigen::Vector3d centre_min_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d centre_max_m = Eigen::Vector3d::Zero();
   double path_length_m = 0.0;  // keyframe centres in id order
+  // Largest KeyFrame::map_travel_m: how far the map was built out from its
+  // origin, the published drift term's distance at its farthest place.
+  double largest_map_travel_m = 0.0;
   MapFileMeta meta;
 };
 

@@ -17,10 +17,11 @@
 //     the tracker reports without a covariance;
 //   - the map's drift: the tracker's covariance is the pose given the map
 //     (motion-only BA holds the points fixed), but the map itself drifts
-//     from the first pose of the run as it is extended (visual odometry
-//     without loop closure), so an isotropic position / attitude std that
-//     grows with the distance travelled since that pose (TravelledDistance)
-//     is added too (docs/daemon/pose_quality.md has its calibration);
+//     from its origin as it is extended (visual odometry without loop
+//     closure), so an isotropic position / attitude std that grows with
+//     the distance over which the map was built out to the pose
+//     (PoseEstimate::map_travel_m) is added too (docs/daemon/pose_quality.md
+//     has its calibration);
 //   - its velocity from two successive positions in the published frame.
 // Pure functions; no state.
 
@@ -43,19 +44,20 @@ struct CovarianceOptions {
   double scale = 1.0;                 // a-posteriori variance factor on the tracker's covariance
   double floor_position_m = 0.0;      // isotropic std added to the position (unmodelled effects)
   double floor_attitude_deg = 0.0;    // isotropic std added to the attitude
-  double drift_m_per_sqrt_m = 0.0;    // map drift: position std after 1 m travelled
-  double drift_deg_per_sqrt_m = 0.0;  // map drift: attitude std after 1 m travelled
+  double drift_m_per_sqrt_m = 0.0;    // map drift: position std where the map was built over 1 m
+  double drift_deg_per_sqrt_m = 0.0;  // map drift: attitude std where the map was built over 1 m
 };
 
-// The map drift's isotropic stds after travelled_m metres since the run's
-// first pose: a random walk over the distance, std = rate * sqrt(travelled_m)
-// (variance growing linearly with the path; it fits the simulated suite
-// better than a std linear in the distance, docs/daemon/pose_quality.md).
+// The map drift's isotropic stds where the map was built out over
+// map_travel_m metres: a random walk over the distance, std = rate *
+// sqrt(map_travel_m) (variance growing linearly with the path; it fits the
+// simulated suite better than a std linear in the distance,
+// docs/daemon/pose_quality.md).
 struct DriftStd {
   double position_m = 0.0;
   double attitude_rad = 0.0;
 };
-DriftStd drift_std(const CovarianceOptions& covariance, double travelled_m);
+DriftStd drift_std(const CovarianceOptions& covariance, double map_travel_m);
 
 // Rotation machine -> camera for a machine whose forward axis is the camera
 // axis `forward` and whose up is -y of the camera (the camera upright).
@@ -74,11 +76,11 @@ Matrix6d isotropic_point_covariance(const Eigen::Vector3d& p_world, double posit
                                     double attitude_std_rad);
 
 // The published pose of one tracked pose: reference point, scaled
-// covariance plus the isotropic extra (floor, anchor and the map drift after
-// travelled_m, as stds combined in quadrature).
+// covariance plus the isotropic extra (floor, anchor and the map drift at
+// camera.map_travel_m, as stds combined in quadrature).
 PoseEstimate published_pose(const PoseEstimate& camera, const Eigen::Vector3d& lever_arm_cam_m,
                             const CovarianceOptions& covariance, double extra_position_std_m,
-                            double extra_attitude_std_rad, double travelled_m = 0.0);
+                            double extra_attitude_std_rad);
 
 // Integrity: the position's 3-sigma bound, 3 sqrt(largest eigenvalue of
 // the 3x3 [dp] covariance) (infinite when not finite), and the alert when

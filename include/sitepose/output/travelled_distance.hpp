@@ -1,16 +1,9 @@
 #pragma once
-// The distance the camera has travelled since the run's first pose, for the
-// map-drift term of the published covariance (published_pose.hpp,
-// docs/daemon/pose_quality.md). The map is anchored where the run starts:
-// at its origin when the run builds it, at the first relocalisation when it
-// was loaded (its own error there is what geo.anchor_std must cover). From
-// there the map is extended by visual odometry without loop closure, so its
-// error grows with the path, not with the time.
-//
-// A path length, not the straight line from the start: an honest upper
-// measure for a machine that drives a loop (the straight line would shrink
-// back to 0 with the drift kept); it also grows on back-and-forth passes
-// over a map already built, where the drift does not (conservative there).
+// The path length the camera has travelled since the run's first pose, as
+// a run's report states it (bench nees). The published covariance's drift
+// term does not use it: its distance is how far the map was built out to
+// the pose (PoseEstimate::map_travel_m), which stays bounded where the
+// machine drives over a map it has built, while this grows with every pass.
 // Steps shorter than kMinStepM are accumulated from the last counted
 // position, so a standing machine's pose jitter adds nothing however long
 // it stands. LOST poses (the last pose repeated) are skipped; the jump of a

@@ -274,7 +274,8 @@ class Tracker {
                        const std::vector<std::uint8_t>& usable, bool starts_provisional_map = false);
   // Updates the close-point repeatability counters with a committed frame.
   void count_close_repeatability(const PreparedFrame& frame, const PassResult& result);
-  // The map points' visible / found counts and the keyframes the frame uses.
+  // The map points' visible / found counts and the keyframes the frame
+  // uses; updates map_travel_m_.
   void record_in_map(const PassResult& result);
 
   StereoCamera camera_;
@@ -294,8 +295,11 @@ class Tracker {
   Relocaliser relocaliser_;
   RelocalisationHold hold_;                                 // since the last relocalisation
   std::vector<std::pair<map::PointId, int>> last_matches_;  // point, octave
-  std::vector<map::PointId> last_close_points_;             // sorted; for the repeatability counters
+  std::vector<map::PointId> last_close_points_;             // sorted; repeatability counters, map travel
   map::KeyFrameId reference_keyframe_ = map::kNoKeyFrame;
+  // The last tracked frame's map::map_travel_at (PoseEstimate::map_travel_m);
+  // a keyframe made from the frame keeps it.
+  double map_travel_m_ = 0.0;
   std::int64_t last_keyframe_seq_ = -1;
   std::int64_t last_keyframe_t_ns_ = 0;
   // (t_ns, camera centre in the world) of the tracked frames of the last

@@ -319,26 +319,27 @@ TEST(DaemonOutputs, AGeoidGridThatDoesNotLoadIsRefusedNamingTheKey) {
   EXPECT_NE(anchoring.error().message.find("geo.geoid"), std::string::npos) << anchoring.error().message;
 }
 
-TEST(DaemonOutputs, TheMapDriftTermGrowsWithThePathTravelledSinceTheFirstPose) {
+TEST(DaemonOutputs, TheMapDriftTermGrowsWithTheMapTravelOfEachPose) {
   PublishOptions options;
-  options.covariance = {1.0, 0.0, 0.0, 0.01, 0.0};  // variance 1e-4 m^2 per metre travelled
+  options.covariance = {1.0, 0.0, 0.0, 0.01, 0.0};  // variance 1e-4 m^2 per metre of map travel
   GeoConfig geo = shipped_geo();
   geo.anchor_std = {0.0, 0.0};
   // Attitude almost exact, so that the position variance is the tracker's
   // plus the drift's (an attitude variance moves a point away from the origin).
   Matrix6d covariance = Matrix6d::Identity() * 1e-14;
   covariance.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-6;
-  std::vector<pipeline::PosePacket> packets = {camera_at({0, 0, 0}, 1'000'000'000, 0, covariance),
-                                               camera_at({4, 0, 0}, 1'100'000'000, 1, covariance),
-                                               camera_at({100, 0, 0}, 1'200'000'000, 2, covariance),
-                                               camera_at({4, 3, 0}, 1'300'000'000, 3, covariance)};
-  packets[2].pose.state = TrackingState::kLost;  // not counted: LOST repeats a pose
+  std::vector<pipeline::PosePacket> packets = {
+      camera_at({0, 0, 0}, 1'000'000'000, 0, covariance), camera_at({4, 0, 0}, 1'100'000'000, 1, covariance),
+      camera_at({8, 0, 0}, 1'200'000'000, 2, covariance), camera_at({4, 0, 0}, 1'300'000'000, 3, covariance)};
+  // Out along a lane and back: the pose back at 4 m works on the map built
+  // there, so its map travel (the tracker's) is 4 m again, not the path's 12.
+  const double map_travel_m[] = {0.0, 4.0, 8.0, 4.0};
+  for (std::size_t k = 0; k < packets.size(); ++k) packets[k].pose.map_travel_m = map_travel_m[k];
   const Published out = publish_all(geo, options, packets);
   ASSERT_EQ(out.lcm.size(), 4u);
-  const double travelled_m[] = {0.0, 4.0, 4.0, 7.0};
-  for (std::size_t k : {0u, 1u, 3u}) {
+  for (std::size_t k = 0; k < packets.size(); ++k) {
     for (int i = 0; i < 3; ++i) {
-      EXPECT_NEAR(out.lcm[k].covariance[i * 7], 1e-6 + 1e-4 * travelled_m[k], 1e-10) << k;
+      EXPECT_NEAR(out.lcm[k].covariance[i * 7], 1e-6 + 1e-4 * map_travel_m[k], 1e-10) << k;
     }
   }
 }

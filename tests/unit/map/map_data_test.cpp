@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace sitepose::map {
 namespace {
 
@@ -108,6 +110,56 @@ TEST(MapData, MovingAProvisionalMapMovesItsKeyFramesAndPointsOnly) {
         p.normal.isApprox(provisional ? correction.rotation_matrix() * old.normal : old.normal, 1e-12));
   }
   EXPECT_EQ(m.map.provisional_since(), m.first_provisional) << "moving is not joining";
+}
+
+// The published drift term's distance (PoseEstimate::map_travel_m) after a
+// join: from the place where the provisional map met the site map.
+TEST(MapData, AJoinedProvisionalMapTakesItsMapTravelFromThePlaceOfTheJoin) {
+  ChainWithProvisionalMap m;  // provisional keyframes at x = 30 and 31
+  m.map.keyframe(m.kf[2])->map_travel_m = 9.0;
+  m.map.set_map_travel_from(m.first_provisional, Eigen::Vector3d(31.0, 0.0, 0.0), 2.5);
+  EXPECT_DOUBLE_EQ(m.map.keyframe(m.first_provisional)->map_travel_m, 3.5);
+  EXPECT_DOUBLE_EQ(m.map.keyframe(m.first_provisional + 1)->map_travel_m, 2.5);
+  EXPECT_EQ(m.map.keyframe(m.kf[2])->map_travel_m, 9.0) << "a site-map keyframe changed";
+}
+
+// The least of (map travel + distance) over the keyframe sharing most of
+// the matches and those sharing enough close ones.
+TEST(MapData, MapTravelIsTheLeastOverTheKeyFramesThatHoldTheCamera) {
+  ChainMap m(20);  // keyframes at x = 0, 1, 2
+  m.map.keyframe(m.kf[0])->map_travel_m = 1.0;
+  m.map.keyframe(m.kf[1])->map_travel_m = 7.0;
+  m.map.keyframe(m.kf[2])->map_travel_m = 2.0;
+  const Eigen::Vector3d camera_m(1.0, 3.0, 4.0);  // 5 m from keyframe 1
+  const std::map<KeyFrameId, int> sharing = {{m.kf[0], 3}, {m.kf[1], 40}, {m.kf[2], 5}};
+  // Keyframe 1 shares most: its 7 m + 5 m.
+  EXPECT_EQ(map_travel_at(m.map, sharing, {}, camera_m), 12.0);
+  // Keyframe 2 also holds enough of the close matches: 2 m + sqrt(26) m.
+  EXPECT_EQ(map_travel_at(m.map, sharing, {{m.kf[2], kCovisibilityThreshold}}, camera_m),
+            2.0 + std::sqrt(26.0));
+  // Too few close matches of keyframe 0 do not tie the camera to it.
+  EXPECT_EQ(map_travel_at(m.map, sharing, {{m.kf[0], kCovisibilityThreshold - 1}}, camera_m), 12.0);
+  EXPECT_EQ(map_travel_at(m.map, {}, {}, camera_m), std::nullopt);
+}
+
+// For a map file saved without the distances.
+TEST(MapData, MapTravelAlongTheSpanningTreeEndsAtItsRootAndCutsACycle) {
+  ChainMap m(20);
+  ASSERT_EQ(m.map.keyframe(m.kf[1])->parent, m.kf[0]);
+  ASSERT_EQ(m.map.keyframe(m.kf[2])->parent, m.kf[0]);  // ties go to the lower id
+  m.map.keyframe(m.kf[0])->map_travel_m = 5.0;
+  m.map.set_map_travel_along_spanning_tree();
+  EXPECT_EQ(m.map.keyframe(m.kf[0])->map_travel_m, 0.0);
+  EXPECT_EQ(m.map.keyframe(m.kf[1])->map_travel_m, 1.0);
+  EXPECT_EQ(m.map.keyframe(m.kf[2])->map_travel_m, 2.0);
+  // A corrupt file's parent cycle 0 -> 1 -> 0: each keyframe still gets a
+  // finite distance, and the walk ends.
+  m.map.keyframe(m.kf[0])->parent = m.kf[1];
+  m.map.set_map_travel_along_spanning_tree();
+  for (const auto& [id, kf] : m.map.keyframes()) {
+    EXPECT_TRUE(std::isfinite(kf.map_travel_m)) << id;
+    EXPECT_LE(kf.map_travel_m, 3.0) << id;
+  }
 }
 
 TEST(MapData, DroppingAProvisionalMapLeavesTheSiteMapAsItWas) {

@@ -71,6 +71,7 @@ void expect_same_keyframes(const map::MapData& a, const map::MapData& b) {
     EXPECT_EQ(other->children, kf.children);
     EXPECT_EQ(other->covisibility, kf.covisibility);
     EXPECT_EQ(other->loop_edges, kf.loop_edges);
+    EXPECT_EQ(other->map_travel_m, kf.map_travel_m);
     EXPECT_EQ(other->point_of_keypoint, kf.point_of_keypoint);
     ASSERT_EQ(other->keypoints.size(), kf.keypoints.size());
     for (std::size_t i = 0; i < kf.keypoints.size(); ++i) {
@@ -159,6 +160,37 @@ TEST(MapFile, LoopEdgesRoundTripInTheirOwnSection) {
   EXPECT_EQ(loaded->map.keyframe(b)->loop_edges, (std::set<map::KeyFrameId>{a}));
   shared.read([&](const map::MapData& m) { expect_same_keyframes(m, loaded->map); });
   EXPECT_EQ(encode_map(loaded->map, loaded->meta), with);
+}
+
+// The keyframes' map travel (the published drift term's distance) goes in
+// the optional TRVL section, written last. A file saved before it existed
+// lacks it and is read with each keyframe's path along the spanning tree.
+TEST(MapFile, MapTravelRoundTripsAndIsDerivedFromTheSpanningTreeWhenMissing) {
+  map::SharedMap shared;
+  test::build_map(shared, 8);
+  Bytes bytes = shared.read([](const map::MapData& m) { return encode_map(m, {}); });
+  const std::size_t keyframes = shared.read([](const map::MapData& m) { return m.keyframe_count(); });
+  const std::size_t section_bytes = 12 + 8 + kMapTravelBytes * keyframes;
+  ASSERT_GT(bytes.size(), kHeaderBytes + section_bytes);
+  const std::size_t section_at = bytes.size() - section_bytes;
+  const std::uint32_t tag = kMapTravelTag;
+  ASSERT_TRUE(std::equal(bytes.begin() + section_at, bytes.begin() + section_at + 4,
+                         reinterpret_cast<const std::uint8_t*>(&tag)))
+      << "TRVL is not the last section";
+  auto loaded = decode_map(bytes);
+  ASSERT_TRUE(loaded) << loaded.error().message;
+  EXPECT_EQ(loaded->map.keyframe(5)->map_travel_m, 0.75 * 5 + 0.125);
+
+  bytes.resize(section_at);  // as saved before TRVL existed
+  testing::refit_frame(bytes);
+  auto old = decode_map(bytes);
+  ASSERT_TRUE(old) << old.error().message;
+  // The fixture drives along x from 0 in a chain of keyframes (keyframe 2
+  // culled): the tree's path to each keyframe is its x.
+  for (const auto& [id, kf] : old->map.keyframes()) {
+    EXPECT_NEAR(kf.map_travel_m, kf.camera_center().x(), 1e-9) << "keyframe " << id;
+  }
+  EXPECT_EQ(old->map.keyframe(old->map.first_keyframe())->map_travel_m, 0.0);
 }
 
 // A provisional map is placed by dead reckoning: a file keeps the site map
@@ -326,6 +358,16 @@ TEST(MapFile, PointNeverSeenIsRefused) {
               first_good_point(m)->n_found = -1;
             })).find("found -1 times"),
             std::string::npos);
+}
+
+TEST(MapFile, MapTravelThatIsNoDistanceIsRefused) {
+  for (const double travel_m : {-1.0, std::numeric_limits<double>::quiet_NaN(), 2e9}) {
+    const Bytes bytes = encoded_changed_map([&](map::MapData& m) { m.keyframe(1)->map_travel_m = travel_m; });
+    EXPECT_NE(
+        refusal(bytes).find("section TRVL: keyframe 1's map travel is negative, not finite or beyond 1e9 m"),
+        std::string::npos)
+        << travel_m << ": " << refusal(bytes);
+  }
 }
 
 // Found by fuzzing (corpus/map_file/far_keyframe): a keyframe 1e236 m

@@ -29,6 +29,9 @@ inline void build_map(map::SharedMap& shared, int keyframes, int points_per_plan
       if (kf == nullptr) continue;
       kf->frame_seq = 3 * id;
       kf->t_ns = 100'000'000 * id + 7;
+      // Not the straight 0.5 m a keyframe the spanning tree would give, so a
+      // test sees whether the file's value or a derived one was read.
+      kf->map_travel_m = 0.75 * id + 0.125;
       if (!kf->keypoints.empty()) kf->keypoints.front().instance = 5;
     }
   });
