@@ -73,6 +73,15 @@ TEST(MapCli, SecondRunRelocalisesInTheSavedMapAndContinuesInItsFrame) {
   ASSERT_EQ(info.exit_status, 0) << info.err;
   EXPECT_NE(info.out.find("version       1"), std::string::npos) << info.out;
   std::printf("%s", info.out.c_str());
+  // The drift term's distance is kept with the map (section TRVL): along
+  // this straight drive, the path through the keyframes (0.74 m), not 0.
+  const auto value_after = [&](const std::string& label) {
+    const std::size_t at = info.out.find(label);
+    return at == std::string::npos ? -1.0 : std::stod(info.out.substr(at + label.size()));
+  };
+  const double path_m = value_after("path          ");
+  EXPECT_GT(path_m, 0.5) << info.out;
+  EXPECT_NEAR(value_after("map travel    "), path_m, 0.05) << info.out;
 
   const Result second =
       sitepose_cmd(dir, common + " --first-frame " + std::to_string(kSplit) + " --out " + (dir / "t2.txt") +
