@@ -67,6 +67,7 @@ DriftedReturn make_drifted_return(const StereoCamera& camera, const TexturedWall
   for (int k = 0; k < lane_keyframes; ++k) {
     loop.outbound.push_back(
         insert_wall_keyframe(loop.map, camera, wall, lane_camera_at(k), lane_camera_at(k), outbound_ids));
+    loop.map.keyframe(loop.outbound.back())->map_travel_m = k;  // a metre a keyframe
   }
   std::vector<map::PointId> inbound_ids(wall.p_world_m.size(), map::kNoPoint);
   SE3 T_map = lane_camera_at(lane_keyframes - 2);  // the first returning keyframe, still exact
@@ -83,6 +84,8 @@ DriftedReturn make_drifted_return(const StereoCamera& camera, const TexturedWall
       }
     }
     loop.inbound.push_back(insert_wall_keyframe(loop.map, camera, wall, T_true, T_map, ids));
+    // The return loses the outbound points: its map travel goes on growing.
+    loop.map.keyframe(loop.inbound.back())->map_travel_m = lane_keyframes - 1 + r;
     if (r >= 2) {
       for (std::size_t i = 0; i < wall.p_world_m.size(); ++i) {
         if (ids[i] != outbound_ids[i]) inbound_ids[i] = ids[i];

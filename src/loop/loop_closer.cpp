@@ -257,7 +257,11 @@ Status LoopCloser::correct(map::KeyFrameId keyframe, const VerifiedLoop& loop,
         group.keyframes.size() - 1);
   }
   auto lock_start = SteadyClock::now();
-  GroupApplied applied = map_.write([&](map::MapData& m) { return apply_group_correction(m, group, plan); });
+  GroupApplied applied = map_.write([&](map::MapData& m) {
+    GroupApplied done = apply_group_correction(m, group, plan);
+    tie_map_travel_to_loop(m, plan, loop.candidate);
+    return done;
+  });
   const double group_lock_ms = ms_since(lock_start);
   note_write_lock(group_lock_ms);
   const GroupConnections counted =

@@ -160,6 +160,19 @@ GroupApplied apply_group_correction(map::MapData& map, const GroupCopy& group, c
   return out;
 }
 
+void tie_map_travel_to_loop(map::MapData& map, const GroupCorrection& plan, map::KeyFrameId loop_keyframe) {
+  const map::KeyFrame* loop = map.keyframe(loop_keyframe);
+  if (loop == nullptr || loop->bad) return;
+  const double loop_travel_m = loop->map_travel_m;
+  const Eigen::Vector3d loop_centre_m = loop->camera_center();
+  for (const auto& [id, unused] : plan.T_world_cam) {
+    map::KeyFrame* kf = map.keyframe(id);
+    if (kf == nullptr || kf->bad) continue;
+    kf->map_travel_m =
+        std::min(kf->map_travel_m, loop_travel_m + (kf->camera_center() - loop_centre_m).norm());
+  }
+}
+
 GroupConnections count_group_connections(const map::MapData& map, const GroupCorrection& plan,
                                          const GroupApplied& applied) {
   GroupConnections counted;

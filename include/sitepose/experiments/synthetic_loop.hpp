@@ -48,6 +48,8 @@ struct DriftedReturn {
 };
 
 // Out for lane_keyframes keyframes (0 .. lane_keyframes - 1 m) and back.
+// Each keyframe's map_travel_m is the path to it (a metre a keyframe), as
+// the tracker keeps it on a return that does not find the outbound points.
 DriftedReturn make_drifted_return(const StereoCamera& camera, const TexturedWall& wall, int lane_keyframes);
 
 // A small vocabulary (3 levels) trained on the keyframes' own descriptors.

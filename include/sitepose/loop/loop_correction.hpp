@@ -88,6 +88,14 @@ struct GroupApplied {
 
 GroupApplied apply_group_correction(map::MapData& map, const GroupCopy& group, const GroupCorrection& plan);
 
+// After apply_group_correction, under the same lock: the corrected group
+// now lies on the map made at `loop_keyframe` (its duplicates fused into
+// that side's points), so its keyframes' map travel (the published drift
+// term's distance, map::map_travel_at) becomes the loop keyframe's plus the
+// straight distance from it where that is less. Keyframes the pose graph
+// moves later keep theirs (conservative).
+void tie_map_travel_to_loop(map::MapData& map, const GroupCorrection& plan, map::KeyFrameId loop_keyframe);
+
 // What connect_group sets, counted under the read lock.
 struct GroupConnections {
   map::KeyFrameId last_keyframe = map::kNoKeyFrame;  // the map's newest when counted

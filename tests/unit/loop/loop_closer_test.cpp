@@ -120,6 +120,16 @@ TEST(LoopCloser, ClosesADriftedReturnAndLowersItsError) {
       // ... and stays in the map for the next loops (and the map file).
       EXPECT_EQ(run->after.keyframe(current)->loop_edges.count(loop), 1U);
       EXPECT_EQ(run->after.keyframe(loop)->loop_edges.count(current), 1U);
+      // The corrected keyframe lies on the outbound map now: its drift
+      // term's distance is that place's, not the way out and back.
+      const map::KeyFrame& closed = *run->after.keyframe(current);
+      const map::KeyFrame& old_side = *run->after.keyframe(loop);
+      std::printf("loop %lld -> %lld: map travel %.1f -> %.1f m (the loop keyframe's %.1f m)\n",
+                  static_cast<long long>(current), static_cast<long long>(loop),
+                  lm.map.keyframe(current)->map_travel_m, closed.map_travel_m, old_side.map_travel_m);
+      EXPECT_LT(closed.map_travel_m, lm.map.keyframe(current)->map_travel_m);
+      EXPECT_NEAR(closed.map_travel_m,
+                  old_side.map_travel_m + (closed.camera_center() - old_side.camera_center()).norm(), 1.0);
     }
     EXPECT_TRUE(run->tracker_correction);
   }
