@@ -57,8 +57,8 @@ void render(const std::string& scenario_name, int frames, const std::string& out
   ASSERT_TRUE(written) << written.error().message;
 }
 
-// scenario static: 2 s standing, then 0.8 m/s along the lane; the split
-// falls while driving, 2.4 m after the start.
+// scenario static: 2 s standing, then accelerating to 0.8 m/s along the
+// lane; the split falls while driving, 0.99 m after the start (frame 29).
 TEST(MapCli, SecondRunRelocalisesInTheSavedMapAndContinuesInItsFrame) {
   testing::TempDir dir;
   const std::string seq = dir / "seq";
@@ -74,7 +74,8 @@ TEST(MapCli, SecondRunRelocalisesInTheSavedMapAndContinuesInItsFrame) {
   EXPECT_NE(info.out.find("version       1"), std::string::npos) << info.out;
   std::printf("%s", info.out.c_str());
   // The drift term's distance is kept with the map (section TRVL): along
-  // this straight drive, the path through the keyframes (0.74 m), not 0.
+  // this straight drive, the path through the keyframes (0.74 m of the
+  // 0.99 m driven), not 0.
   const auto value_after = [&](const std::string& label) {
     const std::size_t at = info.out.find(label);
     return at == std::string::npos ? -1.0 : std::stod(info.out.substr(at + label.size()));
