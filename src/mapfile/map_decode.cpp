@@ -141,13 +141,19 @@ Expected<std::vector<Record>> read_records(std::span<const std::uint8_t> body, s
   return records;
 }
 
+// The records read so far, by id, for the sections that refer to them.
+std::unordered_map<map::KeyFrameId, map::KeyFrame*> keyframes_by_id(std::vector<map::KeyFrame>& keyframes) {
+  std::unordered_map<map::KeyFrameId, map::KeyFrame*> index;
+  for (map::KeyFrame& kf : keyframes) index[kf.id] = &kf;
+  return index;
+}
+
 // A section of per-keyframe edge lists (COVI, LOOP): records of keyframe
 // id, edge count, edges of `edge_bytes` each, read by `read_edge`.
 template <typename ReadEdge>
 Status read_keyframe_edges(std::span<const std::uint8_t> body, std::uint32_t tag, std::size_t edge_bytes,
                            std::vector<map::KeyFrame>& keyframes, ReadEdge read_edge) {
-  std::unordered_map<map::KeyFrameId, map::KeyFrame*> index;
-  for (map::KeyFrame& kf : keyframes) index[kf.id] = &kf;
+  const std::unordered_map<map::KeyFrameId, map::KeyFrame*> index = keyframes_by_id(keyframes);
   ByteReader in(body);
   const std::size_t n = in.count(16);
   for (std::size_t i = 0; i < n && in.ok(); ++i) {
@@ -185,8 +191,7 @@ Expected<bool> read_map_travel(const std::map<std::uint32_t, std::span<const std
                                std::vector<map::KeyFrame>& keyframes) {
   const auto it = sections.find(kMapTravelTag);
   if (it == sections.end()) return false;
-  std::unordered_map<map::KeyFrameId, map::KeyFrame*> index;
-  for (map::KeyFrame& kf : keyframes) index[kf.id] = &kf;
+  const std::unordered_map<map::KeyFrameId, map::KeyFrame*> index = keyframes_by_id(keyframes);
   ByteReader in(it->second);
   const std::size_t n = in.count(kMapTravelBytes);
   for (std::size_t i = 0; i < n && in.ok(); ++i) {

@@ -206,10 +206,7 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
 }
 
 void Tracker::remember_centre(std::int64_t t_ns, const Eigen::Vector3d& centre_world) {
-  // A clock that went back (a camera reconnected) starts the history anew.
-  if (!recent_centres_.empty() && t_ns < recent_centres_.back().first) recent_centres_.clear();
-  recent_centres_.emplace_back(t_ns, centre_world);
-  while (recent_centres_.front().first < t_ns - kCentreHistoryNs) recent_centres_.pop_front();
+  append_recent(recent_centres_, t_ns, centre_world, kCentreHistoryNs);
 }
 
 bool Tracker::stood_for_a_second(std::int64_t t_ns, const Eigen::Vector3d& centre_world, double max_m) const {

@@ -42,12 +42,11 @@ bool agree(const SE3& a, const SE3& b) {
 }  // namespace
 
 void Tracker::remember_step(std::int64_t t_ns, const std::optional<SE3>& step) {
-  if (!step || (!recent_steps_.empty() && t_ns < recent_steps_.back().first)) {
+  if (!step) {
     recent_steps_.clear();
-    if (!step) return;
+    return;
   }
-  recent_steps_.emplace_back(t_ns, *step);
-  while (recent_steps_.front().first < t_ns - kDeadReckoningWindowNs) recent_steps_.pop_front();
+  append_recent(recent_steps_, t_ns, *step, kDeadReckoningWindowNs);
 }
 
 SE3 Tracker::mean_recent_step() const {

@@ -23,6 +23,7 @@
 #include <deque>
 #include <functional>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
@@ -251,6 +252,17 @@ class Tracker {
   // A tracked frame's step (its velocity), kept for a second; a frame
   // without one (lost, relocalised) forgets them.
   void remember_step(std::int64_t t_ns, const std::optional<SE3>& step);
+  // Appends (t_ns, value) to a history (oldest first) and drops what is
+  // more than span_ns older; a time earlier than the newest (a camera
+  // reconnected, its clock restarted) starts the history anew. For
+  // recent_centres_ and recent_steps_.
+  template <typename Value>
+  static void append_recent(std::deque<std::pair<std::int64_t, Value>>& history, std::int64_t t_ns,
+                            const Value& value, std::int64_t span_ns) {
+    if (!history.empty() && t_ns < history.back().first) history.clear();
+    history.emplace_back(t_ns, value);
+    while (history.front().first < t_ns - span_ns) history.pop_front();
+  }
   // The mean of the remembered steps (on the tangent space); identity
   // without any.
   SE3 mean_recent_step() const;
