@@ -6,6 +6,7 @@
 #include <unordered_set>
 
 #include "sitepose/core/expected.hpp"
+#include "sitepose/core/flat_id_set.hpp"
 #include "sitepose/features/hamming.hpp"
 
 namespace sitepose::map {
@@ -443,12 +444,16 @@ std::vector<KeyFrameId> MapData::best_covisible(KeyFrameId keyframe_id, int n) c
 }
 
 std::map<KeyFrameId, int> MapData::keyframes_sharing(const std::vector<PointId>& points) const {
-  std::map<KeyFrameId, int> shared;
+  // Every observation of every point (~15 000 a frame) into a flat counter;
+  // the map is built from its few distinct keyframes.
+  FlatIdCounter counts(128);
   for (PointId id : points) {
     const MapPoint* p = good_point(id);
     if (p == nullptr) continue;
-    for (const auto& [kf, index] : p->observations) ++shared[kf];
+    for (const auto& [kf, index] : p->observations) counts.add(kf);
   }
+  std::map<KeyFrameId, int> shared;
+  for (const auto& [kf, n] : counts.entries()) shared.emplace(kf, n);
   return shared;
 }
 

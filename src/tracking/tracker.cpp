@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <map>
 #include <set>
-#include <unordered_set>
 
+#include "sitepose/core/flat_id_set.hpp"
 #include "sitepose/core/log.hpp"
 #include "sitepose/core/stopwatch.hpp"
 #include "sitepose/optim/reprojection_costs.hpp"
@@ -229,14 +229,9 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
       if (static_cast<int>(local.size()) >= kMaxLocalKeyframes) break;
       for (auto neighbour : map.best_covisible(kf, 10)) local.insert(neighbour);
     }
-    // Tens of thousands of ids per frame: a hash set, not a tree (std::set
-    // was a third of the local-map stage). First occurrence wins either way.
-    std::unordered_set<map::PointId> seen;
-    std::size_t listed = 0;
-    for (map::KeyFrameId id : local) {
-      if (const map::KeyFrame* kf = map.keyframe(id); kf != nullptr) listed += kf->point_of_keypoint.size();
-    }
-    seen.reserve(listed);
+    // Tens of thousands of ids per frame, a few thousand distinct: a flat
+    // hash set (core/flat_id_set.hpp). First occurrence wins.
+    FlatIdSet seen(4096);
     for (int k = 0; k < frame.size(); ++k) {
       if (tracked[k] == map::kNoPoint) continue;
       if (const map::MapPoint* p = map.good_point(tracked[k]); p != nullptr) {
@@ -249,7 +244,7 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
       const map::KeyFrame* kf = map.keyframe(id);
       if (kf == nullptr) continue;
       for (map::PointId pid : kf->point_of_keypoint) {
-        if (pid == map::kNoPoint || !seen.insert(pid).second) continue;
+        if (pid == map::kNoPoint || !seen.insert(pid)) continue;
         if (const map::MapPoint* p = map.good_point(pid); p != nullptr) points.push_back(point_view(map, *p));
       }
     }
