@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include "detail/point_displacement.hpp"
@@ -91,6 +92,26 @@ constexpr int kMinArticulatedPartPoints = 2;
 bool is_articulated_class(const std::string& class_name) {
   return class_name == "excavator" || class_name == "loader";
 }
+// An excavator's upper structure (house, boom, arm) turns on its standing
+// undercarriage, whose tracks fill about the lowest quarter of its box from
+// the side. At the start of a slew the house loses its matches while the
+// tracks keep theirs and agree with "static" (docs/dynamic/motion_states.md,
+// "Static evidence from the upper structure"). So a static verdict needs
+// points of the upper structure among those that agree: at least
+// kMinUpperStructurePoints and kMinUpperStructureShare of them above the
+// lowest kUndercarriageBoxShare of the box.
+constexpr double kUndercarriageBoxShare = 0.3;
+constexpr int kMinUpperStructurePoints = 2;
+constexpr double kMinUpperStructureShare = 0.2;
+bool turns_on_undercarriage(const std::string& class_name) { return class_name == "excavator"; }
+// The image row from which the object's box shows its undercarriage;
+// nullopt when the frame has no box of that instance.
+std::optional<double> undercarriage_row_px(const ObjectFeatures& frame, std::uint16_t instance) {
+  for (const ObjectBox& b : frame.boxes) {
+    if (b.instance == instance) return b.box.y + (1.0 - kUndercarriageBoxShare) * b.box.height;
+  }
+  return std::nullopt;
+}
 constexpr int kPersonPointFactor = 2;
 constexpr int kPersonHysteresisFactor = 3;
 
@@ -157,7 +178,18 @@ struct ObjectKind {
   // An articulated machine seen moving lately (is_working): a few points that
   // show motion on their own make it moving, as many that disagree are doubt.
   bool working = false;
+  // A machine whose upper structure turns on its undercarriage
+  // (turns_on_undercarriage): points in the image rows from this one down
+  // lie on the undercarriage and cannot prove it static alone.
+  std::optional<double> undercarriage_from_v_px;
 };
+
+// How many of the points lie above the image row `from_v_px` (on the upper
+// structure).
+int points_above(const std::vector<PointDisplacement>& points, double from_v_px) {
+  return static_cast<int>(std::count_if(points.begin(), points.end(),
+                                        [&](const PointDisplacement& p) { return p.uv_px.y() < from_v_px; }));
+}
 
 // Sitepose mode on one object's matched points (see the header). Fills
 // v.points, v.matched_points, v.score, v.pooled_statistic,
@@ -205,6 +237,18 @@ UnknownReason judge_sitepose(const std::vector<PointDisplacement>& points,
   const bool points_agree = is_static_at(statistics, config.chi2_static_3dof, config.static_inlier_fraction);
   const bool object_still = v.pooled_statistic <= (points_agree ? kPooledGate : kPooledGateWithPoints);
   v.raw = !object_still ? MotionState::kMoving : points_agree ? MotionState::kStatic : MotionState::kUnknown;
+  if (v.raw == MotionState::kStatic && kind.undercarriage_from_v_px) {
+    // Static on the tracks alone says nothing about the house: too few
+    // points to tell, as for an object with few points (not doubt: a parked
+    // machine whose house is hidden for a frame stays unmasked through it).
+    const int upper = points_above(kept, *kind.undercarriage_from_v_px);
+    if (upper < std::max(static_cast<double>(kMinUpperStructurePoints),
+                         kMinUpperStructureShare * static_cast<double>(kept.size()))) {
+      v.points = upper;
+      v.raw = MotionState::kUnknown;
+      return UnknownReason::kTooFewPoints;
+    }
+  }
   return v.raw == MotionState::kUnknown ? UnknownReason::kAmbiguous : UnknownReason::kNone;
 }
 
@@ -508,6 +552,7 @@ std::vector<PointDisplacement> MotionClassifier::displacements(const Pairing& pa
     if (d.norm() > kMaxPointErrorM) continue;
     PointDisplacement p;
     p.d = d;
+    p.uv_px = current.uv_px[c];
     const Eigen::Vector3d rf_in_cf = current.T_world_cam.inverse() * w_rf->p;
     if (rf_in_cf.z() > 0.0) {
       const double sigma_px = pixel_sigma_px(current.octave[c], current.variance_factor);
@@ -537,7 +582,10 @@ void MotionClassifier::judge(const Pairing& pairing,
       v.matched_points = static_cast<int>(points.size());
     } else {
       for (PointDisplacement& p : points) p.mahalanobis2 = p.d.dot(p.covariance.ldlt().solve(p.d));
-      const ObjectKind kind{working};
+      ObjectKind kind{working, std::nullopt};
+      if (turns_on_undercarriage(v.class_name)) {
+        kind.undercarriage_from_v_px = undercarriage_row_px(pairing.current, v.instance);
+      }
       reason = judge_sitepose(points, config_, config_.min_object_points, kind, v, object.statistics);
       // A person proves motion like any object, but "static" only with
       // twice the points.

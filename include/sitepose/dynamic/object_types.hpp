@@ -42,7 +42,8 @@ const char* to_string(MotionState state);
 enum class UnknownReason {
   kNone,
   kNoReference,   // no reference frame yet, or the object is not in it
-  kTooFewPoints,  // fewer than min_object_points matched (or agreeing) points
+  kTooFewPoints,  // fewer than min_object_points matched (or agreeing) points; an
+                  // excavator: too few of them on its upper structure
   kAmbiguous,     // the points contradict each other or "static" without proving motion
   kSettling,      // static evidence, not yet long enough to unmask (hysteresis)
 };

@@ -35,6 +35,9 @@ struct PointDisplacement {
   // noise: motion across the view. A wrong stereo partner moves a point
   // along its ray (depth) but not across the image.
   double image_shift2 = 0.0;
+  // Where the current left image sees the point (px): which part of the
+  // object's box it lies in.
+  Eigen::Vector2d uv_px = Eigen::Vector2d::Zero();
 };
 
 // The q-quantile of values (q in [0, 1]); 0 when empty.

@@ -45,7 +45,7 @@ ObjectFeatures observe(const std::vector<Object>& objects, const std::vector<Eig
   std::vector<cv::Mat> rows;
   for (std::size_t j = 0; j < objects.size(); ++j) {
     const Object& o = objects[j];
-    f.boxes.push_back({o.instance, "truck", 1.0, cv::Rect(0, 0, 10, 10)});
+    const std::size_t first = f.uv_px.size();
     for (std::size_t i = 0; i < o.p_world.size(); ++i) {
       const Eigen::Vector3d p_cam = T_world_cam.inverse() * (o.p_world[i] + offsets[j]);
       const Eigen::Vector3d s = cam.project_stereo(p_cam);
@@ -55,6 +55,11 @@ ObjectFeatures observe(const std::vector<Object>& objects, const std::vector<Eig
       f.instance.push_back(o.instance);
       rows.push_back(o.descriptors.row(static_cast<int>(i)));
     }
+    // The detector's box: around the object's keypoints.
+    cv::Rect2d box(f.uv_px[first].x(), f.uv_px[first].y(), 0.0, 0.0);
+    for (std::size_t i = first; i < f.uv_px.size(); ++i)
+      box |= cv::Rect2d(f.uv_px[i].x(), f.uv_px[i].y(), 1.0, 1.0);
+    f.boxes.push_back({o.instance, "truck", 1.0, cv::Rect(box)});
   }
   cv::vconcat(rows, f.descriptors);
   return f;
@@ -198,6 +203,56 @@ TEST(MotionClassifier, SiteposeTestsOnlyThePointsThatShareTheObjectsDisplacement
   EXPECT_EQ(raw_verdict(0.35, driving).raw, MotionState::kMoving);
   v = raw_verdict(0.6, parked);
   EXPECT_EQ(v.raw, MotionState::kUnknown);
+  EXPECT_EQ(v.points, 60);
+}
+
+// An excavator's house turns on its standing tracks, and at the start of a
+// slew it loses its matches while the tracks keep theirs. Points on the
+// tracks alone (the lowest 30 % of the box) do not make it static; the
+// same points of a truck do, and so do the excavator's with its upper
+// structure matched.
+TEST(MotionClassifier, SiteposeExcavatorIsStaticOnlyWithPointsOnItsUpperStructure) {
+  const auto raw_verdict = [](const std::string& class_name, bool upper_structure_matched) {
+    std::mt19937 rng(23);
+    const std::vector<Object> objects{make_object(1, 60, 0.0, rng)};
+    MotionClassifier classifier(test_camera(), config_for(config::ClassifierMode::kSitepose), 6.0, 1.2, 8);
+    ObjectFeatures reference = observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.0), 0, 0.2, rng);
+    reference.boxes[0].class_name = class_name;
+    classifier.classify(reference);
+    classifier.remember(reference);
+    ObjectFeatures current = observe(objects, {Eigen::Vector3d::Zero()}, at_x(0.5), 3, 0.2, rng);
+    current.boxes[0].class_name = class_name;
+    const cv::Rect box = current.boxes[0].box;
+    const double undercarriage_from_v_px = box.y + 0.7 * box.height;
+    // Without its upper structure matched, the frame keeps only the
+    // keypoints on the tracks (the box stays the machine's).
+    ObjectFeatures seen = current;
+    seen.uv_px.clear();
+    seen.u_right_px.clear();
+    seen.octave.clear();
+    seen.instance.clear();
+    std::vector<cv::Mat> rows;
+    for (std::size_t i = 0; i < current.uv_px.size(); ++i) {
+      if (!upper_structure_matched && current.uv_px[i].y() < undercarriage_from_v_px) continue;
+      seen.uv_px.push_back(current.uv_px[i]);
+      seen.u_right_px.push_back(current.u_right_px[i]);
+      seen.octave.push_back(current.octave[i]);
+      seen.instance.push_back(current.instance[i]);
+      rows.push_back(current.descriptors.row(static_cast<int>(i)));
+    }
+    cv::vconcat(rows, seen.descriptors);
+    EXPECT_GE(seen.uv_px.size(), 8u);  // enough to test on their own
+    return classifier.classify(seen)[0].verdict;
+  };
+  ObjectVerdict v = raw_verdict("excavator", false);
+  EXPECT_EQ(v.raw, MotionState::kUnknown);
+  EXPECT_EQ(v.unknown_reason, UnknownReason::kTooFewPoints);
+  EXPECT_EQ(v.points, 0);  // none on the upper structure
+  const ObjectVerdict truck = raw_verdict("truck", false);
+  EXPECT_EQ(truck.raw, MotionState::kStatic);
+  EXPECT_EQ(truck.points, truck.matched_points);
+  v = raw_verdict("excavator", true);
+  EXPECT_EQ(v.raw, MotionState::kStatic);
   EXPECT_EQ(v.points, 60);
 }
 
