@@ -286,9 +286,13 @@ void OrbExtractor::build_pyramid(OrbExtraction& x) const {
   // Masked pixel counts over rectangles, to skip the fallback FAST in cells
   // that hold no pixel of a side.
   if (!x.mask_.empty()) {
-    cv::Mat masked_01;  // 1 = masked
-    cv::threshold(x.mask_, masked_01, 0, 1, cv::THRESH_BINARY);
-    cv::integral(masked_01, x.mask_integral_, CV_32S);
+    {
+      std::lock_guard lock(recycled_->mutex);
+      x.mask_binary_ = std::move(recycled_->binary);
+      x.mask_integral_ = std::move(recycled_->integral);
+    }
+    cv::threshold(x.mask_, x.mask_binary_, 0, 1, cv::THRESH_BINARY);
+    cv::integral(x.mask_binary_, x.mask_integral_, CV_32S);
   }
 }
 
@@ -353,6 +357,11 @@ std::vector<OrbFeatures> OrbExtractor::finish(OrbExtraction&& x) const {
     if (!level_descriptors.empty()) cv::vconcat(level_descriptors, out[side].descriptors);
   }
   out[0].pyramid = std::move(x.pyramid_);
+  if (!x.mask_integral_.empty()) {
+    std::lock_guard lock(recycled_->mutex);
+    recycled_->binary = std::move(x.mask_binary_);
+    recycled_->integral = std::move(x.mask_integral_);
+  }
   return out;
 }
 

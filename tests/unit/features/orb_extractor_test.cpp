@@ -153,6 +153,36 @@ void expect_identical(const OrbFeatures& a, const OrbFeatures& b, const char* wh
   }
 }
 
+// The mask's scratch buffers pass from one extraction to the next: an
+// extractor that has already extracted with other masks (and other image
+// sizes) returns what a fresh one returns. Faint texture below row 300, so
+// that cells fall back to the minimum threshold, where the mask's pixel
+// counts decide which cells are searched.
+TEST(OrbExtractor, MaskBuffersCarriedBetweenExtractionsLeaveNoTrace) {
+  const cv::Mat image =
+      testing::with_contrast(testing::make_texture(kSize, 5), cv::Rect(0, 0, kSize.width, 300), 0.1);
+  cv::Mat mask = cv::Mat::zeros(kSize, CV_8UC1);
+  cv::rectangle(mask, cv::Rect(100, 80, 300, 200), cv::Scalar(255), cv::FILLED);
+  cv::Mat other_mask = cv::Mat::zeros(kSize, CV_8UC1);
+  cv::rectangle(other_mask, cv::Rect(0, 0, kSize.width / 2, kSize.height), cv::Scalar(255), cv::FILLED);
+  const cv::Size small(kSize.width / 2, kSize.height / 2);
+  cv::Mat small_image;
+  cv::resize(image, small_image, small);
+  cv::Mat small_mask = cv::Mat::zeros(small, CV_8UC1);
+  cv::rectangle(small_mask, cv::Rect(small.width / 2, 0, small.width / 2, small.height), cv::Scalar(255),
+                cv::FILLED);
+
+  config::OrbConfig cfg;
+  OrbExtractor fresh(cfg);
+  const OrbFeatures expected = extract_ok(fresh, image, mask);
+  OrbExtractor used(cfg);
+  extract_ok(used, image, other_mask);
+  extract_ok(used, small_image, small_mask);
+  extract_ok(used, image, cv::Mat());
+  expect_identical(extract_ok(used, image, mask), expected, "after other masks");
+  expect_identical(extract_ok(used, image, mask), expected, "again");
+}
+
 TEST(OrbExtractor, BothSidesInOnePassEqualTwoSeparateExtractions) {
   // Texture, faint below row 300 (cells fall back to the minimum threshold
   // on both sides of the mask), and a mask of blobs plus a 1-px line of
