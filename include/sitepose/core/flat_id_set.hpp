@@ -23,126 +23,109 @@
 namespace sitepose {
 namespace detail {
 
-inline constexpr std::int64_t kEmptyId = -1;
+// One value per id: the ids in one array (what a lookup walks), the values
+// in another of the same length.
+template <typename Value>
+class FlatIdTable {
+ public:
+  // Room for `expected` ids before the first growth.
+  explicit FlatIdTable(std::size_t expected) {
+    std::size_t capacity = 16;
+    while (capacity < 2 * expected) capacity *= 2;  // load factor <= 1/2
+    rehash(capacity);
+  }
 
-// A power of two at least twice `expected` (load factor <= 1/2).
-inline std::size_t flat_capacity_for(std::size_t expected) {
-  std::size_t capacity = 16;
-  while (capacity < 2 * expected) capacity *= 2;
-  return capacity;
-}
+  // The id's value, value-initialised when the id is new; second: whether
+  // it is new.
+  std::pair<Value*, bool> try_emplace(std::int64_t id) {
+    assert(id >= 0);
+    if (2 * (size_ + 1) > ids_.size()) rehash(2 * ids_.size());
+    const std::size_t i = slot_of(id);
+    if (ids_[i] == id) return {&values_[i], false};
+    ids_[i] = id;
+    values_[i] = Value{};
+    ++size_;
+    return {&values_[i], true};
+  }
 
-// log2 of a power of two.
-inline int flat_bits(std::size_t capacity) {
-  int bits = 0;
-  while ((std::size_t{1} << bits) < capacity) ++bits;
-  return bits;
-}
+  bool contains(std::int64_t id) const { return ids_[slot_of(id)] == id; }
+  std::size_t size() const { return size_; }
 
-// Fibonacci hashing onto `bits` bits: ids are consecutive integers, and the
-// multiply spreads them over the whole array instead of one run of slots.
-inline std::size_t flat_slot_of(std::int64_t id, int bits) {
-  return static_cast<std::size_t>((static_cast<std::uint64_t>(id) * 0x9E3779B97F4A7C15ull) >> (64 - bits));
-}
+  // f(id, value) for every id, in no particular order.
+  template <typename F>
+  void for_each(F&& f) const {
+    for (std::size_t i = 0; i < ids_.size(); ++i) {
+      if (ids_[i] != kEmptyId) f(ids_[i], values_[i]);
+    }
+  }
+
+ private:
+  static constexpr std::int64_t kEmptyId = -1;
+
+  // The id's slot, or the empty one where it would go. Fibonacci hashing:
+  // ids are consecutive integers, and the multiply spreads them over the
+  // whole array instead of one run of slots.
+  std::size_t slot_of(std::int64_t id) const {
+    std::size_t i =
+        static_cast<std::size_t>((static_cast<std::uint64_t>(id) * 0x9E3779B97F4A7C15ull) >> shift_);
+    while (ids_[i] != kEmptyId && ids_[i] != id) i = (i + 1) & (ids_.size() - 1);
+    return i;
+  }
+
+  void rehash(std::size_t capacity) {
+    std::vector<std::int64_t> old_ids = std::move(ids_);
+    std::vector<Value> old_values = std::move(values_);
+    ids_.assign(capacity, kEmptyId);
+    values_.assign(capacity, Value{});
+    shift_ = 64;
+    for (std::size_t c = capacity; c > 1; c /= 2) --shift_;
+    for (std::size_t i = 0; i < old_ids.size(); ++i) {
+      if (old_ids[i] != kEmptyId) {
+        const std::size_t slot = slot_of(old_ids[i]);
+        ids_[slot] = old_ids[i];
+        values_[slot] = std::move(old_values[i]);
+      }
+    }
+  }
+
+  std::vector<std::int64_t> ids_;
+  std::vector<Value> values_;
+  int shift_ = 64;  // 64 - log2(capacity)
+  std::size_t size_ = 0;
+};
+
+struct NoValue {};
 
 }  // namespace detail
 
 class FlatIdSet {
  public:
-  // Room for `expected` ids before the first growth.
-  explicit FlatIdSet(std::size_t expected = 0) { rehash(detail::flat_capacity_for(expected)); }
-
+  explicit FlatIdSet(std::size_t expected = 0) : table_(expected) {}
   // Adds the id; true when it was not in the set yet.
-  bool insert(std::int64_t id) {
-    assert(id >= 0);
-    if (2 * (size_ + 1) > slots_.size()) rehash(2 * slots_.size());
-    std::size_t i = detail::flat_slot_of(id, bits_);
-    while (slots_[i] != detail::kEmptyId) {
-      if (slots_[i] == id) return false;
-      i = (i + 1) & mask_;
-    }
-    slots_[i] = id;
-    ++size_;
-    return true;
-  }
-
-  bool contains(std::int64_t id) const {
-    std::size_t i = detail::flat_slot_of(id, bits_);
-    while (slots_[i] != detail::kEmptyId) {
-      if (slots_[i] == id) return true;
-      i = (i + 1) & mask_;
-    }
-    return false;
-  }
-
-  std::size_t size() const { return size_; }
+  bool insert(std::int64_t id) { return table_.try_emplace(id).second; }
+  bool contains(std::int64_t id) const { return table_.contains(id); }
+  std::size_t size() const { return table_.size(); }
 
  private:
-  void rehash(std::size_t capacity) {
-    std::vector<std::int64_t> old = std::move(slots_);
-    slots_.assign(capacity, detail::kEmptyId);
-    mask_ = capacity - 1;
-    bits_ = detail::flat_bits(capacity);
-    size_ = 0;
-    for (std::int64_t id : old) {
-      if (id != detail::kEmptyId) insert(id);
-    }
-  }
-
-  std::vector<std::int64_t> slots_;
-  std::size_t mask_ = 0;
-  int bits_ = 0;
-  std::size_t size_ = 0;
+  detail::FlatIdTable<detail::NoValue> table_;
 };
 
-// How often each id was added; entries() in no particular order.
+// How often each id was added.
 class FlatIdCounter {
  public:
-  explicit FlatIdCounter(std::size_t expected = 0) { rehash(detail::flat_capacity_for(expected)); }
-
-  void add(std::int64_t id, int n = 1) {
-    assert(id >= 0);
-    if (2 * (size_ + 1) > slots_.size()) rehash(2 * slots_.size());
-    std::size_t i = detail::flat_slot_of(id, bits_);
-    while (slots_[i].first != detail::kEmptyId) {
-      if (slots_[i].first == id) {
-        slots_[i].second += n;
-        return;
-      }
-      i = (i + 1) & mask_;
-    }
-    slots_[i] = {id, n};
-    ++size_;
-  }
-
-  std::size_t size() const { return size_; }
-
-  // (id, count) of every id added.
+  explicit FlatIdCounter(std::size_t expected = 0) : table_(expected) {}
+  void add(std::int64_t id, int n = 1) { *table_.try_emplace(id).first += n; }
+  std::size_t size() const { return table_.size(); }
+  // (id, count) of every id added, in no particular order.
   std::vector<std::pair<std::int64_t, int>> entries() const {
     std::vector<std::pair<std::int64_t, int>> out;
-    out.reserve(size_);
-    for (const auto& slot : slots_) {
-      if (slot.first != detail::kEmptyId) out.push_back(slot);
-    }
+    out.reserve(table_.size());
+    table_.for_each([&](std::int64_t id, int n) { out.emplace_back(id, n); });
     return out;
   }
 
  private:
-  void rehash(std::size_t capacity) {
-    std::vector<std::pair<std::int64_t, int>> old = std::move(slots_);
-    slots_.assign(capacity, {detail::kEmptyId, 0});
-    mask_ = capacity - 1;
-    bits_ = detail::flat_bits(capacity);
-    size_ = 0;
-    for (const auto& [id, n] : old) {
-      if (id != detail::kEmptyId) add(id, n);
-    }
-  }
-
-  std::vector<std::pair<std::int64_t, int>> slots_;
-  std::size_t mask_ = 0;
-  int bits_ = 0;
-  std::size_t size_ = 0;
+  detail::FlatIdTable<int> table_;
 };
 
 }  // namespace sitepose
