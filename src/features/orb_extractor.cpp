@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <string>
@@ -103,9 +104,10 @@ Expected<OrbExtractor> OrbExtractor::create(const config::OrbConfig& config, Tas
   return OrbExtractor(config, pool);
 }
 
-ImagePyramid OrbExtractor::make_pyramid(const cv::Mat& image) const {
+ImagePyramid OrbExtractor::make_pyramid(const cv::Mat& image, std::vector<cv::Mat> levels) const {
   ImagePyramid pyramid;
   const int n = config_.n_levels;
+  pyramid.levels = std::move(levels);
   pyramid.levels.resize(n);
   pyramid.ratio_x.resize(n);
   pyramid.ratio_y.resize(n);
@@ -282,15 +284,19 @@ Expected<OrbExtraction> OrbExtractor::begin(const cv::Mat& image, const cv::Mat&
 }
 
 void OrbExtractor::build_pyramid(OrbExtraction& x) const {
-  x.pyramid_ = make_pyramid(x.image_);
+  std::vector<cv::Mat> levels;
+  {
+    std::lock_guard lock(recycled_->mutex);
+    levels = std::move(recycled_->pyramid_levels);
+    if (!x.mask_.empty()) {
+      x.mask_binary_ = std::move(recycled_->mask_binary);
+      x.mask_integral_ = std::move(recycled_->mask_integral);
+    }
+  }
+  x.pyramid_ = make_pyramid(x.image_, std::move(levels));
   // Masked pixel counts over rectangles, to skip the fallback FAST in cells
   // that hold no pixel of a side.
   if (!x.mask_.empty()) {
-    {
-      std::lock_guard lock(recycled_->mutex);
-      x.mask_binary_ = std::move(recycled_->binary);
-      x.mask_integral_ = std::move(recycled_->integral);
-    }
     cv::threshold(x.mask_, x.mask_binary_, 0, 1, cv::THRESH_BINARY);
     cv::integral(x.mask_binary_, x.mask_integral_, CV_32S);
   }
@@ -359,10 +365,33 @@ std::vector<OrbFeatures> OrbExtractor::finish(OrbExtraction&& x) const {
   out[0].pyramid = std::move(x.pyramid_);
   if (!x.mask_integral_.empty()) {
     std::lock_guard lock(recycled_->mutex);
-    recycled_->binary = std::move(x.mask_binary_);
-    recycled_->integral = std::move(x.mask_integral_);
+    recycled_->mask_binary = std::move(x.mask_binary_);
+    recycled_->mask_integral = std::move(x.mask_integral_);
   }
   return out;
+}
+
+namespace {
+
+// No other cv::Mat shares `mat`'s buffer. The reference count is OpenCV's
+// (changed atomically by every copy and release); an acquire load pairs
+// with the release of the last other holder, whose reads then precede any
+// write into the buffer.
+bool sole_owner(cv::Mat& mat) {
+  return mat.u != nullptr && std::atomic_ref<int>(mat.u->refcount).load(std::memory_order_acquire) == 1;
+}
+
+}  // namespace
+
+void OrbExtractor::recycle(ImagePyramid&& pyramid) const {
+  std::vector<cv::Mat> levels = std::move(pyramid.levels);
+  if (levels.empty()) return;
+  levels[0].release();  // the caller's image
+  for (cv::Mat& level : levels) {
+    if (!level.empty() && !sole_owner(level)) level.release();
+  }
+  std::lock_guard lock(recycled_->mutex);
+  recycled_->pyramid_levels = std::move(levels);
 }
 
 double intensity_centroid_angle_deg(const cv::Mat& image, int x, int y) {

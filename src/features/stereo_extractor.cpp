@@ -102,10 +102,12 @@ Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv:
   const auto match_start = SteadyClock::now();
   SITEPOSE_TRY(StereoMatches matches, matcher_.match(left_ok, right_ok, pool_));
   timings.stereo_match_ms = ms_since(match_start);
+  // The pyramids served extraction and matching only.
+  left_.recycle(std::move(left_ok.pyramid));
+  right_.recycle(std::move(right_ok.pyramid));
   StereoFeatures out;
   out.keypoints = std::move(left_ok.keypoints);
   out.descriptors = std::move(left_ok.descriptors);
-  out.left_pyramid = std::move(left_ok.pyramid);
   out.u_right = std::move(matches.u_right);
   out.depth_m = std::move(matches.depth_m);
   out.stereo_ambiguous = std::move(matches.ambiguous);

@@ -149,6 +149,10 @@ class OrbExtractor {
   // The unmasked area's features (with the pyramid), then the masked
   // area's when begun with inside_features >= 1.
   std::vector<OrbFeatures> finish(OrbExtraction&& x) const;
+  // Hands a pyramid this extractor made back once the caller is done with
+  // it, so that the next extraction resizes into memory already touched.
+  // Levels that another cv::Mat still shares are dropped, never reused.
+  void recycle(ImagePyramid&& pyramid) const;
 
   const config::OrbConfig& config() const { return config_; }
   int n_levels() const { return config_.n_levels; }
@@ -162,7 +166,8 @@ class OrbExtractor {
   const std::vector<int>& features_per_level() const { return features_per_level_; }
 
  private:
-  ImagePyramid make_pyramid(const cv::Mat& image) const;
+  // levels: buffers to resize into (a recycled pyramid's), may be empty.
+  ImagePyramid make_pyramid(const cv::Mat& image, std::vector<cv::Mat> levels = {}) const;
   // job(level) for every level, on the pool when there is one.
   void for_each_level(const std::function<void(int)>& job) const;
   // All steps, the levels on the pool.
@@ -183,19 +188,21 @@ class OrbExtractor {
   std::vector<int> features_per_level_;
   std::vector<cv::Ptr<cv::ORB>> descriptors_;  // per level; used only for rBRIEF compute()
   TaskPool* pool_;
-  // The mask's binary image and integral (2.6 MB at 960x540), handed from
-  // one extraction's finish() to the next one's build_pyramid(), so that a
-  // frame writes into memory the process already touched: a fresh
+  // The mask's binary image and integral (2.6 MB at 960x540) and the
+  // pyramid's levels 1.. (1.1 MB), handed from one extraction's finish()
+  // (the pyramid: from recycle()) to the next one's build_pyramid(), so
+  // that a frame writes into memory the process already touched: a fresh
   // allocation of that size cost 1-9 ms of page faults in some frames on
   // the 2-core machine (0.1 ms reused). Extractions running at once on one
   // extractor each take the buffers or allocate their own; copies of the
-  // extractor share the slot. mutex guards the two Mats.
-  struct RecycledMaskBuffers {
+  // extractor share the slot. mutex guards the Mats.
+  struct RecycledBuffers {
     std::mutex mutex;
-    cv::Mat binary;
-    cv::Mat integral;
+    cv::Mat mask_binary;
+    cv::Mat mask_integral;
+    std::vector<cv::Mat> pyramid_levels;  // [0] unused (the caller's image)
   };
-  std::shared_ptr<RecycledMaskBuffers> recycled_ = std::make_shared<RecycledMaskBuffers>();
+  std::shared_ptr<RecycledBuffers> recycled_ = std::make_shared<RecycledBuffers>();
 };
 
 // Orientation of the patch around (x, y) by the intensity centroid over a

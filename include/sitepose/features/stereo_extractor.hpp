@@ -13,9 +13,9 @@
 // shared batches on the lent TaskPool: both pyramids, then every level's
 // FAST of both images, both selections, every level's descriptors (no
 // pool: all on the caller's thread, same result); one extract() at a time
-// per instance. Ownership: the result owns its data (cv::Mat headers
-// share the pyramid buffers allocated for this call, never the caller's
-// images except level 0).
+// per instance. Ownership: the result owns its data and shares nothing with
+// the caller's images; the pyramids go back to the extractors for the next
+// pair (OrbExtractor::recycle).
 
 #include <vector>
 
@@ -48,8 +48,6 @@ struct StereoFeatures {
   // Right-image features (unmasked), for matchers that need both images.
   std::vector<cv::KeyPoint> right_keypoints;
   cv::Mat right_descriptors;
-  // Left pyramid (level 0 = the caller's left image), e.g. for patch checks.
-  ImagePyramid left_pyramid;
   StereoMatchStats stats;
   StereoTimings timings;
 

@@ -183,6 +183,37 @@ TEST(OrbExtractor, MaskBuffersCarriedBetweenExtractionsLeaveNoTrace) {
   expect_identical(extract_ok(used, image, mask), expected, "again");
 }
 
+// A recycled pyramid's levels are resized into by the next extraction: the
+// result is a fresh extractor's (also after another image size), and a
+// level that the caller still shares is left alone, not written into.
+TEST(OrbExtractor, RecycledPyramidLeavesNoTraceAndSharedLevelsAreNotReused) {
+  const cv::Mat image = testing::make_texture(kSize, 5);
+  const cv::Mat other_image = testing::make_texture(kSize, 6);
+  cv::Mat small_image;
+  cv::resize(other_image, small_image, cv::Size(kSize.width / 2, kSize.height / 2));
+
+  config::OrbConfig cfg;
+  OrbExtractor fresh(cfg);
+  const OrbFeatures expected = extract_ok(fresh, image);
+  OrbExtractor used(cfg);
+  used.recycle(extract_ok(used, small_image).pyramid);
+  OrbFeatures other = extract_ok(used, other_image);
+  const std::uint8_t* recycled_data = other.pyramid.levels[1].data;
+  used.recycle(std::move(other.pyramid));
+  const OrbFeatures again = extract_ok(used, image);
+  EXPECT_EQ(again.pyramid.levels[1].data, recycled_data);  // resized into, not allocated
+  expect_identical(again, expected, "after recycled pyramids");
+
+  OrbFeatures kept = extract_ok(used, other_image);
+  const cv::Mat shared_level = kept.pyramid.levels[1];  // the caller still holds this one
+  const cv::Mat level_before = shared_level.clone();
+  used.recycle(std::move(kept.pyramid));
+  const OrbFeatures next = extract_ok(used, image);
+  EXPECT_NE(next.pyramid.levels[1].data, shared_level.data);
+  EXPECT_EQ(cv::norm(shared_level, level_before, cv::NORM_INF), 0.0);
+  expect_identical(next, expected, "with a shared level");
+}
+
 TEST(OrbExtractor, BothSidesInOnePassEqualTwoSeparateExtractions) {
   // Texture, faint below row 300 (cells fall back to the minimum threshold
   // on both sides of the mask), and a mask of blobs plus a 1-px line of
