@@ -91,7 +91,8 @@ TEST(NewPoints, EpipolarSearchAndTriangulationRecoverTheWorld) {
   EXPECT_GT(static_cast<double>(matches.size()), 0.9 * common);
   EXPECT_GE(correct, static_cast<int>(matches.size()) - 2);
 
-  const std::vector<NewPoint> points = triangulate_matches(camera, pyramid, v1.snapshot, v2.snapshot, matches, params);
+  const std::vector<NewPoint> points =
+      triangulate_matches(camera, pyramid, v1.snapshot, v2.snapshot, matches, params);
   EXPECT_GT(static_cast<double>(points.size()), 0.8 * matches.size());
   std::vector<double> relative_error;
   for (const NewPoint& p : points) {
@@ -106,6 +107,110 @@ TEST(NewPoints, EpipolarSearchAndTriangulationRecoverTheWorld) {
   EXPECT_LT(relative_error[relative_error.size() * 99 / 100], 0.15);
 }
 
+// The search visits only the candidates near each epipolar line
+// (CandidateGrid); it must return what a loop over every candidate returns,
+// including which of equally distant candidates wins. The reference below is
+// that loop, written out plainly.
+std::vector<KeypointMatch> brute_force_search(const StereoCamera& camera, const map::ScalePyramid& pyramid,
+                                              const KeyFrameSnapshot& kf1, const KeyFrameSnapshot& kf2,
+                                              const NewPointParams& params) {
+  const Eigen::Matrix3d F21 = fundamental_2_1(camera, kf1.T_cam_world, kf2.T_cam_world);
+  const Eigen::Vector3d c1_in_2 = kf2.T_cam_world * kf1.camera_center();
+  const auto stereo = [](const map::KeyPointData& kp) { return kp.u_right_px >= 0.0 && kp.depth_m > 0.0; };
+  std::vector<KeypointMatch> proposals;
+  for (int i = 0; i < static_cast<int>(kf1.keypoints.size()); ++i) {
+    const map::KeyPointData& kp1 = kf1.keypoints[i];
+    const Eigen::Vector3d line = F21 * kp1.uv_px.homogeneous();
+    int best = 1 << 30;
+    int second = 1 << 30;
+    int best_j = -1;
+    for (int j = 0; j < static_cast<int>(kf2.keypoints.size()); ++j) {
+      const map::KeyPointData& kp2 = kf2.keypoints[j];
+      const double scale = pyramid.scale(kp2.octave);
+      const bool near_epipole =
+          c1_in_2.z() > 0.0 && (kp2.uv_px - camera.project(c1_in_2)).squaredNorm() < 100.0 * scale;
+      if (!stereo(kp1) && !stereo(kp2) && near_epipole) continue;
+      const double distance_px = std::abs(line.dot(kp2.uv_px.homogeneous())) / line.head<2>().norm();
+      if (distance_px * distance_px > params.epipolar_chi2 * scale * scale) continue;
+      const int d = map::descriptor_distance(kp1.descriptor, kp2.descriptor);
+      if (d < best) {
+        second = best;
+        best = d;
+        best_j = j;
+      } else if (d < second) {
+        second = d;
+      }
+    }
+    if (best_j < 0 || best > params.max_descriptor_distance) continue;
+    if (second != (1 << 30) && !(best < params.ratio * second)) continue;
+    proposals.push_back({i, best_j, best});
+  }
+  std::sort(proposals.begin(), proposals.end(), [](const KeypointMatch& a, const KeypointMatch& b) {
+    return a.distance != b.distance ? a.distance < b.distance : a.index1 < b.index1;
+  });
+  std::vector<bool> taken(kf2.keypoints.size(), false);
+  std::vector<KeypointMatch> matches;
+  for (const KeypointMatch& m : proposals) {
+    if (!taken[m.index2]) matches.push_back(m);
+    taken[m.index2] = true;
+  }
+  std::sort(matches.begin(), matches.end(),
+            [](const KeypointMatch& a, const KeypointMatch& b) { return a.index1 < b.index1; });
+  return matches;
+}
+
+TEST(NewPoints, EpipolarSearchReturnsWhatALoopOverEveryCandidateReturns) {
+  const StereoCamera camera = test_camera();
+  const testing::World world = make_world(600, 13);
+  const map::ScalePyramid pyramid;
+  // 0.9: more proposals than the default 0.6, so more of them compete for
+  // keypoints; 1.5: no ratio test, so equally distant candidates (the
+  // copies below) give matches and the tie rule decides which.
+  const std::vector<double> ratios = {0.9, 1.5};
+  // Sideways (near-horizontal lines), forwards (lines through an epipole
+  // in the image, some near-vertical), upwards with a turn (near-vertical).
+  const std::vector<SE3> second_poses = {pose_at_x(2.0, 0.03),
+                                         SE3::exp((Vector6d() << 0.1, 0.05, 1.5, 0.01, 0.02, 0.0).finished()),
+                                         SE3::exp((Vector6d() << 0.05, 1.2, 0.2, 0.1, 0.0, 0.3).finished())};
+  int total_matches = 0;
+  for (std::size_t pose = 0; pose < second_poses.size(); ++pose) {
+    std::mt19937 rng(static_cast<unsigned>(40 + pose));
+    MonoView v1 = mono_view(world, camera, pose_at_x(0.0), rng);
+    MonoView v2 = mono_view(world, camera, second_poses[pose], rng);
+    v2.snapshot.id = 1;
+    // Stereo on every third keypoint of keyframe 1; in keyframe 2, copies
+    // of every fifth keypoint 2 px to the left (ties of descriptor
+    // distance; some copies fall into the cell before their original's).
+    for (std::size_t k = 0; k < v1.snapshot.keypoints.size(); k += 3) {
+      v1.snapshot.keypoints[k].u_right_px = v1.snapshot.keypoints[k].uv_px.x() - 10.0;
+      v1.snapshot.keypoints[k].depth_m = 5.0;
+    }
+    const std::size_t n2 = v2.snapshot.keypoints.size();
+    for (std::size_t k = 0; k < n2; k += 5) {
+      map::KeyPointData copy = v2.snapshot.keypoints[k];
+      copy.uv_px.x() -= 2.0;
+      v2.snapshot.keypoints.push_back(copy);
+      v2.snapshot.point_of_keypoint.push_back(map::kNoPoint);
+    }
+    for (const double ratio : ratios) {
+      NewPointParams params;
+      params.ratio = ratio;
+      const std::vector<KeypointMatch> expected =
+          brute_force_search(camera, pyramid, v1.snapshot, v2.snapshot, params);
+      const std::vector<KeypointMatch> got =
+          search_for_triangulation(camera, pyramid, v1.snapshot, v2.snapshot, params);
+      ASSERT_EQ(got.size(), expected.size()) << "pose " << pose << " ratio " << ratio;
+      for (std::size_t m = 0; m < got.size(); ++m) {
+        EXPECT_TRUE(got[m].index1 == expected[m].index1 && got[m].index2 == expected[m].index2 &&
+                    got[m].distance == expected[m].distance)
+            << "pose " << pose << " ratio " << ratio << " match " << m;
+      }
+      total_matches += static_cast<int>(got.size());
+    }
+  }
+  EXPECT_GT(total_matches, 300);
+}
+
 TEST(NewPoints, NoMatchesWithoutDescriptorAgreement) {
   const StereoCamera camera = test_camera();
   const testing::World world = make_world(100, 5);
@@ -116,8 +221,9 @@ TEST(NewPoints, NoMatchesWithoutDescriptorAgreement) {
   for (std::size_t i = 0; i < v2.snapshot.keypoints.size(); ++i) {
     v2.snapshot.keypoints[i].descriptor = other_descriptors.descriptors[v2.world_of_keypoint[i]];
   }
-  EXPECT_TRUE(search_for_triangulation(camera, map::ScalePyramid{}, v1.snapshot, v2.snapshot, NewPointParams{})
-                  .empty());
+  EXPECT_TRUE(
+      search_for_triangulation(camera, map::ScalePyramid{}, v1.snapshot, v2.snapshot, NewPointParams{})
+          .empty());
 }
 
 TEST(Fuse, ProjectsPointsOntoTheirKeypoints) {
@@ -140,7 +246,8 @@ TEST(Fuse, ProjectsPointsOntoTheirKeypoints) {
     points.push_back(p);
   }
   const map::KeypointGrid grid = make_keypoint_grid(camera, target.snapshot);
-  const auto proposals = fuse_into_keyframe(camera, map::ScalePyramid{}, target.snapshot, grid, points, FuseParams{});
+  const auto proposals =
+      fuse_into_keyframe(camera, map::ScalePyramid{}, target.snapshot, grid, points, FuseParams{});
   EXPECT_GT(static_cast<double>(proposals.size()), 0.95 * target.snapshot.keypoints.size());
   for (const FuseProposal& f : proposals) {
     EXPECT_EQ(f.point - 1000, target.world_of_keypoint[f.index]);
@@ -148,7 +255,8 @@ TEST(Fuse, ProjectsPointsOntoTheirKeypoints) {
   }
   // A point the keyframe already observes is not proposed again.
   for (auto& p : points) p.observed_by = {5};
-  EXPECT_TRUE(fuse_into_keyframe(camera, map::ScalePyramid{}, target.snapshot, grid, points, FuseParams{}).empty());
+  EXPECT_TRUE(
+      fuse_into_keyframe(camera, map::ScalePyramid{}, target.snapshot, grid, points, FuseParams{}).empty());
 }
 
 TEST(KeyframeCulling, RedundantWhenThreeOthersSeeTheCloseStereoPoints) {
