@@ -169,7 +169,7 @@ void tie_map_travel_to_loop(map::MapData& map, const GroupCorrection& plan, map:
     map::KeyFrame* kf = map.keyframe(id);
     if (kf == nullptr || kf->bad) continue;
     kf->map_travel_m =
-        std::min(kf->map_travel_m, loop_travel_m + (kf->camera_center() - loop_centre_m).norm());
+        std::min(kf->map_travel_m, map::map_travel_via(loop_travel_m, loop_centre_m, kf->camera_center()));
   }
 }
 

@@ -470,7 +470,7 @@ std::optional<double> map_travel_at(const MapData& map, const std::map<KeyFrameI
   const auto consider = [&](KeyFrameId id) {
     const KeyFrame* kf = map.keyframe(id);
     if (kf == nullptr) return;
-    const double travel_m = kf->map_travel_m + (camera_centre_m - kf->camera_center()).norm();
+    const double travel_m = map_travel_via(kf->map_travel_m, kf->camera_center(), camera_centre_m);
     if (!least_m || travel_m < *least_m) least_m = travel_m;
   };
   consider(keyframe_sharing_most(sharing));
@@ -520,7 +520,7 @@ void MapData::move_keyframes_from(KeyFrameId first, const SE3& correction) {
 void MapData::set_map_travel_from(KeyFrameId first, const Eigen::Vector3d& place_m,
                                   double travel_at_place_m) {
   for (auto& [id, kf] : keyframes_) {
-    if (id >= first) kf.map_travel_m = travel_at_place_m + (kf.camera_center() - place_m).norm();
+    if (id >= first) kf.map_travel_m = map_travel_via(travel_at_place_m, place_m, kf.camera_center());
   }
 }
 

@@ -199,6 +199,14 @@ class MapData {
 // equals); kNoKeyFrame without votes.
 KeyFrameId keyframe_sharing_most(const std::map<KeyFrameId, int>& votes);
 
+// The map travel of a place reached from `from_m`, where the map had been
+// built out over `travel_at_from_m`: that plus the straight distance (the
+// one rule of the tracker, a provisional map's join and a closed loop).
+inline double map_travel_via(double travel_at_from_m, const Eigen::Vector3d& from_m,
+                             const Eigen::Vector3d& place_m) {
+  return travel_at_from_m + (place_m - from_m).norm();
+}
+
 // How far the map had been built out to a camera at `camera_centre_m`: the
 // least of map_travel_m plus the straight distance from the keyframe, over
 // the keyframe sharing most of the camera's matches (`sharing`,
