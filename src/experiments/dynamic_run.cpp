@@ -71,6 +71,7 @@ Expected<DynamicRunResult> run_dynamic(const LabelledSource& source, const confi
   result.points = system->point_count();
   result.loop_stats = system->loop_stats();
   result.tracker_counters = system->tracker_counters();
+  result.mapping = system->mapping_stats();
   if (result.ground_truth.size() < 3 || result.estimate.size() < 3) {
     result.evaluation_error = "fewer than 3 ground-truth or estimated poses";
     return result;

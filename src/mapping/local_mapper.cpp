@@ -189,17 +189,29 @@ Status LocalMapper::process_keyframe(map::KeyFrameId keyframe) {
     });
     listener_.added(keyframe, descriptors);
   }
+  MappingStepTimes steps;
+  auto step_start = std::chrono::steady_clock::now();
+  // Adds the time since the last mark to `total` and starts the next step.
+  const auto mark = [&step_start](double& total) {
+    total += elapsed_ms(step_start);
+    step_start = std::chrono::steady_clock::now();
+  };
   cull_recent_points(keyframe);
+  mark(steps.culling_ms);
   create_new_points(keyframe);
+  mark(steps.new_points_ms);
   fuse_neighbours(keyframe);
+  mark(steps.fuse_ms);
   // ORB-SLAM2: BA and keyframe culling only when no other keyframe waits.
   // Behind the tracker, the redundancy test would count views of keyframes
   // not yet processed, and the tracker holds back at 3 queued anyway.
   Status ba_status;
   if (queue_empty()) {
     ba_status = local_bundle_adjustment(keyframe);
+    mark(steps.local_ba_ms);
     cull_keyframes(keyframe);
     if (mapping_.site_culling) cull_site_keyframes(keyframe);
+    mark(steps.culling_ms);
   }
   const std::size_t purged = map_.write([](map::MapData& m) { return m.purge_bad_points(); });
   if (listener_.processed &&
@@ -213,6 +225,10 @@ Status LocalMapper::process_keyframe(map::KeyFrameId keyframe) {
     stats_.points_purged += static_cast<std::int64_t>(purged);
     stats_.last_keyframe_ms = ms;
     stats_.total_keyframe_ms += ms;
+    stats_.total_steps.new_points_ms += steps.new_points_ms;
+    stats_.total_steps.fuse_ms += steps.fuse_ms;
+    stats_.total_steps.local_ba_ms += steps.local_ba_ms;
+    stats_.total_steps.culling_ms += steps.culling_ms;
   }
   spdlog::debug("local mapping: keyframe={} ms={:.1f}", keyframe, ms);
   return ba_status;

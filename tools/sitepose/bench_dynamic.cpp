@@ -68,6 +68,7 @@ void print_stage_shares(const slam::RunRecorder& recorder, const slam::SlamSyste
       "frame, which includes the masked areas' own feature budget)\n",
       whole > 0 ? 100.0 * dynamic_ms / whole : 0.0, whole > 0 ? 100.0 * extract / whole : 0.0);
   print_tracker_counters(system.tracker_counters());
+  print_mapping_stats(system.mapping_stats());
   const auto stages = recorder.stage_summaries();
   print_stage_table(stages);
   if (const auto it = stages.find("whole_frame"); it != stages.end()) {

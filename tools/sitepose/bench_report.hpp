@@ -7,8 +7,8 @@
 #include <map>
 #include <string>
 
+#include "sitepose/mapping/local_mapper.hpp"
 #include "sitepose/slam/run_recorder.hpp"
-
 #include "sitepose/tracking/tracker.hpp"
 
 namespace sitepose::cli {
@@ -23,6 +23,25 @@ inline void print_tracker_counters(const tracking::TrackerCounters& c) {
       "close-point repeatability %.3f (%ld of %ld close points matched again in the next frame)\n",
       c.close_points_previous > 0 ? double(c.close_points_rematched) / double(c.close_points_previous) : 0.0,
       c.close_points_rematched, c.close_points_previous);
+}
+
+// The local mapper's work per keyframe processed and its steps' shares
+// (wall time on the thread that ran it: the mapper's own, or the tracking
+// thread when inline).
+inline void print_mapping_stats(const mapping::MappingStats& m) {
+  if (m.keyframes_processed <= 0) {
+    std::printf("mapper: no keyframe processed\n");
+    return;
+  }
+  const double n = static_cast<double>(m.keyframes_processed);
+  const mapping::MappingStepTimes& t = m.total_steps;
+  const double rest = m.total_keyframe_ms - t.new_points_ms - t.fuse_ms - t.local_ba_ms - t.culling_ms;
+  std::printf(
+      "mapper: %lld keyframes processed, %.1f ms each (new points %.1f, fuse %.1f, local BA %.1f, culling "
+      "%.1f, the rest %.1f); local BA on %lld, stopped early %lld\n",
+      static_cast<long long>(m.keyframes_processed), m.total_keyframe_ms / n, t.new_points_ms / n,
+      t.fuse_ms / n, t.local_ba_ms / n, t.culling_ms / n, rest / n, static_cast<long long>(m.ba_runs),
+      static_cast<long long>(m.ba_aborted));
 }
 
 // p50 / p99 / mean of every stage the run timed: the tracker's stages in

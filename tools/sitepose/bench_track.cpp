@@ -53,6 +53,7 @@ int bench_track(const BenchTrackArgs& args) {
   std::printf("frames/s (1000 / mean whole_frame): %.1f\n", run->recorder.frames_per_second());
   std::printf("keyframes in map %zu, points in map %zu\n", run->keyframes, run->points);
   print_tracker_counters(run->tracker_counters);
+  print_mapping_stats(run->mapping);
   std::printf("peak RSS %.1f MiB\n", slam::peak_rss_bytes() / 1048576.0);
   for (std::size_t i = 0; i < rss_marks.size(); ++i) {
     std::printf("RSS after %d frames: %.1f MiB", rss_marks[i].first, rss_marks[i].second);

@@ -18,6 +18,7 @@
 #include "sitepose/experiments/labelled_source.hpp"
 #include "sitepose/io/trajectory.hpp"
 #include "sitepose/loop/loop_closer.hpp"
+#include "sitepose/mapping/local_mapper.hpp"
 #include "sitepose/placerec/vocabulary.hpp"
 #include "sitepose/slam/run_recorder.hpp"
 #include "sitepose/tracking/tracker.hpp"
@@ -70,6 +71,7 @@ struct DynamicRunResult {
   std::size_t points = 0;
   std::optional<loop::LoopClosingStats> loop_stats;  // when the loop closer ran
   tracking::TrackerCounters tracker_counters;        // at the end of the run
+  mapping::MappingStats mapping;                     // at the end of the run
 
   double coverage_ok() const;  // frames OK / frames
   double ate_m() const;        // RMSE, NaN without evaluation

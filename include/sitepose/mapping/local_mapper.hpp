@@ -65,6 +65,15 @@
 
 namespace sitepose::mapping {
 
+// Wall time of the steps of process_keyframe, summed over keyframes (what
+// the mapper costs per keyframe, and where: `sitepose bench track|dynamic`).
+struct MappingStepTimes {
+  double new_points_ms = 0.0;  // step 3: epipolar search and triangulation
+  double fuse_ms = 0.0;        // step 4
+  double local_ba_ms = 0.0;    // step 5: building, solving and applying the problem
+  double culling_ms = 0.0;     // steps 2 and 6: recent points, then keyframes (both rules)
+};
+
 struct MappingStats {
   std::int64_t keyframes_processed = 0;
   std::int64_t keyframes_missing = 0;        // enqueued but gone from the map when their turn came
@@ -87,6 +96,7 @@ struct MappingStats {
   double total_ba_ms = 0.0;
   double last_keyframe_ms = 0.0;  // wall time of all steps for the last keyframe
   double total_keyframe_ms = 0.0;
+  MappingStepTimes total_steps;  // of total_keyframe_ms
 };
 
 // Who else keeps a per-keyframe index (the place-recognition database):

@@ -409,6 +409,15 @@ TEST(LocalMapper, KeyframeCullingBoundsTheMapWhenDrivingBackAndForth) {
   expect_bounded_by_the_strip(drive, world);
   EXPECT_GT(drive.stats.keyframes_culled, 160);
   expect_true_map(map, tracker);
+  // The steps' times (what `bench track` reports per keyframe) are each
+  // spent and together within the keyframes' time.
+  const mapping::MappingStepTimes& steps = drive.stats.total_steps;
+  EXPECT_GT(steps.new_points_ms, 0.0);
+  EXPECT_GT(steps.fuse_ms, 0.0);
+  EXPECT_GT(steps.local_ba_ms, drive.stats.total_ba_ms * 0.999);  // the solve and more
+  EXPECT_GT(steps.culling_ms, 0.0);
+  EXPECT_LE(steps.new_points_ms + steps.fuse_ms + steps.local_ba_ms + steps.culling_ms,
+            drive.stats.total_keyframe_ms);
 }
 
 // The same drive with site culling: as bounded, and every site cell of the
