@@ -377,7 +377,7 @@ namespace {
 // (changed atomically by every copy and release); an acquire load pairs
 // with the release of the last other holder, whose reads then precede any
 // write into the buffer.
-bool sole_owner(cv::Mat& mat) {
+bool sole_owner(const cv::Mat& mat) {
   return mat.u != nullptr && std::atomic_ref<int>(mat.u->refcount).load(std::memory_order_acquire) == 1;
 }
 

@@ -29,8 +29,7 @@ struct EpipolarCandidate {
 
 // The candidates bucketed in square cells, so that a line visits the cells
 // along it rather than every candidate (keyframes hold 1000-2000 unmatched
-// keypoints each; the loop over all of them took a fifth of the mapper's
-// time on parallel). 48-px cells: 24, 72 and 120 px were slower.
+// keypoints each, and each has 10 neighbours to search).
 class CandidateGrid {
  public:
   explicit CandidateGrid(const std::vector<EpipolarCandidate>& candidates) {
@@ -104,7 +103,7 @@ class CandidateGrid {
   }
 
  private:
-  static constexpr double kCellPx = 48.0;
+  static constexpr double kCellPx = 48.0;  // the fastest of 24-120 px (docs/tracking/issue24-measurements.md)
   static constexpr double kMaxCellsPerAxis = 256.0;
   static constexpr double kMarginPx = 1.0;  // round-off at the band's edge
 
