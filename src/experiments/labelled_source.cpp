@@ -112,13 +112,15 @@ class CachedSource final : public LabelledSource {
 
 Expected<std::unique_ptr<LabelledSource>> open_simulated(const std::string& scenario_name, int frames,
                                                          std::optional<int> seed, std::optional<int> width,
-                                                         std::optional<int> height) {
+                                                         std::optional<int> height,
+                                                         std::optional<double> fps) {
   SITEPOSE_TRY(sim::Scenario scenario, sim::load_scenario(scenario_name));
   sim::SimOptions options;
   if (frames > 0) options.frames = frames;
   options.seed = seed;
   options.width = width;
   options.height = height;
+  options.fps = fps;
   SITEPOSE_TRY(sim::Simulator simulator, sim::Simulator::create(scenario, options));
   if (simulator.distorted()) {
     return make_error(ErrorCode::kUnsupported, "scenario " + scenario_name +

@@ -46,8 +46,8 @@ int bench_track(const BenchTrackArgs& args) {
   auto run = experiments::run_dynamic(**source, config, options);
   if (!run) return fail("bench track", run.error().message, 1);
   const auto stages = run->recorder.stage_summaries();
-  std::printf("bench track: %s, %d frames%s, mapper %s\n", run->name.c_str(), run->frames,
-              run->partial ? " (interrupted: partial)" : "",
+  std::printf("bench track: %s, %d frames at %g frames/s%s, mapper %s\n", run->name.c_str(), run->frames,
+              (*source)->fps(), run->partial ? " (interrupted: partial)" : "",
               args.mapper_thread ? "on its own thread" : "inline (excluded from whole_frame)");
   print_stage_table(stages);
   std::printf("frames/s (1000 / mean whole_frame): %.1f\n", run->recorder.frames_per_second());

@@ -44,10 +44,11 @@ struct FrameSourceArgs {
   std::string scenario{};
   std::string sequence{};  // wins over `scenario`
   std::string config_path{};
+  double fps = 0.0;  // the scenario's frame rate instead of its own; 0 = its own
 };
 
-// --scenario, --sequence and --config, bound to `source`, which must outlive
-// the parse; `config_help` says what the command takes from the file.
+// --scenario, --sequence, --fps and --config, bound to `source`, which must
+// outlive the parse; `config_help` says what the command takes from the file.
 void add_frame_source_options(CLI::App& sub, FrameSourceArgs& source, const std::string& config_help);
 
 // The sequence (labels not required), or else the first `frames` frames of

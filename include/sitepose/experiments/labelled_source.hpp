@@ -44,11 +44,13 @@ class LabelledSource {
 
 // Renders `scenario` (name or YAML path) in-process; `frames` > 0 limits the
 // length; width and height, when set, render at that size (same field of
-// view). kUnsupported for scenarios rendering distorted images.
+// view); fps, when set, at that frame rate (same motion in time).
+// kUnsupported for scenarios rendering distorted images.
 Expected<std::unique_ptr<LabelledSource>> open_simulated(const std::string& scenario, int frames = 0,
                                                          std::optional<int> seed = std::nullopt,
                                                          std::optional<int> width = std::nullopt,
-                                                         std::optional<int> height = std::nullopt);
+                                                         std::optional<int> height = std::nullopt,
+                                                         std::optional<double> fps = std::nullopt);
 
 // A sitepose sequence; boxes and masks from labels/ (kInvalidArgument when
 // the sequence has no labels/boxes.csv and `require_labels`; without it such

@@ -97,6 +97,19 @@ TEST_F(RunCli, BadOptionValuesExitTwoAtParse) {
   }
 }
 
+// The benches render a scenario at another frame rate with --fps (issue 24:
+// keyframes at the cameras' rate); a recorded sequence keeps its own.
+TEST_F(RunCli, BenchFpsRendersTheScenarioAtThatRateButNotASequence) {
+  const fs::path out = dir_ / "bench.txt";
+  const RunResult rendered = sitepose("bench track --scenario static --fps 30 --frames 8", out.string());
+  EXPECT_EQ(rendered.exit_status, 0) << rendered.err;
+  const std::string printed = testing::read_text(out);
+  EXPECT_NE(printed.find("8 frames at 30 frames/s"), std::string::npos) << printed;
+  const RunResult sequence = sitepose("bench track --sequence " + seq().string() + " --fps 30 --frames 4");
+  EXPECT_EQ(sequence.exit_status, 2) << sequence.err;
+  EXPECT_NE(sequence.err.find("--fps"), std::string::npos) << sequence.err;
+}
+
 // issue 20: an output path that cannot be written failed (exit 1) only after
 // the whole run.
 TEST_F(RunCli, UnwritableOutputsExitTwoBeforeTracking) {
