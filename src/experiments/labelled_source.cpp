@@ -146,16 +146,27 @@ std::unique_ptr<LabelledSource> cache_frames(std::unique_ptr<LabelledSource> sou
   return std::make_unique<CachedSource>(std::move(source));
 }
 
+Status check_fps_for_source(bool from_sequence, double fps) {
+  if (from_sequence && fps > 0.0) {
+    return make_error(
+        ErrorCode::kInvalidArgument,
+        "--fps renders a scenario at another rate; a recorded sequence (--sequence) keeps its own");
+  }
+  return ok_status();
+}
+
 Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceRequest& request,
                                                                std::string* written_dir) {
   if (request.sequence.empty() == request.scenario.empty()) {
     return make_error(ErrorCode::kInvalidArgument, "give exactly one of --sequence DIR and --scenario NAME");
   }
+  SITEPOSE_TRY_STATUS(check_fps_for_source(!request.sequence.empty(), request.fps));
   std::string dir = request.sequence;
   if (!request.scenario.empty()) {
     SITEPOSE_TRY(sim::Scenario scenario, sim::load_scenario(request.scenario));
     sim::SimOptions options;
     if (request.frames > 0) options.frames = request.frames;
+    if (request.fps > 0.0) options.fps = request.fps;
     SITEPOSE_TRY(sim::Simulator simulator, sim::Simulator::create(scenario, options));
     const fs::path base = request.temp_dir.empty()
                               ? fs::temp_directory_path() / ("sitepose-ablate-" + std::to_string(::getpid()))
@@ -164,8 +175,8 @@ Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceReque
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) return make_error(ErrorCode::kIoError, "cannot create " + dir + ": " + ec.message());
-    std::fprintf(stderr, "simulating %s (%d frames) into %s\n", scenario.name.c_str(),
-                 simulator.frame_count(), dir.c_str());
+    std::fprintf(stderr, "simulating %s (%d frames at %g frames/s) into %s\n", scenario.name.c_str(),
+                 simulator.frame_count(), simulator.fps(), dir.c_str());
     SITEPOSE_TRY(sim::WriteSummary summary, sim::write_sequence(simulator, dir));
     (void)summary;
   }

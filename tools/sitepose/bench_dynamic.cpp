@@ -105,6 +105,9 @@ int run(Args args) {
   if (!loaded) return fail(kCommand, loaded.error().message, 2);
   config::SiteposeConfig& config = *loaded;
   config.detector.name = args.detector;
+  if (auto st = experiments::check_fps_for_source(!args.source.sequence.empty(), args.source.fps); !st) {
+    return fail(kCommand, st.error().message, 2);
+  }
   if (args.source.sequence.empty() && args.source.scenario.empty()) args.source.scenario = "crowded";
   std::string dir = args.source.sequence;
   if (!args.source.scenario.empty()) {
@@ -180,6 +183,7 @@ void add_options(CLI::App& sub, Args& args) {
                  "Scenario simulated into a temporary folder instead (default: crowded)");
   sub.add_option("--frames", args.source.frames, "Frames (0 = all)")
       ->check(CLI::Range(0, std::numeric_limits<int>::max()));
+  add_fps_option(sub, args.source.fps);
   sub.add_option("--detector", args.detector, "Detector (default labels)");
   sub.add_option("--mode", args.mode, "Masking mode (default full)");
   sub.add_option("--config", args.config_path, "sitepose YAML config");

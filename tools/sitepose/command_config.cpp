@@ -28,28 +28,25 @@ Expected<config::SiteposeConfig> load_pipeline_config(const PipelineConfigArgs& 
   return config;
 }
 
+void add_fps_option(CLI::App& sub, double& fps) {
+  sub.add_option("--fps", fps,
+                 "Render the scenario at this frame rate, same motion in time (default: the scenario's; not "
+                 "with --sequence)")
+      ->check(CLI::Range(0.001, 1000.0));
+}
+
 void add_frame_source_options(CLI::App& sub, FrameSourceArgs& source, const std::string& config_help) {
   sub.add_option("--scenario", source.scenario, "Scenario to simulate in-process (ignored with --sequence)")
       ->capture_default_str();
   sub.add_option("--sequence", source.sequence, "Recorded sequence directory instead of a scenario");
-  sub.add_option("--fps", source.fps,
-                 "Render the scenario at this frame rate, same motion in time (default: the scenario's; not "
-                 "with --sequence)")
-      ->check(CLI::Range(0.001, 1000.0));
+  add_fps_option(sub, source.fps);
   sub.add_option("--config", source.config_path, config_help);
 }
 
 Expected<std::unique_ptr<experiments::LabelledSource>> open_frame_source(const FrameSourceArgs& source,
                                                                          int frames) {
-  if (!source.sequence.empty()) {
-    if (source.fps > 0.0) {
-      return make_error(
-          ErrorCode::kInvalidArgument,
-          "--fps renders a scenario at another rate; a recorded sequence (--sequence) keeps its "
-          "own");
-    }
-    return experiments::open_labelled_sequence(source.sequence, false);
-  }
+  SITEPOSE_TRY_STATUS(experiments::check_fps_for_source(!source.sequence.empty(), source.fps));
+  if (!source.sequence.empty()) return experiments::open_labelled_sequence(source.sequence, false);
   return experiments::open_simulated(source.scenario, frames, std::nullopt, std::nullopt, std::nullopt,
                                      source.fps > 0.0 ? std::optional<double>(source.fps) : std::nullopt);
 }

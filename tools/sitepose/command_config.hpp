@@ -47,6 +47,9 @@ struct FrameSourceArgs {
   double fps = 0.0;  // the scenario's frame rate instead of its own; 0 = its own
 };
 
+// --fps: the rate to render a scenario at (0, the default, = its own).
+void add_fps_option(CLI::App& sub, double& fps);
+
 // --scenario, --sequence, --fps and --config, bound to `source`, which must
 // outlive the parse; `config_help` says what the command takes from the file.
 void add_frame_source_options(CLI::App& sub, FrameSourceArgs& source, const std::string& config_help);

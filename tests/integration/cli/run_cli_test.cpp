@@ -108,6 +108,13 @@ TEST_F(RunCli, BenchFpsRendersTheScenarioAtThatRateButNotASequence) {
   const RunResult sequence = sitepose("bench track --sequence " + seq().string() + " --fps 30 --frames 4");
   EXPECT_EQ(sequence.exit_status, 2) << sequence.err;
   EXPECT_NE(sequence.err.find("--fps"), std::string::npos) << sequence.err;
+  // bench dynamic writes the scenario to disk first (the labels detector reads it there).
+  const RunResult dynamic = sitepose("bench dynamic --scenario crowded --fps 30 --frames 6");
+  EXPECT_EQ(dynamic.exit_status, 0) << dynamic.err;
+  EXPECT_NE(dynamic.err.find("(6 frames at 30 frames/s)"), std::string::npos) << dynamic.err;
+  const RunResult dynamic_sequence = sitepose("bench dynamic --sequence " + seq().string() + " --fps 30");
+  EXPECT_EQ(dynamic_sequence.exit_status, 2) << dynamic_sequence.err;
+  EXPECT_NE(dynamic_sequence.err.find("--fps"), std::string::npos) << dynamic_sequence.err;
 }
 
 // issue 20: an output path that cannot be written failed (exit 1) only after
