@@ -48,6 +48,7 @@ Section<OrbConfig> orb_section() {
   s.key("n_features", &OrbConfig::n_features, in_range(detail::kMinOrbFeatures, detail::kMaxOrbFeatures))
       .key("scale_factor", &OrbConfig::scale_factor, greater_than(1.0), at_most(detail::kMaxScaleFactor))
       .key("n_levels", &OrbConfig::n_levels, in_range(1, detail::kMaxLevels))
+      .key("strong_fast_threshold", &OrbConfig::strong_fast_threshold, in_range(0, detail::kMaxFastThreshold))
       .key("ini_fast_threshold", &OrbConfig::ini_fast_threshold, in_range(1, detail::kMaxFastThreshold))
       .key("min_fast_threshold", &OrbConfig::min_fast_threshold, in_range(1, detail::kMaxFastThreshold))
       .key("grid_cell_px", &OrbConfig::grid_cell_px, in_range(8, 500))

@@ -60,6 +60,9 @@ Status validate(const config::OrbConfig& c) {
   if (c.n_levels < 1 || c.n_levels > 16) {
     return invalid("n_levels", c.n_levels, "must be in [1, 16]");
   }
+  if (c.strong_fast_threshold < 0 || c.strong_fast_threshold > 254) {
+    return invalid("strong_fast_threshold", c.strong_fast_threshold, "must be in [0, 254]");
+  }
   if (c.ini_fast_threshold < 1 || c.ini_fast_threshold > 254) {
     return invalid("ini_fast_threshold", c.ini_fast_threshold, "must be in [1, 254]");
   }
@@ -87,6 +90,12 @@ OrbExtractor::OrbExtractor(const config::OrbConfig& config, TaskPool* pool) : co
     inv_level_sigma2_[l] = 1.0 / level_sigma2_[l];
   }
   features_per_level_ = level_budgets(config.n_features, config.scale_factor, n);
+  if (config.strong_fast_threshold > config.ini_fast_threshold) {
+    fast_thresholds_.push_back(config.strong_fast_threshold);
+  }
+  fast_thresholds_.push_back(config.ini_fast_threshold);
+  if (config.min_fast_threshold < config.ini_fast_threshold)
+    fast_thresholds_.push_back(config.min_fast_threshold);
 
   // One level per compute() call: the keypoints are given in that level's
   // pixels, so OpenCV blurs exactly our level image (7x7, sigma 2) and uses
@@ -204,8 +213,7 @@ std::vector<std::vector<cv::KeyPoint>> OrbExtractor::detect_candidates(const Orb
                        mask_integral.at<int>(v1 + 1, u0) + mask_integral.at<int>(v0, u0);
     return side == 0 ? masked < (u1 - u0 + 1) * (v1 - v0 + 1) : masked > 0;
   };
-  return detail::detect_fast_per_cell(img, area, config_.grid_cell_px, config_.ini_fast_threshold,
-                                      config_.min_fast_threshold, sides);
+  return detail::detect_fast_per_cell(img, area, config_.grid_cell_px, fast_thresholds_, sides);
 }
 
 void OrbExtractor::describe(const ImagePyramid& pyramid, int level, std::vector<cv::KeyPoint>& kps,

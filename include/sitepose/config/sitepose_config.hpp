@@ -33,7 +33,12 @@ struct OrbConfig {
   int n_features = 1500;      // per image, spread over the pyramid
   double scale_factor = 1.2;  // between pyramid levels
   int n_levels = 8;
-  int ini_fast_threshold = 20;  // FAST threshold tried first per cell
+  // FAST thresholds, a ladder per cell: a first pass over each level at
+  // strong_fast_threshold; a cell it leaves empty falls back to
+  // ini_fast_threshold, then min_fast_threshold. A strong threshold not above
+  // ini_fast_threshold (0) leaves ORB-SLAM2's two steps.
+  int strong_fast_threshold = 0;
+  int ini_fast_threshold = 20;  // ORB-SLAM2's first threshold
   int min_fast_threshold = 7;   // fallback when a cell yields nothing
   int grid_cell_px = 35;        // cell size of the candidate grid
 

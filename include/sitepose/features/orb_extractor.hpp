@@ -186,6 +186,7 @@ class OrbExtractor {
   std::vector<double> level_sigma2_;
   std::vector<double> inv_level_sigma2_;
   std::vector<int> features_per_level_;
+  std::vector<int> fast_thresholds_;           // the per-cell ladder, descending (config)
   std::vector<cv::Ptr<cv::ORB>> descriptors_;  // per level; used only for rBRIEF compute()
   TaskPool* pool_;
   // The mask's binary image and integral (2.6 MB at 960x540) and the

@@ -5,6 +5,7 @@
 #include <numeric>
 #include <opencv2/features2d.hpp>
 #include <queue>
+#include <span>
 
 #include "sitepose/core/expected.hpp"
 
@@ -17,9 +18,11 @@ constexpr int kFastApronPx = 4;
 }  // namespace
 
 std::vector<std::vector<cv::KeyPoint>> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area,
-                                                            int cell_px, int ini_threshold, int min_threshold,
+                                                            int cell_px, std::span<const int> thresholds,
                                                             const CandidateSides& sides) {
   SITEPOSE_CHECK(sides.n_sides >= 1 && sides.side_of && sides.may_hold);
+  SITEPOSE_CHECK(!thresholds.empty() && std::is_sorted(thresholds.rbegin(), thresholds.rend()) &&
+                 std::adjacent_find(thresholds.begin(), thresholds.end()) == thresholds.end());
   const cv::Rect roi(area.x - kFastApronPx, area.y - kFastApronPx, area.width + 2 * kFastApronPx,
                      area.height + 2 * kFastApronPx);
   SITEPOSE_CHECK((roi & cv::Rect(0, 0, level_image.cols, level_image.rows)) == roi);
@@ -35,7 +38,7 @@ std::vector<std::vector<cv::KeyPoint>> detect_fast_per_cell(const cv::Mat& level
   };
 
   std::vector<cv::KeyPoint> found;
-  cv::FAST(level_image(roi), found, ini_threshold, true, cv::FastFeatureDetector::TYPE_9_16);
+  cv::FAST(level_image(roi), found, thresholds.front(), true, cv::FastFeatureDetector::TYPE_9_16);
   std::vector<std::vector<cv::KeyPoint>> kept(sides.n_sides);
   // served[side * n_cells + cell]
   std::vector<char> served(static_cast<size_t>(sides.n_sides) * n_cells, 0);
@@ -61,28 +64,38 @@ std::vector<std::vector<cv::KeyPoint>> detect_fast_per_cell(const cv::Mat& level
 
   std::vector<cv::KeyPoint> weak;
   std::vector<char> wanted(sides.n_sides);
+  std::vector<char> got(sides.n_sides);
   for (int r = 0; r < n_rows; ++r) {
     for (int c = 0; c < n_cols; ++c) {
       const cv::Rect cell(col_edge(c), row_edge(r), col_edge(c + 1) - col_edge(c),
                           row_edge(r + 1) - row_edge(r));
       if (cell.width <= 0 || cell.height <= 0) continue;
-      bool any_wanted = false;
+      int n_wanted = 0;
       for (int side = 0; side < sides.n_sides; ++side) {
         wanted[side] =
             !served[static_cast<size_t>(side) * n_cells + r * n_cols + c] && sides.may_hold(cell, side);
-        any_wanted = any_wanted || wanted[side];
+        n_wanted += wanted[side];
       }
-      if (!any_wanted) continue;
       const cv::Rect cell_roi(cell.x - kFastApronPx, cell.y - kFastApronPx, cell.width + 2 * kFastApronPx,
                               cell.height + 2 * kFastApronPx);
-      cv::FAST(level_image(cell_roi), weak, min_threshold, true, cv::FastFeatureDetector::TYPE_9_16);
-      for (cv::KeyPoint& kp : weak) {
-        kp.pt.x += float(cell_roi.x);
-        kp.pt.y += float(cell_roi.y);
-        if (!cell.contains(cv::Point(static_cast<int>(kp.pt.x), static_cast<int>(kp.pt.y)))) continue;
-        const int side = sides.side_of(kp.pt.x, kp.pt.y);
-        if (side < 0 || !wanted[side]) continue;
-        kept[side].push_back(kp);
+      // Down the ladder until each wanted side has a candidate in the cell.
+      for (std::size_t step = 1; step < thresholds.size() && n_wanted > 0; ++step) {
+        cv::FAST(level_image(cell_roi), weak, thresholds[step], true, cv::FastFeatureDetector::TYPE_9_16);
+        std::fill(got.begin(), got.end(), 0);
+        for (cv::KeyPoint& kp : weak) {
+          kp.pt.x += float(cell_roi.x);
+          kp.pt.y += float(cell_roi.y);
+          if (!cell.contains(cv::Point(static_cast<int>(kp.pt.x), static_cast<int>(kp.pt.y)))) continue;
+          const int side = sides.side_of(kp.pt.x, kp.pt.y);
+          if (side < 0 || !wanted[side]) continue;
+          kept[side].push_back(kp);
+          got[side] = 1;
+        }
+        for (int side = 0; side < sides.n_sides; ++side) {
+          if (got[side] == 0) continue;
+          wanted[side] = 0;
+          --n_wanted;
+        }
       }
     }
   }

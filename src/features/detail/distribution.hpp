@@ -3,6 +3,7 @@
 
 #include <functional>
 #include <opencv2/core.hpp>
+#include <span>
 #include <vector>
 
 namespace sitepose::features::detail {
@@ -18,18 +19,20 @@ struct CandidateSides {
   std::function<bool(const cv::Rect&, int)> may_hold;
 };
 
-// FAST candidates of one level with a per-cell threshold fallback, per side:
-// FAST at ini_threshold over `area` (level pixels, >= 4 px inside the
+// FAST candidates of one level with a per-cell threshold ladder, per side:
+// FAST at thresholds[0] over `area` (level pixels, >= 4 px inside the
 // image), then, for each grid cell (sides close to cell_px) left without a
-// candidate of a side, FAST at min_threshold on that cell alone for that
-// side. Non-maximum suppression is on; the cell is searched with a 4-px
-// apron so suppression sees the same neighbours as a whole-image run. A
-// side is judged on its own candidates only, so masked strong corners make
-// an unmasked cell fall back. out[side] holds the side's candidates, the
-// ini-threshold ones first in FAST's order, then the fallback ones cell by
-// cell (row-major), so each side gets what a run for that side alone gets.
+// candidate of a side, FAST at thresholds[1] on that cell alone for that
+// side, then at thresholds[2] for the sides still without one, and so on
+// (thresholds strictly descending). Non-maximum suppression is on; the cell
+// is searched with a 4-px apron so suppression sees the same neighbours as a
+// whole-image run. A side is judged on its own candidates only, so masked
+// strong corners make an unmasked cell fall back. out[side] holds the side's
+// candidates, the whole-area ones first in FAST's order, then the fallback
+// ones cell by cell (row-major), so each side gets what a run for that side
+// alone gets. ORB-SLAM2's rule is the ladder {iniThFAST, minThFAST}.
 std::vector<std::vector<cv::KeyPoint>> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area,
-                                                            int cell_px, int ini_threshold, int min_threshold,
+                                                            int cell_px, std::span<const int> thresholds,
                                                             const CandidateSides& sides);
 
 // Spreads a selection of at most `target` candidates over `area`: the area

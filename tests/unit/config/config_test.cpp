@@ -53,8 +53,8 @@ TEST(Config, ReadsEverySectionFromText) {
       "  channel_order: rgb\n"
       "  stereo: {fx: 710, fy: 705, cx: 470.5, cy: 260, baseline_m: 0.9, width: 960, "
       "height: 540}\n"
-      "orb: {n_features: 2000, scale_factor: 1.25, n_levels: 6, ini_fast_threshold: 18, "
-      "min_fast_threshold: 5, grid_cell_px: 30}\n"
+      "orb: {n_features: 2000, scale_factor: 1.25, n_levels: 6, strong_fast_threshold: 35, "
+      "ini_fast_threshold: 18, min_fast_threshold: 5, grid_cell_px: 30}\n"
       "stereo: {min_disparity_px: 1, max_disparity_px: 200, max_descriptor_distance: 60, "
       "sad_half_window_px: 4, row_band_px: 1}\n"
       "tracking: {close_depth_baselines: 35, motion_ba_rounds: 3, motion_ba_iterations: 8, "
@@ -78,6 +78,7 @@ TEST(Config, ReadsEverySectionFromText) {
   EXPECT_EQ(config->camera.channel_order, ChannelOrder::kRgb);
   EXPECT_EQ(config->orb.n_features, 2000);
   EXPECT_EQ(config->orb.grid_cell_px, 30);
+  EXPECT_EQ(config->orb.strong_fast_threshold, 35);
   EXPECT_DOUBLE_EQ(config->stereo.max_disparity_px, 200.0);
   EXPECT_EQ(config->tracking.min_inliers_recovering, 15);
   EXPECT_FALSE(config->mapping.enabled);

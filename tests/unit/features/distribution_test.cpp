@@ -32,7 +32,7 @@ std::vector<cv::KeyPoint> detect_unmasked(const cv::Mat& image, const cv::Rect& 
   CandidateSides sides;
   sides.side_of = [&](float x, float y) { return masked(x, y) ? -1 : 0; };
   sides.may_hold = [](const cv::Rect&, int) { return true; };
-  return detect_fast_per_cell(image, area, cell_px, 20, 7, sides)[0];
+  return detect_fast_per_cell(image, area, cell_px, std::vector<int>{20, 7}, sides)[0];
 }
 
 const auto kNothingMasked = [](float, float) { return false; };
@@ -67,6 +67,40 @@ TEST(CellThresholds, WeakCellsFallBackToTheMinimumThreshold) {
   ASSERT_GT(positions(weak, right_cells).size(), 200u);
   EXPECT_EQ(positions(kept, right_cells), positions(weak, right_cells));
   EXPECT_EQ(positions(kept, left_cells), positions(strong, left_cells));
+}
+
+TEST(CellThresholds, EachCellTakesTheHighestRungOfTheLadderThatFindsACorner) {
+  // Three bands of falling contrast under a ladder {40, 20, 7}: cells of the
+  // strong band keep FAST(40) alone, cells where nothing reaches 40 the
+  // FAST(20) corners, cells where nothing reaches 20 the FAST(7) ones; each
+  // as a whole-image run at that threshold finds them there.
+  const cv::Mat texture = testing::make_texture(cv::Size(400, 300), 14);
+  cv::Mat image = testing::with_contrast(texture, cv::Rect(0, 0, 150, 300), 0.22);
+  testing::with_contrast(texture, cv::Rect(), 0.1).colRange(288, 400).copyTo(image.colRange(288, 400));
+  const cv::Rect area(16, 16, 368, 268);  // 8 x 6 cells of 46 px, column edges 16, 62, ..., 384
+  const cv::Rect strong_cells(16, 16, 138, 268);
+  const cv::Rect middle_cells(154, 16, 138, 268);
+  const cv::Rect faint_cells(292, 16, 92, 268);
+  std::vector<cv::KeyPoint> at40;
+  std::vector<cv::KeyPoint> at20;
+  std::vector<cv::KeyPoint> at7;
+  cv::FAST(image, at40, 40, true);
+  cv::FAST(image, at20, 20, true);
+  cv::FAST(image, at7, 7, true);
+  ASSERT_GT(positions(at40, strong_cells).size(), 100u);
+  ASSERT_LT(positions(at40, strong_cells).size(), positions(at20, strong_cells).size());
+  ASSERT_TRUE(positions(at40, middle_cells).empty());
+  ASSERT_GT(positions(at20, middle_cells).size(), 50u);
+  ASSERT_TRUE(positions(at20, faint_cells).empty());
+  ASSERT_GT(positions(at7, faint_cells).size(), 50u);
+
+  CandidateSides sides;
+  sides.side_of = [](float, float) { return 0; };
+  sides.may_hold = [](const cv::Rect&, int) { return true; };
+  const auto kept = detect_fast_per_cell(image, area, 46, std::vector<int>{40, 20, 7}, sides)[0];
+  EXPECT_EQ(positions(kept, strong_cells), positions(at40, strong_cells));
+  EXPECT_EQ(positions(kept, middle_cells), positions(at20, middle_cells));
+  EXPECT_EQ(positions(kept, faint_cells), positions(at7, faint_cells));
 }
 
 TEST(CellThresholds, MaskedStrongCornersMakeTheCellFallBack) {

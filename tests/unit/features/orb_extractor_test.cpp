@@ -66,6 +66,31 @@ TEST(OrbExtractor, ReturnsBudgetWithConsistentFields) {
   EXPECT_EQ(f.pyramid.n_levels(), cfg.n_levels);
 }
 
+TEST(OrbExtractor, AStrongFirstFastPassIsOffAtOrBelowTheInitialThreshold) {
+  const cv::Mat image = testing::make_texture(kSize, 2);
+  config::OrbConfig cfg;
+  OrbExtractor plain(cfg);
+  const OrbFeatures reference = extract_ok(plain, image);
+  cfg.strong_fast_threshold = cfg.ini_fast_threshold;
+  OrbExtractor at_ini(cfg);
+  const OrbFeatures same = extract_ok(at_ini, image);
+  ASSERT_EQ(same.keypoints.size(), reference.keypoints.size());
+  for (std::size_t i = 0; i < same.keypoints.size(); ++i) {
+    EXPECT_EQ(same.keypoints[i].pt, reference.keypoints[i].pt) << i;
+  }
+  // Above it, the textured cells keep only their strong corners: the full
+  // budget, from other candidates.
+  cfg.strong_fast_threshold = 60;
+  OrbExtractor strong(cfg);
+  const OrbFeatures other = extract_ok(strong, image);
+  EXPECT_EQ(other.keypoints.size(), reference.keypoints.size());
+  int moved = 0;
+  for (std::size_t i = 0; i < other.keypoints.size() && i < reference.keypoints.size(); ++i) {
+    moved += other.keypoints[i].pt != reference.keypoints[i].pt;
+  }
+  EXPECT_GT(moved, 0);
+}
+
 TEST(OrbExtractor, LevelScaleTables) {
   config::OrbConfig cfg;
   cfg.scale_factor = 1.3;
@@ -412,6 +437,11 @@ TEST(OrbExtractor, ValidateNamesKeyValueAndRule) {
   ASSERT_FALSE(status.has_value());
   EXPECT_NE(status.error().message.find("orb.min_fast_threshold = 30"), std::string::npos);
   EXPECT_FALSE(OrbExtractor::create(cfg).has_value());
+  cfg = config::OrbConfig{};
+  cfg.strong_fast_threshold = -1;
+  status = validate(cfg);
+  ASSERT_FALSE(status.has_value());
+  EXPECT_NE(status.error().message.find("orb.strong_fast_threshold = -1"), std::string::npos);
 }
 
 }  // namespace
