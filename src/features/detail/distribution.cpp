@@ -15,6 +15,38 @@ namespace {
 // FAST fires only >= 3 px inside its input; non-maximum suppression needs
 // the scores one pixel further out.
 constexpr int kFastApronPx = 4;
+
+// The ladder's later rungs in one cell: FAST at thresholds[1], [2], ...
+// on the cell with its apron, until each side in `wanted` has a candidate
+// there; appends them to kept[side]. Clears `wanted`.
+void fall_back_in_cell(const cv::Mat& level_image, const cv::Rect& cell, std::span<const int> thresholds,
+                       const CandidateSides& sides, std::vector<char>& wanted,
+                       std::vector<std::vector<cv::KeyPoint>>& kept) {
+  const auto none_wanted = [&] { return std::find(wanted.begin(), wanted.end(), 1) == wanted.end(); };
+  if (none_wanted()) return;  // most cells: served by the first pass
+  const cv::Rect cell_roi(cell.x - kFastApronPx, cell.y - kFastApronPx, cell.width + 2 * kFastApronPx,
+                          cell.height + 2 * kFastApronPx);
+  std::vector<cv::KeyPoint> found;
+  std::vector<char> got(wanted.size());
+  for (std::size_t step = 1; step < thresholds.size() && !none_wanted(); ++step) {
+    cv::FAST(level_image(cell_roi), found, thresholds[step], true, cv::FastFeatureDetector::TYPE_9_16);
+    std::fill(got.begin(), got.end(), 0);
+    for (cv::KeyPoint& kp : found) {
+      kp.pt.x += float(cell_roi.x);
+      kp.pt.y += float(cell_roi.y);
+      if (!cell.contains(cv::Point(static_cast<int>(kp.pt.x), static_cast<int>(kp.pt.y)))) continue;
+      const int side = sides.side_of(kp.pt.x, kp.pt.y);
+      if (side < 0 || !wanted[side]) continue;
+      kept[side].push_back(kp);
+      got[side] = 1;
+    }
+    for (std::size_t side = 0; side < wanted.size(); ++side) {
+      if (got[side] != 0) wanted[side] = 0;
+    }
+  }
+  std::fill(wanted.begin(), wanted.end(), 0);
+}
+
 }  // namespace
 
 std::vector<std::vector<cv::KeyPoint>> detect_fast_per_cell(const cv::Mat& level_image, const cv::Rect& area,
@@ -62,41 +94,17 @@ std::vector<std::vector<cv::KeyPoint>> detect_fast_per_cell(const cv::Mat& level
     kept[side].push_back(kp);
   }
 
-  std::vector<cv::KeyPoint> weak;
   std::vector<char> wanted(sides.n_sides);
-  std::vector<char> got(sides.n_sides);
   for (int r = 0; r < n_rows; ++r) {
     for (int c = 0; c < n_cols; ++c) {
       const cv::Rect cell(col_edge(c), row_edge(r), col_edge(c + 1) - col_edge(c),
                           row_edge(r + 1) - row_edge(r));
       if (cell.width <= 0 || cell.height <= 0) continue;
-      int n_wanted = 0;
       for (int side = 0; side < sides.n_sides; ++side) {
         wanted[side] =
             !served[static_cast<size_t>(side) * n_cells + r * n_cols + c] && sides.may_hold(cell, side);
-        n_wanted += wanted[side];
       }
-      const cv::Rect cell_roi(cell.x - kFastApronPx, cell.y - kFastApronPx, cell.width + 2 * kFastApronPx,
-                              cell.height + 2 * kFastApronPx);
-      // Down the ladder until each wanted side has a candidate in the cell.
-      for (std::size_t step = 1; step < thresholds.size() && n_wanted > 0; ++step) {
-        cv::FAST(level_image(cell_roi), weak, thresholds[step], true, cv::FastFeatureDetector::TYPE_9_16);
-        std::fill(got.begin(), got.end(), 0);
-        for (cv::KeyPoint& kp : weak) {
-          kp.pt.x += float(cell_roi.x);
-          kp.pt.y += float(cell_roi.y);
-          if (!cell.contains(cv::Point(static_cast<int>(kp.pt.x), static_cast<int>(kp.pt.y)))) continue;
-          const int side = sides.side_of(kp.pt.x, kp.pt.y);
-          if (side < 0 || !wanted[side]) continue;
-          kept[side].push_back(kp);
-          got[side] = 1;
-        }
-        for (int side = 0; side < sides.n_sides; ++side) {
-          if (got[side] == 0) continue;
-          wanted[side] = 0;
-          --n_wanted;
-        }
-      }
+      fall_back_in_cell(level_image, cell, thresholds, sides, wanted, kept);
     }
   }
   return kept;
