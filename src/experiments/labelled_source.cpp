@@ -146,8 +146,8 @@ std::unique_ptr<LabelledSource> cache_frames(std::unique_ptr<LabelledSource> sou
   return std::make_unique<CachedSource>(std::move(source));
 }
 
-Status check_fps_for_source(bool from_sequence, double fps) {
-  if (from_sequence && fps > 0.0) {
+Status check_fps_for_source(bool from_sequence, std::optional<double> fps) {
+  if (from_sequence && fps) {
     return make_error(
         ErrorCode::kInvalidArgument,
         "--fps renders a scenario at another rate; a recorded sequence (--sequence) keeps its own");
@@ -166,7 +166,7 @@ Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceReque
     SITEPOSE_TRY(sim::Scenario scenario, sim::load_scenario(request.scenario));
     sim::SimOptions options;
     if (request.frames > 0) options.frames = request.frames;
-    if (request.fps > 0.0) options.fps = request.fps;
+    options.fps = request.fps;
     SITEPOSE_TRY(sim::Simulator simulator, sim::Simulator::create(scenario, options));
     const fs::path base = request.temp_dir.empty()
                               ? fs::temp_directory_path() / ("sitepose-ablate-" + std::to_string(::getpid()))

@@ -28,7 +28,7 @@ Expected<config::SiteposeConfig> load_pipeline_config(const PipelineConfigArgs& 
   return config;
 }
 
-void add_fps_option(CLI::App& sub, double& fps) {
+void add_fps_option(CLI::App& sub, std::optional<double>& fps) {
   sub.add_option("--fps", fps,
                  "Render the scenario at this frame rate, same motion in time (default: the scenario's; not "
                  "with --sequence)")
@@ -48,7 +48,7 @@ Expected<std::unique_ptr<experiments::LabelledSource>> open_frame_source(const F
   SITEPOSE_TRY_STATUS(experiments::check_fps_for_source(!source.sequence.empty(), source.fps));
   if (!source.sequence.empty()) return experiments::open_labelled_sequence(source.sequence, false);
   return experiments::open_simulated(source.scenario, frames, std::nullopt, std::nullopt, std::nullopt,
-                                     source.fps > 0.0 ? std::optional<double>(source.fps) : std::nullopt);
+                                     source.fps);
 }
 
 void add_bench_vocabulary_option(CLI::App& sub, std::string& path, const std::string& without_it) {

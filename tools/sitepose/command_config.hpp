@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,11 +45,11 @@ struct FrameSourceArgs {
   std::string scenario{};
   std::string sequence{};  // wins over `scenario`
   std::string config_path{};
-  double fps = 0.0;  // the scenario's frame rate instead of its own; 0 = its own
+  std::optional<double> fps{};  // the scenario's frame rate instead of its own; unset = its own
 };
 
-// --fps: the rate to render a scenario at (0, the default, = its own).
-void add_fps_option(CLI::App& sub, double& fps);
+// --fps: the rate to render a scenario at (unset, the default, = its own).
+void add_fps_option(CLI::App& sub, std::optional<double>& fps);
 
 // --scenario, --sequence, --fps and --config, bound to `source`, which must
 // outlive the parse; `config_help` says what the command takes from the file.

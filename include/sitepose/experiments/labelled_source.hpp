@@ -63,9 +63,9 @@ Expected<std::unique_ptr<LabelledSource>> open_labelled_sequence(const std::stri
 // ablations run several modes on the same frames).
 std::unique_ptr<LabelledSource> cache_frames(std::unique_ptr<LabelledSource> source);
 
-// A frame rate (fps > 0) is for rendering a scenario: with a recorded
-// sequence it is refused (kInvalidArgument naming --fps), which keeps its own.
-Status check_fps_for_source(bool from_sequence, double fps);
+// A frame rate is for rendering a scenario: with a recorded sequence it is
+// refused (kInvalidArgument naming --fps), which keeps its own.
+Status check_fps_for_source(bool from_sequence, std::optional<double> fps);
 
 // Exactly one of `sequence` and `scenario` must be non-empty. A scenario is
 // simulated (frames > 0 limits it) into `temp_dir`/<scenario>, which must
@@ -77,8 +77,8 @@ struct SourceRequest {
   std::string sequence;
   std::string scenario;
   int frames = 0;
-  double fps = 0.0;      // render the scenario at this rate (0 = its own); not with `sequence`
-  std::string temp_dir;  // where a scenario is written; empty = a fresh folder under /tmp
+  std::optional<double> fps{};  // render the scenario at this rate (unset = its own); not with `sequence`
+  std::string temp_dir;         // where a scenario is written; empty = a fresh folder under /tmp
 };
 Expected<std::unique_ptr<LabelledSource>> open_ablation_source(const SourceRequest& request,
                                                                std::string* written_dir = nullptr);

@@ -18,7 +18,7 @@ constexpr int kFastApronPx = 4;
 
 // The ladder's later rungs in one cell: FAST at thresholds[1], [2], ...
 // on the cell with its apron, until each side in `wanted` has a candidate
-// there; appends them to kept[side]. Clears `wanted`.
+// there; appends them to kept[side]. `wanted` is the caller's scratch.
 void fall_back_in_cell(const cv::Mat& level_image, const cv::Rect& cell, std::span<const int> thresholds,
                        const CandidateSides& sides, std::vector<char>& wanted,
                        std::vector<std::vector<cv::KeyPoint>>& kept) {
@@ -44,7 +44,6 @@ void fall_back_in_cell(const cv::Mat& level_image, const cv::Rect& cell, std::sp
       if (got[side] != 0) wanted[side] = 0;
     }
   }
-  std::fill(wanted.begin(), wanted.end(), 0);
 }
 
 }  // namespace
