@@ -177,9 +177,9 @@ const PassResult& Tracker::settle_provisional_map(const PreparedFrame& frame,
   join_correction_ = correction;
   spdlog::debug(
       "tracking: join found at frame {} ({} in a row): {} inliers, {} site-map points in view "
-      "({:.2f} found), sigma {:.4f} m, move {:.3f} m",
+      "({:.2f} found; distant {}), sigma {:.4f} m, move {:.3f} m",
       frame.seq, join_agreements_, joined.n_inliers, joined.visible_points.size(), found_share(joined),
-      position_sigma_m(joined), correction.translation().norm());
+      distant_found_text(joined), position_sigma_m(joined), correction.translation().norm());
   if (join_agreements_ < kJoinConfirmFrames) return result;
   join_correction_.reset();
   join_agreements_ = 0;

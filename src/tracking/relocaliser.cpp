@@ -1,9 +1,11 @@
 #include "sitepose/tracking/relocaliser.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
 #include <set>
+#include <unordered_set>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
@@ -142,6 +144,26 @@ bool precise_pose(const PassResult& result, int min_inliers_ok) {
 double found_share(const PassResult& result) {
   if (result.visible_points.empty()) return 0.0;
   return static_cast<double>(result.n_inliers) / static_cast<double>(result.visible_points.size());
+}
+
+std::optional<double> far_found_share(const map::MapData& map, const PassResult& result) {
+  const std::unordered_set<map::PointId> inliers(result.point_of_keypoint.begin(),
+                                                 result.point_of_keypoint.end());
+  int in_view = 0;
+  int found = 0;
+  for (const map::PointId id : result.visible_points) {
+    const map::MapPoint* point = map.good_point(id);
+    if (point == nullptr || (result.T_cam_world * point->p_world).z() < kFarPointDepthM) continue;
+    ++in_view;
+    if (inliers.count(id) != 0) ++found;
+  }
+  if (in_view < kMinFarPointsInView) return std::nullopt;
+  return static_cast<double>(found) / static_cast<double>(in_view);
+}
+
+bool finds_distant_background(const map::MapData& map, const PassResult& result) {
+  const std::optional<double> share = far_found_share(map, result);
+  return !share || *share >= kMinRelocalisationFarFoundShare;
 }
 
 double map_aware_position_sigma_m(const StereoCamera& camera, const map::ScalePyramid& pyramid,

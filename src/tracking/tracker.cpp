@@ -295,11 +295,18 @@ void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std:
   optimise_pose(frame, points, match, result);
 }
 
+std::string Tracker::distant_found_text(const PassResult& result) const {
+  const std::optional<double> share =
+      map_.read([&](const map::MapData& map) { return far_found_share(map, result); });
+  return share ? fmt::format("{:.2f}", *share) : std::string("none in view");
+}
+
 bool Tracker::holds_as_relocalisation(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                                       const PassResult* anchor, PassResult& candidate) const {
   track_local_map(frame, usable, anchor, candidate);
   return precise_pose(candidate, config_.tracking.min_inliers_ok) &&
-         found_share(candidate) >= kMinRelocalisationFoundShare;
+         found_share(candidate) >= kMinRelocalisationFoundShare &&
+         map_.read([&](const map::MapData& map) { return finds_distant_background(map, candidate); });
 }
 
 PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
@@ -354,9 +361,10 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     tracked = relocalised;
     if (relocalised)
       spdlog::debug(
-          "tracking: relocalised at frame {}: {} inliers of {} map points in view ({:.2f}), sigma {:.4f} m",
+          "tracking: relocalised at frame {}: {} inliers of {} map points in view ({:.2f}; distant {}), "
+          "sigma {:.4f} m",
           frame.seq, result.n_inliers, result.visible_points.size(), found_share(result),
-          position_sigma_m(result));
+          distant_found_text(result), position_sigma_m(result));
   }
   result.timings.motion_model_ms =
       ms_since(t_motion) - result.timings.motion_ba_ms - result.timings.local_map_ms;

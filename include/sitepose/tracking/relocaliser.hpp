@@ -16,6 +16,7 @@
 // Thread: the track stage's thread; the map is read through SharedMap.
 
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
@@ -60,6 +61,28 @@ bool precise_pose(const PassResult& result, int min_inliers_ok);
 inline constexpr double kMinRelocalisationFoundShare = 0.2;
 // inliers / visible points of result's local-map search; 0 without any.
 double found_share(const PassResult& result);
+
+// A pattern that repeats in the near part of the view (tiled paving, a row
+// of identical containers) can hold a precise pose displaced along it that
+// passes kMinRelocalisationFoundShare on the near points it finds. Beyond
+// the pattern the scene does not repeat: displaced, the distant points
+// (fence, buildings) project far from where they are and are not found; at
+// the right place they are found from wherever the camera stands, as their
+// appearance changes least with the viewpoint. So the points in view at
+// kFarPointDepthM or deeper must be found at this share as well, when at
+// least kMinFarPointsInView of them are in view (measured: twins 8.2 m and
+// 42 m off at 0.02-0.07, right places at 0.20 and more;
+// docs/tracking/provisional_map.md).
+inline constexpr double kFarPointDepthM = 10.0;
+inline constexpr int kMinFarPointsInView = 30;
+inline constexpr double kMinRelocalisationFarFoundShare = 0.12;
+// inliers / visible points at kFarPointDepthM or deeper at result's pose;
+// nullopt with fewer than kMinFarPointsInView of them (no distant
+// background to check a pattern against). Call under SharedMap::read().
+std::optional<double> far_found_share(const map::MapData& map, const PassResult& result);
+// Whether result's pose passes the check above (true without a distant
+// background to check). Call under SharedMap::read().
+bool finds_distant_background(const map::MapData& map, const PassResult& result);
 
 // The position sigma of result's pose when its map points are not exact:
 // each inlier's point carries the error of a stereo point triangulated at

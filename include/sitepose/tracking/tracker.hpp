@@ -23,6 +23,7 @@
 #include <deque>
 #include <functional>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -176,9 +177,13 @@ class Tracker {
   bool track_from_prediction(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                              const SE3& predicted, const std::vector<PointView>& points, SearchParams params,
                              std::vector<int>& match, PassResult& result) const;
+  // For the log: the share of the distant background found
+  // (far_found_share), or "none in view".
+  std::string distant_found_text(const PassResult& result) const;
   // A relocalisation candidate's last word (Relocaliser::Verify): its local
   // map tracked (as track_local_map), then a precise pose that finds
-  // kMinRelocalisationFoundShare of the map points in view.
+  // kMinRelocalisationFoundShare of the map points in view and the distant
+  // background (finds_distant_background).
   bool holds_as_relocalisation(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                                const PassResult* anchor, PassResult& candidate) const;
   // Without anchor: the local map of result's own matches, which stay.

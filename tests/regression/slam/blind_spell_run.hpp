@@ -40,7 +40,8 @@ struct BlackoutScore {
   int visible_frames = 0;
   int ok_visible_frames = 0;
   double max_ok_error_m = 0.0;
-  int ok_frames_off = 0;  // OK poses more than 0.05 m off
+  int ok_frames_off = 0;             // OK poses more than 0.05 m off
+  int ok_frames_off_after_view = 0;  // of them, from first_visible on
 };
 
 // covered: per frame, is the view hidden (lens covered, or an object in
@@ -61,7 +62,10 @@ inline BlackoutScore score(const DynamicRunResult& run, const std::vector<bool>&
     const double error_m =
         (poses[k].T_world_cam.translation() - run.ground_truth[k].T_world_cam.translation()).norm();
     s.max_ok_error_m = std::max(s.max_ok_error_m, error_m);
-    if (error_m > 0.05) ++s.ok_frames_off;
+    if (error_m > 0.05) {
+      ++s.ok_frames_off;
+      if (s.first_visible >= 0) ++s.ok_frames_off_after_view;
+    }
   }
   return s;
 }
@@ -109,11 +113,13 @@ struct TruckstopRun {
   double coverage = 0.0;
 };
 
-inline void run_truckstop(TruckstopRun& out, std::optional<int> seed = std::nullopt) {
+// width x height: the scenario's own (960x540) when not given.
+inline void run_truckstop(TruckstopRun& out, std::optional<int> seed = std::nullopt,
+                          std::optional<int> width = std::nullopt, std::optional<int> height = std::nullopt) {
   const std::string scenario = std::string(SITEPOSE_SCENARIO_DIR) + "/truckstop.yaml";
   config::SiteposeConfig config;
   config.dynamic.mode = config::MaskingMode::kFull;
-  auto source = open_simulated(scenario, 0, seed);
+  auto source = open_simulated(scenario, 0, seed, width, height);
   ASSERT_TRUE(source.has_value()) << source.error().message;
   std::vector<bool> hidden;
   DynamicRunOptions options;
@@ -130,12 +136,14 @@ inline void run_truckstop(TruckstopRun& out, std::optional<int> seed = std::null
   const BlackoutScore& s = out.score;
   out.coverage = static_cast<double>(s.ok_visible_frames) / std::max(1, s.visible_frames);
   std::printf(
-      "truckstop (seed %s): %d frames, view back at frame %d, relocalised %d frames later, OK on %d of %d "
+      "truckstop (seed %s, %s): %d frames, view back at frame %d, relocalised %d frames later, OK on %d of "
+      "%d "
       "visible "
       "frames (%.1f %%), ATE rmse %.4f m, largest OK error %.4f m, OK poses > 0.05 m off: %d\n",
-      seed ? std::to_string(*seed).c_str() : "of the scenario", out.run.frames, s.first_visible,
-      s.frames_to_relocalise, s.ok_visible_frames, s.visible_frames, 100.0 * out.coverage,
-      out.run.evaluation->ate_m.rmse, s.max_ok_error_m, s.ok_frames_off);
+      seed ? std::to_string(*seed).c_str() : "of the scenario",
+      width && height ? (std::to_string(*width) + "x" + std::to_string(*height)).c_str() : "its own size",
+      out.run.frames, s.first_visible, s.frames_to_relocalise, s.ok_visible_frames, s.visible_frames,
+      100.0 * out.coverage, out.run.evaluation->ate_m.rmse, s.max_ok_error_m, s.ok_frames_off);
   ASSERT_GT(s.first_visible, 0) << "the truck must hide the view and give it back";
 }
 

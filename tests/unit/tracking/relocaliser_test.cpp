@@ -1,0 +1,97 @@
+#include "sitepose/tracking/relocaliser.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+namespace sitepose::tracking {
+namespace {
+
+// One keyframe observing a point at each of `depths_m`, straight ahead of
+// the first camera (world = that camera, depth along +z).
+map::MapData map_of_points_at(const std::vector<double>& depths_m) {
+  map::MapData map;
+  map::KeyFrame kf;
+  kf.keypoints.resize(depths_m.size());
+  kf.point_of_keypoint.assign(depths_m.size(), map::kNoPoint);
+  const map::KeyFrameId id = map.add_keyframe(std::move(kf));
+  for (std::size_t i = 0; i < depths_m.size(); ++i)
+    map.add_point(Eigen::Vector3d(0.01 * static_cast<double>(i), 0.0, depths_m[i]), id, static_cast<int>(i));
+  return map;
+}
+
+// `near` points at 4 m, then `far` at 15 m (ids in that order).
+map::MapData near_and_far(int near, int far) {
+  std::vector<double> depths(near, 4.0);
+  depths.insert(depths.end(), far, 15.0);
+  return map_of_points_at(depths);
+}
+
+// Every point of the map in view; the points [first, first + count) are
+// inliers (one keypoint each).
+PassResult seeing_all(const map::MapData& map, map::PointId first, int count,
+                      const SE3& T_cam_world = SE3()) {
+  PassResult r;
+  r.T_cam_world = T_cam_world;
+  for (map::PointId id = 0; id < static_cast<map::PointId>(map.point_count()); ++id)
+    r.visible_points.push_back(id);
+  for (int i = 0; i < count; ++i) r.point_of_keypoint.push_back(first + i);
+  r.point_of_keypoint.push_back(map::kNoPoint);  // an unmatched keypoint
+  r.n_inliers = count;
+  return r;
+}
+
+TEST(DistantBackground, ShareOfThePointsAtTheFarDepthOrDeeperThatAreFound) {
+  static_assert(kFarPointDepthM > 4.0 && kFarPointDepthM <= 15.0);
+  const map::MapData map = near_and_far(100, 50);
+  // All 100 near points found and none of the 50 far: a pattern's twin.
+  const PassResult twin = seeing_all(map, 0, 100);
+  EXPECT_DOUBLE_EQ(far_found_share(map, twin).value(), 0.0);
+  EXPECT_FALSE(finds_distant_background(map, twin));
+  // 20 of the near and 10 of the far found: a place seen from elsewhere.
+  PassResult right = seeing_all(map, 80, 30);
+  EXPECT_DOUBLE_EQ(far_found_share(map, right).value(), 0.2);
+  EXPECT_TRUE(finds_distant_background(map, right));
+  // The overall share prefers the twin.
+  EXPECT_GT(found_share(twin), found_share(right));
+}
+
+TEST(DistantBackground, TheThresholdIsInclusive) {
+  const map::MapData map = near_and_far(0, 100);
+  // The threshold is a whole number of hundredths.
+  const int at_threshold = static_cast<int>(std::lround(kMinRelocalisationFarFoundShare * 100.0));
+  EXPECT_TRUE(finds_distant_background(map, seeing_all(map, 0, at_threshold)));
+  EXPECT_FALSE(finds_distant_background(map, seeing_all(map, 0, at_threshold - 1)));
+}
+
+TEST(DistantBackground, WithTooFewDistantPointsInViewThereIsNothingToCheck) {
+  const map::MapData map = near_and_far(100, kMinFarPointsInView - 1);
+  const PassResult twin = seeing_all(map, 0, 100);
+  EXPECT_FALSE(far_found_share(map, twin).has_value());
+  EXPECT_TRUE(finds_distant_background(map, twin));
+  const map::MapData enough = near_and_far(100, kMinFarPointsInView);
+  EXPECT_FALSE(finds_distant_background(enough, seeing_all(enough, 0, 100)));
+}
+
+TEST(DistantBackground, DepthsAreTakenAtTheResultsPose) {
+  // Turned round (180 degrees about y) and 19 m along the old +z: the points
+  // at 4 m are now 15 m away, those at 15 m 4 m away.
+  const map::MapData map = near_and_far(50, 50);
+  const Eigen::Matrix3d R_cam_world = Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitY()).matrix();
+  const SE3 turned(R_cam_world, Eigen::Vector3d(0.0, 0.0, 19.0));
+  EXPECT_DOUBLE_EQ(far_found_share(map, seeing_all(map, 0, 50, turned)).value(), 1.0);
+  EXPECT_DOUBLE_EQ(far_found_share(map, seeing_all(map, 50, 50, turned)).value(), 0.0);
+}
+
+TEST(DistantBackground, PointsGoneFromTheMapAreNotInView) {
+  map::MapData map = near_and_far(0, 2 * kMinFarPointsInView);
+  for (map::PointId id = 0; id < kMinFarPointsInView; ++id) map.set_point_bad(id);
+  // The bad half was "found": only the good half counts, none of it found.
+  EXPECT_DOUBLE_EQ(far_found_share(map, seeing_all(map, 0, kMinFarPointsInView)).value(), 0.0);
+  map.set_point_bad(kMinFarPointsInView);
+  EXPECT_FALSE(far_found_share(map, seeing_all(map, 0, kMinFarPointsInView)).has_value());
+}
+
+}  // namespace
+}  // namespace sitepose::tracking
