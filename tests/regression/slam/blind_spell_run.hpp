@@ -136,10 +136,9 @@ inline void run_truckstop(TruckstopRun& out, std::optional<int> seed = std::null
   const BlackoutScore& s = out.score;
   out.coverage = static_cast<double>(s.ok_visible_frames) / std::max(1, s.visible_frames);
   std::printf(
-      "truckstop (seed %s, %s): %d frames, view back at frame %d, relocalised %d frames later, OK on %d of "
-      "%d "
-      "visible "
-      "frames (%.1f %%), ATE rmse %.4f m, largest OK error %.4f m, OK poses > 0.05 m off: %d\n",
+      "truckstop (seed %s, %s): %d frames, view back at frame %d, relocalised %d frames later, "
+      "OK on %d of %d visible frames (%.1f %%), ATE rmse %.4f m, largest OK error %.4f m, "
+      "OK poses > 0.05 m off: %d\n",
       seed ? std::to_string(*seed).c_str() : "of the scenario",
       width && height ? (std::to_string(*width) + "x" + std::to_string(*height)).c_str() : "its own size",
       out.run.frames, s.first_visible, s.frames_to_relocalise, s.ok_visible_frames, s.visible_frames,
