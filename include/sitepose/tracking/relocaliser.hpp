@@ -71,7 +71,7 @@ double found_share(const PassResult& result);
 // appearance changes least with the viewpoint. So the points in view at
 // kFarPointDepthM or deeper must be found at this share as well, when at
 // least kMinFarPointsInView of them are in view (measured: twins 8.2 m and
-// 42 m off at 0.02-0.07, right places at 0.20 and more;
+// 42 m off at 0.07 at most, right places at 0.20 and more;
 // docs/tracking/provisional_map.md).
 inline constexpr double kFarPointDepthM = 10.0;
 inline constexpr int kMinFarPointsInView = 30;
