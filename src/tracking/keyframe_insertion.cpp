@@ -149,8 +149,7 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   for (int k = 0; k < frame.size(); ++k) {
     if (frame.instance[k] == 0 && result.point_of_keypoint[k] != map::kNoPoint) ++background_inliers;
   }
-  const auto [tracked_close, untracked_close] =
-      count_close_points(frame, result, usable, config_.tracking.close_depth_baselines * camera_.baseline_m);
+  const auto [tracked_close, untracked_close] = count_close_points(frame, result, usable, close_depth_m());
   const bool need_close = tracked_close < config_.tracking.keyframe_min_close_points &&
                           untracked_close > config_.tracking.keyframe_new_close_points;
   const std::int64_t interval_ns =
@@ -242,7 +241,7 @@ void Tracker::create_keyframe(const PreparedFrame& frame, const PassResult& resu
     if (usable[k] && frame.features.has_depth(k)) by_depth.emplace_back(frame.features.depth_m[k], k);
   }
   std::sort(by_depth.begin(), by_depth.end());
-  const double close_depth_m = config_.tracking.close_depth_baselines * camera_.baseline_m;
+  const double close_depth = close_depth_m();
   const SE3 T_world_cam = kf.T_world_cam;
   const map::KeyFrameId id = map_.write([&](map::MapData& map) {
     const map::KeyFrameId kf_id = map.add_keyframe(std::move(kf));
@@ -257,7 +256,7 @@ void Tracker::create_keyframe(const PreparedFrame& frame, const PassResult& resu
         ++created;
       }
       ++considered;
-      if (depth > close_depth_m && considered > kMinNewClosePoints) break;
+      if (depth > close_depth && considered > kMinNewClosePoints) break;
     }
     (void)created;
     return kf_id;

@@ -141,6 +141,17 @@ bool precise_pose(const PassResult& result, int min_inliers_ok) {
   return result.n_inliers >= min_inliers_ok && position_sigma_m(result) <= kMaxOkPositionSigmaM;
 }
 
+int close_inliers(const PreparedFrame& frame, const PassResult& result, double close_depth_m) {
+  int n = 0;
+  const int keypoints = std::min(frame.size(), static_cast<int>(result.point_of_keypoint.size()));
+  for (int k = 0; k < keypoints; ++k) {
+    if (result.point_of_keypoint[k] == map::kNoPoint) continue;
+    const double depth_m = frame.features.depth_m[k];
+    if (depth_m > 0.0 && depth_m < close_depth_m) ++n;
+  }
+  return n;
+}
+
 double found_share(const PassResult& result) {
   if (result.visible_points.empty()) return 0.0;
   return static_cast<double>(result.n_inliers) / static_cast<double>(result.visible_points.size());

@@ -58,10 +58,13 @@ Tracker::HoldVerdict Tracker::judge_hold(const PreparedFrame& frame, const PassR
   }
   v.confirmed = v.precise && map_sigma_m <= kMaxHeldMapAwareSigmaM;
   v.dropped = result.valid && ((starts_hold && !v.precise) || (!starts_hold && hold_.fails(v.precise)));
+  v.close_inliers = close_inliers(frame, result, close_depth_m());
   return v;
 }
 
-bool Tracker::update_state(const PassResult& result, bool precise, bool confirmed) {
+double Tracker::close_depth_m() const { return config_.tracking.close_depth_baselines * camera_.baseline_m; }
+
+bool Tracker::update_state(const PassResult& result, const HoldVerdict& verdict) {
   // After a relocalisation the last pose is stale (the machine drove on
   // while tracking was lost): no velocity from it, and no OK until the new
   // pose has held for relocalisation_hold_frames frames with enough inliers.
@@ -70,12 +73,13 @@ bool Tracker::update_state(const PassResult& result, bool precise, bool confirme
     ++counters_.relocalisations;
     hold_.restart();
   }
-  hold_.update(precise, confirmed);
-  state_ = precise && !hold_.holding() ? TrackingState::kOk : TrackingState::kRecovering;
+  hold_.update(verdict.precise, verdict.confirmed);
+  const bool ok = verdict.precise && !hold_.holding() && verdict.close_inliers >= kMinOkCloseInliers;
+  state_ = ok ? TrackingState::kOk : TrackingState::kRecovering;
   return relocalised;
 }
 
-std::string Tracker::state_reason(const PassResult& result) const {
+std::string Tracker::state_reason(const PassResult& result, const HoldVerdict& verdict) const {
   if (state_ != TrackingState::kRecovering) return "";
   if (provisional_since_ != map::kNoKeyFrame) {
     return "provisional map since keyframe " + std::to_string(provisional_since_) +
@@ -87,6 +91,9 @@ std::string Tracker::state_reason(const PassResult& result) const {
     if (established_map_hidden(result))
       return "the established map is hidden: " + std::to_string(result.established_matched) + " of its " +
              std::to_string(result.established_in_view) + " points in view matched";
+    if (verdict.close_inliers < kMinOkCloseInliers)
+      return "only " + std::to_string(verdict.close_inliers) + " inliers with a stereo depth under " +
+             std::to_string(close_depth_m()) + " m";
     return "position sigma " + std::to_string(position_sigma_m(result)) + " m";
   }
   return "relocalised, held " + std::to_string(hold_.held_frames()) + " of " +
@@ -157,7 +164,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
                                  : settle_provisional_map(frame, usable, tracked, joined);
   if (&result == &joined) verdict = judge_hold(frame, joined);  // held as a relocalisation
 
-  const bool relocalised = update_state(result, verdict.precise, verdict.confirmed);
+  const bool relocalised = update_state(result, verdict);
   // Precise where it is, but where it is was guessed.
   if (provisional_since_ != map::kNoKeyFrame) state_ = TrackingState::kRecovering;
   // A join is a relocalisation of a tracked frame: the last pose moved with
@@ -185,7 +192,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
   if (!hold_.holding() && need_keyframe(frame, result, usable)) create_keyframe(frame, result, usable);
 
   pose.state = state_;
-  pose.state_reason = state_reason(result);
+  pose.state_reason = state_reason(result, verdict);
   pose.T_world_cam = result.T_cam_world.inverse();
   pose.covariance = result.covariance_world_cam.value_or(Matrix6d::Identity() * kGuessedPlaceVariance);
   // Precise within a provisional map, which was put where dead reckoning
@@ -224,13 +231,13 @@ void Tracker::record_in_map(const PassResult& result) {
 void Tracker::count_close_repeatability(const PreparedFrame& frame, const PassResult& result) {
   std::vector<map::PointId> matched;
   std::vector<map::PointId> close;
-  const double close_depth_m = config_.tracking.close_depth_baselines * camera_.baseline_m;
+  const double close_depth = close_depth_m();
   for (int k = 0; k < frame.size(); ++k) {
     const map::PointId id = result.point_of_keypoint[k];
     if (id == map::kNoPoint) continue;
     matched.push_back(id);
     const double depth = frame.features.depth_m[k];
-    if (depth > 0.0 && depth < close_depth_m) close.push_back(id);
+    if (depth > 0.0 && depth < close_depth) close.push_back(id);
   }
   std::sort(matched.begin(), matched.end());
   std::sort(close.begin(), close.end());

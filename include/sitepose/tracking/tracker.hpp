@@ -210,18 +210,22 @@ class Tracker {
   // What a committed `result` means for a relocalisation's hold: precise
   // (good enough for OK), confirmed (counts towards the hold's end: precise
   // also with the map points' errors while held), dropped (a held
-  // relocalisation that stopped being precise: LOST, relocalise anew).
+  // relocalisation that stopped being precise: LOST, relocalise anew), and
+  // its close inliers (kMinOkCloseInliers: fewer, and it is not OK).
   struct HoldVerdict {
     bool precise = false;
     bool confirmed = false;
     bool dropped = false;
+    int close_inliers = 0;
   };
   HoldVerdict judge_hold(const PreparedFrame& frame, const PassResult& result) const;
   // The state after a valid `result`: RECOVERING after a relocalisation
-  // until the hold is over (see judge_hold()); returns whether it
-  // relocalised.
-  bool update_state(const PassResult& result, bool precise, bool confirmed);
-  std::string state_reason(const PassResult& result) const;  // empty when OK
+  // until the hold is over (see judge_hold()), and while too few close
+  // inliers hold the pose; returns whether it relocalised.
+  bool update_state(const PassResult& result, const HoldVerdict& verdict);
+  std::string state_reason(const PassResult& result, const HoldVerdict& verdict) const;  // empty when OK
+  // Depth under which a stereo point counts as close (tracking.close_depth_baselines), m.
+  double close_depth_m() const;
   // The map's first keyframe at the world origin from a frame with enough
   // usable stereo points (false without).
   bool initialise(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable);

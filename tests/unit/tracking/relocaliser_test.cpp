@@ -93,5 +93,29 @@ TEST(DistantBackground, PointsGoneFromTheMapAreNotInView) {
   EXPECT_FALSE(far_found_share(map, seeing_all(map, 0, kMinFarPointsInView)).has_value());
 }
 
+// Keypoints with the given stereo depths (< 0: no stereo match).
+PreparedFrame frame_with_depths(const std::vector<double>& depths_m) {
+  PreparedFrame frame;
+  frame.uv_px.resize(depths_m.size());
+  frame.features.keypoints.resize(depths_m.size());
+  frame.features.depth_m = depths_m;
+  return frame;
+}
+
+TEST(CloseInliers, CountsTheInliersWithAStereoDepthUnderTheLimit) {
+  const PreparedFrame frame = frame_with_depths({3.0, 3.0, 50.0, -1.0, 40.0, 39.9});
+  PassResult result;
+  // A close inlier; a close keypoint that is no inlier; a far inlier; an
+  // inlier without a stereo match; inliers at and just under the limit.
+  result.point_of_keypoint = {0, map::kNoPoint, 1, 2, 3, 4};
+  EXPECT_EQ(close_inliers(frame, result, 40.0), 2);
+  EXPECT_EQ(close_inliers(frame, result, 60.0), 4);
+  EXPECT_EQ(close_inliers(frame, result, 3.0), 0);
+}
+
+TEST(CloseInliers, AResultWithoutMatchesHasNone) {
+  EXPECT_EQ(close_inliers(frame_with_depths({3.0, 4.0}), PassResult{}, 40.0), 0);
+}
+
 }  // namespace
 }  // namespace sitepose::tracking
