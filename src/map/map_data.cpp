@@ -566,6 +566,7 @@ std::vector<KeyFrameId> MapData::drop_keyframes_from(KeyFrameId first) {
   last_keyframe_ = kNoKeyFrame;
   for (const auto& [id, kf] : keyframes_) last_keyframe_ = std::max(last_keyframe_, id);
   provisional_since_ = kNoKeyFrame;
+  joined_unconfirmed_since_ = kNoKeyFrame;
   return dropped;
 }
 

@@ -115,11 +115,13 @@ void write_map_travel(ByteWriter& out, const map::KeyFrame& kf) {
 }  // namespace
 
 std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta& meta) {
-  if (map.provisional_since() != map::kNoKeyFrame) {
-    // A provisional map is placed by dead reckoning: a later start must not
-    // relocalise in it and call the pose OK. The site map is saved alone.
+  // A provisional map is placed by dead reckoning, and a joined one not yet
+  // confirmed by the join alone: a later start must not relocalise in it
+  // and call the pose OK. The site map is saved alone.
+  for (const map::KeyFrameId first : {map.provisional_since(), map.joined_unconfirmed_since()}) {
+    if (first == map::kNoKeyFrame) continue;
     map::MapData site_map = map;
-    site_map.drop_keyframes_from(map.provisional_since());
+    site_map.drop_keyframes_from(first);
     return encode_map(site_map, meta);
   }
   const auto keyframes = by_id(map.keyframes());

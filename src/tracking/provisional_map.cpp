@@ -71,17 +71,31 @@ void Tracker::with_mapper_held(const std::function<void(map::MapData&)>& change)
   if (mapper_.resume) mapper_.resume();
 }
 
-void Tracker::drop_provisional_map(const char* why) {
-  const map::KeyFrameId first = provisional_since_;
+std::size_t Tracker::drop_keyframes_from(map::KeyFrameId first) {
   std::vector<map::KeyFrameId> dropped;
   with_mapper_held([&](map::MapData& map) { dropped = map.drop_keyframes_from(first); });
   if (mapper_.removed) {
     for (const map::KeyFrameId id : dropped) mapper_.removed(id);
   }
-  provisional_since_ = map::kNoKeyFrame;
   ++counters_.provisional_maps_dropped;
-  spdlog::warn("tracking: provisional map from keyframe {} dropped ({} keyframes): {}", first, dropped.size(),
-               why);
+  return dropped.size();
+}
+
+void Tracker::drop_provisional_map(const char* why) {
+  const map::KeyFrameId first = provisional_since_;
+  const std::size_t dropped = drop_keyframes_from(first);
+  provisional_since_ = map::kNoKeyFrame;
+  spdlog::warn("tracking: provisional map from keyframe {} dropped ({} keyframes): {}", first, dropped, why);
+}
+
+void Tracker::drop_unconfirmed_join() {
+  const map::KeyFrameId first = joined_unconfirmed_since_;
+  const std::size_t dropped = drop_keyframes_from(first);
+  joined_unconfirmed_since_ = map::kNoKeyFrame;
+  spdlog::warn(
+      "tracking: joined provisional map from keyframe {} dropped ({} keyframes): lost before its join was "
+      "confirmed",
+      first, dropped);
 }
 
 bool Tracker::start_provisional_map_if_due(const PreparedFrame& frame,
@@ -188,6 +202,7 @@ const PassResult& Tracker::settle_provisional_map(const PreparedFrame& frame,
   with_mapper_held([&](map::MapData& map) {
     map.move_keyframes_from(first, correction);
     map.set_provisional_since(map::kNoKeyFrame);
+    map.set_joined_unconfirmed_since(first);
     // Joined where this frame found the site map: the provisional
     // keyframes' drift starts from that place's (their chain began at a
     // guess).
@@ -198,6 +213,7 @@ const PassResult& Tracker::settle_provisional_map(const PreparedFrame& frame,
   });
   apply_map_correction(correction);
   provisional_since_ = map::kNoKeyFrame;
+  joined_unconfirmed_since_ = first;
   refer_to_most_shared_keyframe(joined);
   ++counters_.provisional_maps_joined;
   const double move_m = correction.translation().norm();

@@ -180,6 +180,7 @@ bool finds_distant_background(const map::MapData& map, const PassResult& result)
 double map_aware_position_sigma_m(const StereoCamera& camera, const map::ScalePyramid& pyramid,
                                   const PreparedFrame& frame, const map::MapData& map,
                                   const PassResult& result) {
+  const map::KeyFrameId unconfirmed_since = map.joined_unconfirmed_since();
   // Pose parameters: camera centre in the world (3), rotation on the left of
   // R_cam_world (3). p_cam = R_cam_world (p_world - c).
   const Eigen::Matrix3d R = result.T_cam_world.rotation_matrix();
@@ -188,6 +189,7 @@ double map_aware_position_sigma_m(const StereoCamera& camera, const map::ScalePy
   for (int k = 0; k < frame.size(); ++k) {
     const map::MapPoint* point = map.good_point(result.point_of_keypoint[k]);
     if (point == nullptr) continue;
+    if (unconfirmed_since != map::kNoKeyFrame && point->first_keyframe >= unconfirmed_since) continue;
     const Eigen::Vector3d p = R * (point->p_world - c);
     if (p.z() <= 0.0) continue;
     const double z = p.z();

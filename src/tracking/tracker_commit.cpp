@@ -67,13 +67,18 @@ double Tracker::close_depth_m() const { return config_.tracking.close_depth_base
 bool Tracker::update_state(const PassResult& result, const HoldVerdict& verdict) {
   // After a relocalisation the last pose is stale (the machine drove on
   // while tracking was lost): no velocity from it, and no OK until the new
-  // pose has held for relocalisation_hold_frames frames with enough inliers.
+  // pose has been confirmed in relocalisation_hold_frames frames in a row.
   const bool relocalised = result.relocalised || state_ == TrackingState::kLost;
   if (relocalised) {
     ++counters_.relocalisations;
     hold_.restart();
   }
   hold_.update(verdict.precise, verdict.confirmed);
+  // The hold after a join has ended: the joined keyframes' place holds.
+  if (joined_unconfirmed_since_ != map::kNoKeyFrame && !hold_.holding()) {
+    joined_unconfirmed_since_ = map::kNoKeyFrame;
+    map_.write([](map::MapData& map) { map.set_joined_unconfirmed_since(map::kNoKeyFrame); });
+  }
   const bool ok = verdict.precise && !hold_.holding() && verdict.close_inliers >= kMinOkCloseInliers;
   state_ = ok ? TrackingState::kOk : TrackingState::kRecovering;
   return relocalised;
@@ -142,6 +147,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
   HoldVerdict verdict = judge_hold(frame, tracked);
   if (!tracked.valid || verdict.dropped) {
     if (verdict.dropped) hold_.stop();
+    if (joined_unconfirmed_since_ != map::kNoKeyFrame) drop_unconfirmed_join();
     if (start_provisional_map_if_due(frame, usable, pose)) return pose;
     ++counters_.frames_lost;
     state_ = TrackingState::kLost;

@@ -67,7 +67,7 @@ struct TrackingConfig {
   double chi2_stereo = 7.815;            // 3 dof, 95 %
   int min_inliers_ok = 30;               // fewer inliers -> RECOVERING
   int min_inliers_recovering = 12;       // fewer -> LOST
-  int relocalisation_hold_frames = 3;    // RECOVERING -> OK after this many good frames
+  int relocalisation_hold_frames = 3;    // RECOVERING -> OK after this many confirmed frames in a row
   int keyframe_max_interval_frames = 0;  // 0 = one second of frames
   double keyframe_tracked_ratio = 0.75;  // new keyframe if tracked/ref < ratio (all, or background alone)
   int keyframe_min_close_points = 100;   // need close points: add when fewer tracked

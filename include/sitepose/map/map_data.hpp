@@ -162,6 +162,12 @@ class MapData {
   // map (encode_map leaves the provisional keyframes out).
   KeyFrameId provisional_since() const { return provisional_since_; }
   void set_provisional_since(KeyFrameId first) { provisional_since_ = first; }
+  // A provisional map joined to the site map whose join no relocalisation
+  // hold has confirmed yet (docs/tracking/provisional_map.md): the keyframes
+  // with ids >= joined_unconfirmed_since() and the points they created stand
+  // where the join put them. kNoKeyFrame: none. Not saved either.
+  KeyFrameId joined_unconfirmed_since() const { return joined_unconfirmed_since_; }
+  void set_joined_unconfirmed_since(KeyFrameId first) { joined_unconfirmed_since_ = first; }
   // Moves the keyframes with ids >= first and the points they created
   // rigidly: T_world_cam' = correction * T_world_cam, p' = correction * p
   // (normals turn with it; distance ranges stay). The join of a
@@ -179,7 +185,8 @@ class MapData {
   void set_map_travel_along_spanning_tree();
   // Removes the keyframes with ids >= first (set_keyframe_bad, newest
   // first; their points lose those observations) and clears the
-  // provisional mark; last_keyframe() becomes the newest one left. The
+  // provisional and joined-unconfirmed marks; last_keyframe() becomes the
+  // newest one left. The
   // first keyframe is never removed. Returns the ids removed.
   std::vector<KeyFrameId> drop_keyframes_from(KeyFrameId first);
 
@@ -193,6 +200,7 @@ class MapData {
   KeyFrameId last_keyframe_ = kNoKeyFrame;
   std::vector<KeyFrameId> tracker_keyframes_;
   KeyFrameId provisional_since_ = kNoKeyFrame;
+  KeyFrameId joined_unconfirmed_since_ = kNoKeyFrame;
 };
 
 // The keyframe with most of keyframes_sharing()'s votes (the smallest id of

@@ -89,7 +89,8 @@ struct MapSummary {
 
 // The file's bytes for the good keyframes and points of `map` (bad points
 // are left out; they hold no observations). A provisional map
-// (MapData::provisional_since) is left out too: only the site map is saved.
+// (MapData::provisional_since), joined or not (joined_unconfirmed_since), is
+// left out too: only the confirmed site map is saved.
 std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta& meta);
 Expected<LoadedMap> decode_map(std::span<const std::uint8_t> bytes);
 

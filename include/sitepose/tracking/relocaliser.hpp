@@ -106,8 +106,10 @@ bool finds_distant_background(const map::MapData& map, const PassResult& result)
 // position_sigma_m() takes the points as exact; after a relocalisation to a
 // place seen before only from afar, from another angle, the pose inherits
 // the distant points' depth errors (measured: 0.11 m off at a sigma below
-// 0.02 m), which this sigma shows. +inf without enough inliers. Call under
-// SharedMap::read().
+// 0.02 m), which this sigma shows. The points of a joined provisional map
+// not yet confirmed (MapData::joined_unconfirmed_since) are left out: their
+// error is the join's, common to all of them. +inf without enough inliers.
+// Call under SharedMap::read().
 double map_aware_position_sigma_m(const StereoCamera& camera, const map::ScalePyramid& pyramid,
                                   const PreparedFrame& frame, const map::MapData& map,
                                   const PassResult& result);

@@ -221,7 +221,8 @@ class Tracker {
   HoldVerdict judge_hold(const PreparedFrame& frame, const PassResult& result) const;
   // The state after a valid `result`: RECOVERING after a relocalisation
   // until the hold is over (see judge_hold()), and while too few close
-  // inliers hold the pose; returns whether it relocalised.
+  // inliers hold the pose; returns whether it relocalised. The end of the
+  // hold after a join confirms the joined keyframes.
   bool update_state(const PassResult& result, const HoldVerdict& verdict);
   std::string state_reason(const PassResult& result, const HoldVerdict& verdict) const;  // empty when OK
   // Depth under which a stereo point counts as close (tracking.close_depth_baselines), m.
@@ -250,6 +251,13 @@ class Tracker {
                                            const std::vector<std::uint8_t>& usable, const PassResult& result,
                                            PassResult& joined);
   void drop_provisional_map(const char* why);
+  // A joined provisional map whose hold was not confirmed before tracking
+  // was lost: its keyframes are dropped as a provisional map's would be.
+  void drop_unconfirmed_join();
+  // Removes the keyframes with ids >= first (a provisional map's, joined or
+  // not) with the mapper held, tells the mapper, counts a provisional map
+  // dropped; returns how many keyframes went.
+  std::size_t drop_keyframes_from(map::KeyFrameId first);
   // The reference keyframe becomes the one sharing most of result's matches
   // (it stays when none is shared).
   void refer_to_most_shared_keyframe(const PassResult& result);
@@ -343,6 +351,11 @@ class Tracker {
   // and in how many frames in a row it was found again.
   std::optional<SE3> join_correction_;
   int join_agreements_ = 0;
+  // The first keyframe of a provisional map joined to the site map while the
+  // relocalisation hold that follows the join has not ended
+  // (MapData::joined_unconfirmed_since, kept here by its only writer):
+  // their place rests on the join alone. kNoKeyFrame: none.
+  map::KeyFrameId joined_unconfirmed_since_ = map::kNoKeyFrame;
   TrackerCounters counters_;
 };
 

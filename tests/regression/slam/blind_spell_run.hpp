@@ -115,10 +115,11 @@ struct TruckstopRun {
 
 // width x height: the scenario's own (960x540) when not given.
 inline void run_truckstop(TruckstopRun& out, std::optional<int> seed = std::nullopt,
-                          std::optional<int> width = std::nullopt, std::optional<int> height = std::nullopt) {
+                          std::optional<int> width = std::nullopt, std::optional<int> height = std::nullopt,
+                          config::MaskingMode mode = config::MaskingMode::kFull) {
   const std::string scenario = std::string(SITEPOSE_SCENARIO_DIR) + "/truckstop.yaml";
   config::SiteposeConfig config;
-  config.dynamic.mode = config::MaskingMode::kFull;
+  config.dynamic.mode = mode;
   auto source = open_simulated(scenario, 0, seed, width, height);
   ASSERT_TRUE(source.has_value()) << source.error().message;
   std::vector<bool> hidden;
@@ -136,13 +137,14 @@ inline void run_truckstop(TruckstopRun& out, std::optional<int> seed = std::null
   const BlackoutScore& s = out.score;
   out.coverage = static_cast<double>(s.ok_visible_frames) / std::max(1, s.visible_frames);
   std::printf(
-      "truckstop (seed %s, %s): %d frames, view back at frame %d, relocalised %d frames later, "
+      "truckstop (seed %s, %s, mode %s): %d frames, view back at frame %d, relocalised %d frames later, "
       "OK on %d of %d visible frames (%.1f %%), ATE rmse %.4f m, largest OK error %.4f m, "
       "OK poses > 0.05 m off: %d\n",
       seed ? std::to_string(*seed).c_str() : "of the scenario",
       width && height ? (std::to_string(*width) + "x" + std::to_string(*height)).c_str() : "its own size",
-      out.run.frames, s.first_visible, s.frames_to_relocalise, s.ok_visible_frames, s.visible_frames,
-      100.0 * out.coverage, out.run.evaluation->ate_m.rmse, s.max_ok_error_m, s.ok_frames_off);
+      config::to_string(mode), out.run.frames, s.first_visible, s.frames_to_relocalise, s.ok_visible_frames,
+      s.visible_frames, 100.0 * out.coverage, out.run.evaluation->ate_m.rmse, s.max_ok_error_m,
+      s.ok_frames_off);
   ASSERT_GT(s.first_visible, 0) << "the truck must hide the view and give it back";
 }
 

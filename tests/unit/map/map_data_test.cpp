@@ -175,6 +175,15 @@ TEST(MapData, DroppingAProvisionalMapLeavesTheSiteMapAsItWas) {
   EXPECT_GT(m.map.add_keyframe(make_keyframe(1, 3.0)), m.first_provisional + 1);
 }
 
+TEST(MapData, DroppingAJoinedMapNotYetConfirmedClearsItsMark) {
+  ChainWithProvisionalMap m;
+  m.map.set_provisional_since(kNoKeyFrame);  // joined
+  m.map.set_joined_unconfirmed_since(m.first_provisional);
+  m.map.drop_keyframes_from(m.first_provisional);
+  EXPECT_EQ(m.map.joined_unconfirmed_since(), kNoKeyFrame);
+  EXPECT_EQ(m.map.keyframe_count(), 3u);
+}
+
 TEST(MapData, ReplacePointMovesObservations) {
   ChainMap m(20);
   const PointId a = m.points[0];

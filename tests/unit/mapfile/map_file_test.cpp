@@ -231,6 +231,36 @@ TEST(MapFile, AProvisionalMapIsNotSaved) {
   });
 }
 
+// A provisional map joined to the site map stands where the join put it
+// until a relocalisation hold confirms the join: not saved before that.
+TEST(MapFile, AJoinedMapNotYetConfirmedIsNotSaved) {
+  map::SharedMap shared;
+  test::build_map(shared, 11);
+  constexpr map::KeyFrameId kFirstJoined = 8;
+  const auto [all_keyframes, site_keyframes] = shared.write([](map::MapData& m) {
+    m.set_joined_unconfirmed_since(kFirstJoined);
+    std::size_t site = 0;
+    for (const auto& [id, kf] : m.keyframes()) site += id < kFirstJoined ? 1 : 0;
+    return std::pair{m.keyframe_count(), site};
+  });
+  ASSERT_GT(all_keyframes, site_keyframes);
+  const Bytes bytes = shared.read([](const map::MapData& m) { return encode_map(m, {}); });
+  auto loaded = decode_map(bytes);
+  ASSERT_TRUE(loaded) << loaded.error().message;
+  EXPECT_EQ(loaded->map.keyframe_count(), site_keyframes);
+  for (const auto& [id, kf] : loaded->map.keyframes()) EXPECT_LT(id, kFirstJoined);
+  EXPECT_EQ(loaded->map.joined_unconfirmed_since(), map::kNoKeyFrame);
+  shared.read([&](const map::MapData& m) {
+    EXPECT_EQ(m.keyframe_count(), all_keyframes) << "the running map keeps them";
+    EXPECT_EQ(m.joined_unconfirmed_since(), kFirstJoined);
+  });
+  // Confirmed, they are saved.
+  shared.write([](map::MapData& m) { m.set_joined_unconfirmed_since(map::kNoKeyFrame); });
+  auto confirmed = decode_map(shared.read([](const map::MapData& m) { return encode_map(m, {}); }));
+  ASSERT_TRUE(confirmed) << confirmed.error().message;
+  EXPECT_EQ(confirmed->map.keyframe_count(), all_keyframes);
+}
+
 TEST(MapFile, LoadedMapGrowsWithFreshIds) {
   map::SharedMap shared;
   test::build_map(shared, 5);

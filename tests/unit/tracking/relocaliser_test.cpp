@@ -117,6 +117,50 @@ TEST(CloseInliers, AResultWithoutMatchesHasNone) {
   EXPECT_EQ(close_inliers(frame_with_depths({3.0, 4.0}), PassResult{}, 40.0), 0);
 }
 
+// A 7 x 7 grid of points `depth_m` ahead of the first camera, added by a
+// keyframe of their own, each seen as a stereo keypoint at level 0.
+map::KeyFrameId add_grid_keyframe(map::MapData& map, double depth_m) {
+  map::KeyFrame kf;
+  kf.keypoints.resize(49);
+  kf.point_of_keypoint.assign(49, map::kNoPoint);
+  const map::KeyFrameId id = map.add_keyframe(std::move(kf));
+  for (int i = 0; i < 49; ++i)
+    map.add_point(Eigen::Vector3d(0.5 * (i % 7 - 3), 0.5 * (i / 7 - 3), depth_m), id, i);
+  return id;
+}
+
+TEST(MapAwareSigma, LeavesOutThePointsOfAJoinNotYetConfirmed) {
+  StereoCamera camera;
+  camera.fx = camera.fy = 700.0;
+  camera.cx = 480.0;
+  camera.cy = 270.0;
+  camera.baseline_m = 1.0;
+  const map::ScalePyramid pyramid;
+  map::MapData map;
+  add_grid_keyframe(map, 30.0);                                // the site map: far points
+  const map::KeyFrameId joined = add_grid_keyframe(map, 5.0);  // a joined provisional map: near ones
+  PreparedFrame frame;
+  PassResult result;
+  for (map::PointId id = 0; id < static_cast<map::PointId>(map.point_count()); ++id) {
+    const Eigen::Vector3d& p = map.good_point(id)->p_world;
+    frame.uv_px.emplace_back(camera.fx * p.x() / p.z() + camera.cx, camera.fy * p.y() / p.z() + camera.cy);
+    frame.features.u_right.push_back(camera.fx * (p.x() - camera.baseline_m) / p.z() + camera.cx);
+    frame.octave.push_back(0);
+    result.point_of_keypoint.push_back(id);
+  }
+  result.n_inliers = static_cast<int>(result.point_of_keypoint.size());
+  const double with_all_m = map_aware_position_sigma_m(camera, pyramid, frame, map, result);
+  map.set_joined_unconfirmed_since(joined);
+  const double site_only_m = map_aware_position_sigma_m(camera, pyramid, frame, map, result);
+  EXPECT_GT(site_only_m, 3.0 * with_all_m) << "the near joined points no longer hold the pose";
+  // What the site points alone give, with the joined ones unmatched.
+  PassResult site_matches = result;
+  for (map::PointId& id : site_matches.point_of_keypoint)
+    if (id >= 49) id = map::kNoPoint;
+  map.set_joined_unconfirmed_since(map::kNoKeyFrame);
+  EXPECT_DOUBLE_EQ(site_only_m, map_aware_position_sigma_m(camera, pyramid, frame, map, site_matches));
+}
+
 TEST(RelocalisationHold, EndsAfterTheHoldFramesConfirmedFrames) {
   RelocalisationHold hold(3);
   EXPECT_FALSE(hold.holding());
