@@ -115,9 +115,9 @@ void write_map_travel(ByteWriter& out, const map::KeyFrame& kf) {
 }  // namespace
 
 std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta& meta) {
-  // A provisional map is placed by dead reckoning, and a joined one not yet
-  // confirmed by the join alone: a later start must not relocalise in it
-  // and call the pose OK. The site map is saved alone.
+  // A provisional map stands where dead reckoning put it, a joined one not
+  // yet confirmed where the join alone put it: a later start must not
+  // relocalise in it and call the pose OK. The site map is saved alone.
   for (const map::KeyFrameId first : {map.provisional_since(), map.joined_unconfirmed_since()}) {
     if (first == map::kNoKeyFrame) continue;
     map::MapData site_map = map;

@@ -186,8 +186,8 @@ class MapData {
   // Removes the keyframes with ids >= first (set_keyframe_bad, newest
   // first; their points lose those observations) and clears the
   // provisional and joined-unconfirmed marks; last_keyframe() becomes the
-  // newest one left. The
-  // first keyframe is never removed. Returns the ids removed.
+  // newest one left. The first keyframe is never removed. Returns the ids
+  // removed.
   std::vector<KeyFrameId> drop_keyframes_from(KeyFrameId first);
 
  private:
