@@ -59,9 +59,7 @@ std::pair<int, int> count_close_points(const PreparedFrame& frame, const PassRes
   int tracked = 0;
   int untracked = 0;
   for (int k = 0; k < frame.size(); ++k) {
-    if (!usable[k]) continue;
-    const double depth = frame.features.depth_m[k];
-    if (depth <= 0.0 || depth >= close_depth_m) continue;
+    if (!usable[k] || !frame.has_close_depth(k, close_depth_m)) continue;
     if (result.point_of_keypoint[k] != map::kNoPoint) {
       ++tracked;
     } else {

@@ -145,9 +145,7 @@ int close_inliers(const PreparedFrame& frame, const PassResult& result, double c
   int n = 0;
   const int keypoints = std::min(frame.size(), static_cast<int>(result.point_of_keypoint.size()));
   for (int k = 0; k < keypoints; ++k) {
-    if (result.point_of_keypoint[k] == map::kNoPoint) continue;
-    const double depth_m = frame.features.depth_m[k];
-    if (depth_m > 0.0 && depth_m < close_depth_m) ++n;
+    if (result.point_of_keypoint[k] != map::kNoPoint && frame.has_close_depth(k, close_depth_m)) ++n;
   }
   return n;
 }

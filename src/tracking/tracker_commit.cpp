@@ -242,8 +242,7 @@ void Tracker::count_close_repeatability(const PreparedFrame& frame, const PassRe
     const map::PointId id = result.point_of_keypoint[k];
     if (id == map::kNoPoint) continue;
     matched.push_back(id);
-    const double depth = frame.features.depth_m[k];
-    if (depth > 0.0 && depth < close_depth) close.push_back(id);
+    if (frame.has_close_depth(k, close_depth)) close.push_back(id);
   }
   std::sort(matched.begin(), matched.end());
   std::sort(close.begin(), close.end());

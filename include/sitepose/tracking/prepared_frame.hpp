@@ -31,6 +31,12 @@ struct PreparedFrame {
   PrepareTimings timings;
 
   int size() const { return static_cast<int>(uv_px.size()); }
+  // Whether keypoint k has a stereo depth of its own under close_depth_m
+  // (Tracker::close_depth_m): a close point, one that fixes the position.
+  bool has_close_depth(int k, double close_depth_m) const {
+    const double depth_m = features.depth_m[k];
+    return depth_m > 0.0 && depth_m < close_depth_m;
+  }
 };
 
 }  // namespace sitepose::tracking
