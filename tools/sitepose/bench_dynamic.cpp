@@ -7,6 +7,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <string>
+
+#include <unistd.h>
 
 #include "bench_report.hpp"
 #include "command_config.hpp"
@@ -110,8 +113,20 @@ int run(Args args) {
   }
   if (args.source.sequence.empty() && args.source.scenario.empty()) args.source.scenario = "crowded";
   std::string dir = args.source.sequence;
+  // The folder a scenario is simulated into is this run's own (under the
+  // system's temp folder): removed when the run ends, however it ends.
+  struct RemoveOnExit {
+    std::filesystem::path path;
+    ~RemoveOnExit() {
+      std::error_code ec;
+      if (!path.empty()) std::filesystem::remove_all(path, ec);
+    }
+  } simulated;
   if (!args.source.scenario.empty()) {
     // Simulate to disk: the labels detector reads the sequence's labels/.
+    simulated.path =
+        std::filesystem::temp_directory_path() / ("sitepose-bench-dynamic-" + std::to_string(::getpid()));
+    args.source.temp_dir = simulated.path.string();
     auto written = experiments::open_ablation_source(args.source, &dir);
     if (!written) return fail(kCommand, written.error().message, 2);
   }

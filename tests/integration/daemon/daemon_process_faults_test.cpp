@@ -299,6 +299,12 @@ TEST(DaemonFaults, TrajectoryDiskFullIsCountedAndWritingResumesWithWholeLines) {
   if (unshare(CLONE_NEWNS) != 0) GTEST_SKIP() << "unshare(CLONE_NEWNS): " << std::strerror(errno);
   ASSERT_EQ(mount("none", "/", nullptr, MS_REC | MS_PRIVATE, nullptr), 0) << std::strerror(errno);
   ASSERT_EQ(mount("sitepose-test", mnt.c_str(), "tmpfs", 0, "size=64k"), 0) << std::strerror(errno);
+  // Unmounted before `dir` is removed: a mount point cannot be removed, and
+  // the folder was left behind under /tmp by every run.
+  struct Unmount {
+    std::string path;
+    ~Unmount() { umount2(path.c_str(), MNT_DETACH); }
+  } unmount{mnt};
   const std::string filler = mnt + "/filler";
   {  // every page but one taken
     const int fd = open(filler.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
