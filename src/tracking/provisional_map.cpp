@@ -77,7 +77,6 @@ std::size_t Tracker::drop_keyframes_from(map::KeyFrameId first) {
   if (mapper_.removed) {
     for (const map::KeyFrameId id : dropped) mapper_.removed(id);
   }
-  ++counters_.provisional_maps_dropped;
   return dropped.size();
 }
 
@@ -85,6 +84,7 @@ void Tracker::drop_provisional_map(const char* why) {
   const map::KeyFrameId first = provisional_since_;
   const std::size_t dropped = drop_keyframes_from(first);
   provisional_since_ = map::kNoKeyFrame;
+  ++counters_.provisional_maps_dropped;
   spdlog::warn("tracking: provisional map from keyframe {} dropped ({} keyframes): {}", first, dropped, why);
 }
 
@@ -92,6 +92,7 @@ void Tracker::drop_unconfirmed_join() {
   const map::KeyFrameId first = joined_unconfirmed_since_;
   const std::size_t dropped = drop_keyframes_from(first);
   joined_unconfirmed_since_ = map::kNoKeyFrame;
+  ++counters_.joins_dropped_unconfirmed;
   spdlog::warn(
       "tracking: joined provisional map from keyframe {} dropped ({} keyframes): lost before its join was "
       "confirmed",
@@ -189,11 +190,12 @@ const PassResult& Tracker::settle_provisional_map(const PreparedFrame& frame,
   const SE3 correction = joined.T_cam_world.inverse() * result.T_cam_world;
   join_agreements_ = join_correction_ && agree(*join_correction_, correction) ? join_agreements_ + 1 : 1;
   join_correction_ = correction;
-  spdlog::debug(
-      "tracking: join found at frame {} ({} in a row): {} inliers, {} site-map points in view "
-      "({:.2f} found; distant {}), sigma {:.4f} m, move {:.3f} m",
-      frame.seq, join_agreements_, joined.n_inliers, joined.visible_points.size(), found_share(joined),
-      distant_found_text(joined), position_sigma_m(joined), correction.translation().norm());
+  if (spdlog::default_logger_raw()->should_log(spdlog::level::debug))  // the distant share reads the map
+    spdlog::debug(
+        "tracking: join found at frame {} ({} in a row): {} inliers, {} site-map points in view "
+        "({:.2f} found; distant {}), sigma {:.4f} m, move {:.3f} m",
+        frame.seq, join_agreements_, joined.n_inliers, joined.visible_points.size(), found_share(joined),
+        distant_found_text(joined), position_sigma_m(joined), correction.translation().norm());
   if (join_agreements_ < kJoinConfirmFrames) return result;
   join_correction_.reset();
   join_agreements_ = 0;

@@ -359,7 +359,7 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
       return holds_as_relocalisation(frame, usable, anchor, r);
     });
     tracked = relocalised;
-    if (relocalised)
+    if (relocalised && spdlog::default_logger_raw()->should_log(spdlog::level::debug))
       spdlog::debug(
           "tracking: relocalised at frame {}: {} inliers of {} map points in view ({:.2f}; distant {}), "
           "sigma {:.4f} m",

@@ -70,10 +70,13 @@ struct TrackerCounters {
   long close_points_rematched = 0;
   // Provisional maps (provisional_map.cpp): started after the site map was
   // lost for tracking.new_map_after_lost_s, joined to it when relocalised
-  // in it, dropped when tracking left one before it was joined.
+  // in it, dropped when tracking left one before it was joined. A joined
+  // map whose join was not yet confirmed when tracking was lost is dropped
+  // too, counted apart (it is also among the joined).
   int provisional_maps_started = 0;
   int provisional_maps_joined = 0;
   int provisional_maps_dropped = 0;
+  int joins_dropped_unconfirmed = 0;
   // The largest move a join made (translation, rotation): how far dead
   // reckoning had put a provisional map.
   double largest_join_move_m = 0.0;

@@ -109,6 +109,10 @@ TEST(Blackout, TheTrucksArrivalNeverGivesAWrongOkPose) {
 TEST(Blackout, AJoinThatWasNeverConfirmedGivesNoOkPose) {
   TruckstopRun t;
   ASSERT_NO_FATAL_FAILURE(run_truckstop(t, 4, 640, 360, config::MaskingMode::kNone));
+  const tracking::TrackerCounters& c = t.run.tracker_counters;
+  EXPECT_EQ(c.joins_dropped_unconfirmed, 1) << "the join this test is about was not dropped";
+  std::printf("joined %d, dropped before their join was confirmed %d, provisional maps dropped %d\n",
+              c.provisional_maps_joined, c.joins_dropped_unconfirmed, c.provisional_maps_dropped);
   EXPECT_EQ(t.score.ok_frames_off, 0) << "largest error of an OK pose: " << t.score.max_ok_error_m << " m";
 }
 

@@ -190,13 +190,15 @@ inline void run_lostmap(LostMapRun& out, std::optional<int> seed = std::nullopt,
   const tracking::TrackerCounters& c = out.run.tracker_counters;
   std::printf(
       "lostmap (seed %s%s): %d frames, view back at frame %d; provisional maps started %d, joined %d "
-      "(largest move %.2f m, %.2f deg), dropped %d; first OK after the view came back: frame %d; OK on %d "
+      "(largest move %.2f m, %.2f deg), dropped %d (and %d joined ones before their join was confirmed); "
+      "first OK after the view came back: frame %d; OK on %d "
       "of the %d frames from there; largest OK error %.4f m, OK poses > 0.05 m off: %d\n",
       seed ? std::to_string(*seed).c_str() : "of the scenario",
       provisional_maps ? "" : ", provisional maps off", out.run.frames, out.first_visible,
       c.provisional_maps_started, c.provisional_maps_joined, c.largest_join_move_m,
-      c.largest_join_rotation_deg, c.provisional_maps_dropped, out.first_ok_after, out.ok_after_visible,
-      out.frames_after_join, out.score.max_ok_error_m, out.score.ok_frames_off);
+      c.largest_join_rotation_deg, c.provisional_maps_dropped, c.joins_dropped_unconfirmed,
+      out.first_ok_after, out.ok_after_visible, out.frames_after_join, out.score.max_ok_error_m,
+      out.score.ok_frames_off);
   ASSERT_GT(out.first_visible, 0) << "the scenario must cover the lens and give the view back";
 }
 
