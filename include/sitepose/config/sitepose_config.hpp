@@ -72,10 +72,11 @@ struct TrackingConfig {
   double keyframe_tracked_ratio = 0.75;  // new keyframe if tracked/ref < ratio (all, or background alone)
   int keyframe_min_close_points = 100;   // need close points: add when fewer tracked
   int keyframe_new_close_points = 70;    // ... and more than this many could be created
-  // Fresh map points cannot outvote the established map, and no keyframe from
-  // the reference keyframe's viewpoint (tracking/pose_refinement.hpp,
-  // docs/tracking/standing.md). Off: three mode-full regression bounds move.
-  bool trust_established_map = false;
+  // Fresh map points cannot outvote the established map, a frame that sees
+  // too little of it is not OK, and no keyframe from the reference
+  // keyframe's viewpoint (tracking/pose_refinement.hpp,
+  // docs/tracking/standing.md).
+  bool trust_established_map = true;
   // Extraction keeps the corners the last frame matched, found again near
   // their predicted projections (features::CornerHint), before spreading
   // the rest of the budget (docs/tracking/extraction.md).

@@ -113,13 +113,13 @@ struct TruckstopRun {
   double coverage = 0.0;
 };
 
-// width x height: the scenario's own (960x540) when not given.
+// width x height: the scenario's own (960x540) when not given. `config`:
+// the defaults (mode full) when not given.
 inline void run_truckstop(TruckstopRun& out, std::optional<int> seed = std::nullopt,
                           std::optional<int> width = std::nullopt, std::optional<int> height = std::nullopt,
-                          config::MaskingMode mode = config::MaskingMode::kFull) {
+                          const config::SiteposeConfig& config = config::SiteposeConfig{}) {
   const std::string scenario = std::string(SITEPOSE_SCENARIO_DIR) + "/truckstop.yaml";
-  config::SiteposeConfig config;
-  config.dynamic.mode = mode;
+  const config::MaskingMode mode = config.dynamic.mode;
   auto source = open_simulated(scenario, 0, seed, width, height);
   ASSERT_TRUE(source.has_value()) << source.error().message;
   std::vector<bool> hidden;

@@ -1,6 +1,6 @@
 // Issue 24 "robust when standing": the ego stands while a truck passes
 // close and hides most of the view. Mode none (no detector), with
-// tracking.trust_established_map on (off by default), must not follow
+// tracking.trust_established_map on (the default), must not follow
 // the truck: no OK pose more than 0.05 m from the ground truth, ATE <= 0.02
 // m, and OK again at the right place once the truck has passed. Rendered at
 // low resolution, where the background left beside the truck holds fewest
@@ -32,7 +32,6 @@ TEST_P(StandingEgo, ModeNoneNeverFollowsThePassingTruck) {
   const Case c = GetParam();
   config::SiteposeConfig config;
   config.dynamic.mode = config::MaskingMode::kNone;
-  config.tracking.trust_established_map = true;
   auto source = open_simulated(std::string(SITEPOSE_SCENARIO_DIR) + "/" + c.scenario + ".yaml", 0, c.seed,
                                c.width, c.height);
   ASSERT_TRUE(source.has_value()) << source.error().message;
