@@ -8,11 +8,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "sitepose/testing/files.hpp"
@@ -212,6 +214,39 @@ TEST_F(RunCli, ConfigMessagesQuoteAShortPieceOfABadValue) {
   EXPECT_EQ(sim.exit_status, 2) << sim.err;
   EXPECT_EQ(sim.err.find("user199"), std::string::npos) << sim.err.substr(0, 500);
   EXPECT_LT(sim.err.size(), 1000u) << sim.err.substr(0, 500);
+}
+
+// The stats say what became of the provisional maps (issue 19). Scenario
+// lostmap: the lens is covered, and the view comes back (frame 138) where
+// the site map is not in sight, so a provisional map is begun 0.5 s later
+// (tracking.new_map_after_lost_s). The site map is back in view only
+// after frame 290, so within these 160 frames it is neither joined nor
+// dropped.
+TEST_F(RunCli, StatsCountTheProvisionalMaps) {
+  const fs::path seq = dir_ / "lostmap";
+  auto written = testing::write_small_sequence("lostmap", 320, 180, 160, seq.string(),
+                                               std::string(SITEPOSE_SOURCE_DIR) + "/config/scenarios");
+  ASSERT_TRUE(written) << written.error().message;
+  const fs::path config = dir_ / "c.yaml";
+  std::ofstream(config) << "tracking:\n  new_map_after_lost_s: 0.5\n";
+  const fs::path stats = dir_ / "stats.json";
+  const RunResult r =
+      sitepose("run --sequence " + seq.string() + " --out " + (dir_ / "t.txt").string() +
+               " --quiet --mode none --config " + config.string() + " --stats-out " + stats.string());
+  ASSERT_EQ(r.exit_status, 0) << r.err;
+  const nlohmann::json json = nlohmann::json::parse(testing::read_text(stats.string()));
+  ASSERT_TRUE(json.contains("provisional_maps")) << json.dump();
+  const nlohmann::json& maps = json["provisional_maps"];
+  const int started = maps.value("started", -1);
+  const int joined = maps.value("joined", -1);
+  const int dropped = maps.value("dropped", -1);
+  const int unconfirmed = maps.value("joins_dropped_unconfirmed", -1);
+  std::printf("provisional maps: started %d, joined %d, dropped %d, joins dropped unconfirmed %d\n", started,
+              joined, dropped, unconfirmed);
+  EXPECT_EQ(started, 1);
+  EXPECT_EQ(joined, 0);
+  EXPECT_EQ(dropped, 0);
+  EXPECT_EQ(unconfirmed, 0);
 }
 
 }  // namespace
