@@ -122,6 +122,20 @@ TEST(Blackout, AJoinThatWasNeverConfirmedGivesNoOkPose) {
   EXPECT_EQ(t.score.ok_frames_off, 0) << "largest error of an OK pose: " << t.score.max_ok_error_m << " m";
 }
 
+// truckstop seed 18 at 640x360, mode none: the truck slides in front of
+// the lens and is mapped (a keyframe every frame from 35 to 49, the close
+// points coming back on the truck), and with tracking.trust_established_map
+// off the pose followed it: 101 OK poses more than 0.05 m off, up to 7.58 m,
+// from frame 40. With the option (the default) the fresh points on the truck
+// cannot outvote the established map: 35 OK frames, largest error 0.015 m.
+TEST(Blackout, ModeNoneNeverFollowsATruckMappedInFrontOfTheLens) {
+  TruckstopRun t;
+  config::SiteposeConfig config;
+  config.dynamic.mode = config::MaskingMode::kNone;
+  ASSERT_NO_FATAL_FAILURE(run_truckstop(t, 18, 640, 360, config));
+  EXPECT_EQ(t.score.ok_frames_off, 0) << "largest error of an OK pose: " << t.score.max_ok_error_m << " m";
+}
+
 // Scenario lostmap without provisional maps: LOST from the view's return
 // (frame 138) until the site map is back in view (about frame 290) at 3 m/s,
 // 0.5 m a frame. The frame after a relocalisation has no velocity; searched
