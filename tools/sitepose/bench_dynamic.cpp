@@ -195,7 +195,7 @@ int run(Args args) {
 void add_options(CLI::App& sub, Args& args) {
   sub.add_option("--sequence", args.source.sequence, "Sequence directory with labels");
   sub.add_option("--scenario", args.source.scenario,
-                 "Scenario simulated into a temporary folder instead (default: crowded)");
+                 "Scenario simulated into a temporary folder instead, removed at the end (default: crowded)");
   sub.add_option("--frames", args.source.frames, "Frames (0 = all)")
       ->check(CLI::Range(0, std::numeric_limits<int>::max()));
   add_fps_option(sub, args.source.fps);
