@@ -258,8 +258,8 @@ class Tracker {
   // was lost: its keyframes are dropped as a provisional map's would be.
   void drop_unconfirmed_join();
   // Removes the keyframes with ids >= first (a provisional map's, joined or
-  // not) with the mapper held, tells the mapper, counts a provisional map
-  // dropped; returns how many keyframes went.
+  // not) with the mapper held and tells the mapper; returns how many
+  // keyframes went. The callers count what they dropped.
   std::size_t drop_keyframes_from(map::KeyFrameId first);
   // The reference keyframe becomes the one sharing most of result's matches
   // (it stays when none is shared).
