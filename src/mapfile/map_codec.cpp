@@ -117,11 +117,16 @@ void write_map_travel(ByteWriter& out, const map::KeyFrame& kf) {
 std::vector<std::uint8_t> encode_map(const map::MapData& map, const MapFileMeta& meta) {
   // A provisional map stands where dead reckoning put it, a joined one not
   // yet confirmed where the join alone put it: a later start must not
-  // relocalise in it and call the pose OK. The site map is saved alone.
+  // relocalise in it and call the pose OK. The site map is saved alone:
+  // everything from the earliest mark on (dropping clears both marks).
+  map::KeyFrameId first_unsaved = map::kNoKeyFrame;
   for (const map::KeyFrameId first : {map.provisional_since(), map.joined_unconfirmed_since()}) {
-    if (first == map::kNoKeyFrame) continue;
+    if (first != map::kNoKeyFrame && (first_unsaved == map::kNoKeyFrame || first < first_unsaved))
+      first_unsaved = first;
+  }
+  if (first_unsaved != map::kNoKeyFrame) {
     map::MapData site_map = map;
-    site_map.drop_keyframes_from(first);
+    site_map.drop_keyframes_from(first_unsaved);
     return encode_map(site_map, meta);
   }
   const auto keyframes = by_id(map.keyframes());

@@ -261,6 +261,24 @@ TEST(MapFile, AJoinedMapNotYetConfirmedIsNotSaved) {
   EXPECT_EQ(confirmed->map.keyframe_count(), all_keyframes);
 }
 
+// Both marks at once (a provisional map begun after a join not yet
+// confirmed; the tracker drops such a join when lost, so this is the
+// encoder's own contract): nothing from the earlier mark on is saved.
+TEST(MapFile, WithBothMarksNothingFromTheEarlierOneIsSaved) {
+  map::SharedMap shared;
+  test::build_map(shared, 11);
+  constexpr map::KeyFrameId kFirstJoined = 6;
+  constexpr map::KeyFrameId kFirstProvisional = 9;
+  shared.write([](map::MapData& m) {
+    m.set_joined_unconfirmed_since(kFirstJoined);
+    m.set_provisional_since(kFirstProvisional);
+  });
+  auto loaded = decode_map(shared.read([](const map::MapData& m) { return encode_map(m, {}); }));
+  ASSERT_TRUE(loaded) << loaded.error().message;
+  ASSERT_GT(loaded->map.keyframe_count(), 0u);
+  for (const auto& [id, kf] : loaded->map.keyframes()) EXPECT_LT(id, kFirstJoined);
+}
+
 TEST(MapFile, LoadedMapGrowsWithFreshIds) {
   map::SharedMap shared;
   test::build_map(shared, 5);
