@@ -344,9 +344,11 @@ Section<output::CovarianceOptions> covariance_section() {
   return s;
 }
 
-Section<DaemonConfig> integrity_group() {
-  Section<DaemonConfig> s;
-  s.key("alert_limit_m", &DaemonConfig::integrity_alert_limit_m, in_range(0.0, 1000.0));
+Section<output::IntegrityOptions> integrity_section() {
+  using I = output::IntegrityOptions;
+  Section<I> s;
+  s.key("alert_limit_m", &I::alert_limit_m, in_range(0.0, 1000.0))
+      .key("protection_level_sigmas", &I::protection_level_sigmas, in_range(1.0, 100.0));
   return s;
 }
 
@@ -357,7 +359,7 @@ Section<DaemonConfig> outputs_group() {
       .section("lcm", &DaemonConfig::lcm, lcm_section())
       .section("reference_point", &DaemonConfig::reference_point, reference_point_section())
       .section("covariance", &DaemonConfig::covariance, covariance_section())
-      .group("integrity", integrity_group());
+      .section("integrity", &DaemonConfig::integrity, integrity_section());
   return s;
 }
 

@@ -60,7 +60,7 @@ PublishOptions publish_options(const DaemonConfig& config) {
   PublishOptions p;
   p.lever_arm_m = config.reference_point.lever_arm_m;
   p.covariance = config.covariance;
-  p.alert_limit_m = config.integrity_alert_limit_m;
+  p.integrity = config.integrity;
   return p;
 }
 
@@ -167,8 +167,10 @@ const PublishedPose& Anchoring::published(const pipeline::PosePacket& packet) {
       published_.site
           ? published_.site->covariance_site
           : geo::site_covariance(SE3::identity(), published_.pose.T_world_cam, published_.pose.covariance);
-  published_.protection_level_m = output::position_bound_3sigma_m(covariance.topLeftCorner<3, 3>());
-  published_.integrity_alert = output::integrity_alert(published_.protection_level_m, publish_.alert_limit_m);
+  published_.protection_level_m = output::protection_level_m(covariance.topLeftCorner<3, 3>(),
+                                                             publish_.integrity.protection_level_sigmas);
+  published_.integrity_alert =
+      output::integrity_alert(published_.protection_level_m, publish_.integrity.alert_limit_m);
   return published_;
 }
 
@@ -335,8 +337,8 @@ Status CanOutput::retry() { return send_pending(); }
 
 Status LcmOutput::publish(const pipeline::PosePacket& packet) {
   const PublishedPose& published = anchoring_.published(packet);
-  SITEPOSE_TRY_STATUS(publisher_->publish_pose(published.pose, published.site, &published.velocity,
-                                               anchoring_.alert_limit_m()));
+  SITEPOSE_TRY_STATUS(
+      publisher_->publish_pose(published.pose, published.site, &published.velocity, anchoring_.integrity()));
   last_pose_utc_ns_ = published.utc_ns;
   last_latency_ms_ = anchoring_.time_base().latency_ms(packet);
   return ok_status();

@@ -1,6 +1,7 @@
 #include "sitepose/experiments/pose_consistency.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -52,8 +53,8 @@ NeesSample score(const OkPose& ok, const SE3& T_slam_cam_gt, const NeesOptions& 
   const Eigen::Matrix3d P_position = P.topLeftCorner<3, 3>();
   s.nees_position = nees<3>(s.error_position_m, P_position);
   s.nees_pose = nees<6>(e, P);
-  s.bound_3sigma_m = output::position_bound_3sigma_m(P_position);
-  s.alert = output::integrity_alert(s.bound_3sigma_m, options.alert_limit_m);
+  s.protection_level_m = output::protection_level_m(P_position, options.integrity.protection_level_sigmas);
+  s.alert = output::integrity_alert(s.protection_level_m, options.integrity.alert_limit_m);
   s.features_used = ok.pose.counters.features_used;
   s.travelled_m = ok.travelled_m;
   s.map_travel_m = ok.pose.map_travel_m;
@@ -82,6 +83,18 @@ MeanBand chi_square_mean_band_95(int samples, int dof) {
   return {chi_square_quantile(-kZ975, v) / samples, chi_square_quantile(kZ975, v) / samples};
 }
 
+MeanBand chi_square_band_95(int dof) {
+  // chi2inv(0.025, k), chi2inv(0.975, k) for k = 1..6.
+  static constexpr std::array<MeanBand, 6> kBands{{{0.000982, 5.0239},
+                                                   {0.0506, 7.3778},
+                                                   {0.2158, 9.3484},
+                                                   {0.4844, 11.1433},
+                                                   {0.8312, 12.8325},
+                                                   {1.2373, 14.4494}}};
+  if (dof < 1 || dof > static_cast<int>(kBands.size())) return {};
+  return kBands[static_cast<std::size_t>(dof - 1)];
+}
+
 double NeesResult::mean_nees_position() const { return mean_of(samples, &NeesSample::nees_position); }
 double NeesResult::mean_nees_pose() const { return mean_of(samples, &NeesSample::nees_pose); }
 
@@ -106,7 +119,7 @@ int NeesResult::alerts() const {
 NeesResult::IntegrityCounts NeesResult::integrity_at(double limit_m) const {
   IntegrityCounts c;
   for (const NeesSample& s : samples) {
-    const bool alert = output::integrity_alert(s.bound_3sigma_m, limit_m);
+    const bool alert = output::integrity_alert(s.protection_level_m, limit_m);
     const double error_m = s.error_position_m.norm();
     c.alerts += alert ? 1 : 0;
     c.errors_over_limit += error_m > limit_m ? 1 : 0;
@@ -118,8 +131,8 @@ NeesResult::IntegrityCounts NeesResult::integrity_at(double limit_m) const {
 
 double NeesResult::bound_coverage() const {
   if (samples.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const int covered =
-      count_if(samples, [](const NeesSample& s) { return s.error_position_m.norm() <= s.bound_3sigma_m; });
+  const int covered = count_if(
+      samples, [](const NeesSample& s) { return s.error_position_m.norm() <= s.protection_level_m; });
   return static_cast<double>(covered) / static_cast<double>(samples.size());
 }
 
@@ -147,7 +160,8 @@ Expected<NeesResult> run_nees(const LabelledSource& source, const config::Sitepo
   result.frames = run.frames;
   result.partial = run.partial;
   result.frames_ok = static_cast<int>(ok.size());
-  result.alert_limit_m = options.alert_limit_m;
+  result.alert_limit_m = options.integrity.alert_limit_m;
+  result.protection_level_sigmas = options.integrity.protection_level_sigmas;
   if (ok.empty()) return result;
   const OkPose& first = ok.front();
   result.anchor_frame = first.frame;

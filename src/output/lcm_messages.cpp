@@ -26,7 +26,7 @@ std::int8_t lcm_state(TrackingState state) {
 }
 
 sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site, const Velocity* velocity,
-                             double alert_limit_m) {
+                             const IntegrityOptions& integrity) {
   sitepose::pose_t m;
   m.utime = utime_of(pose.t_ns);
   m.seq = pose.seq;
@@ -49,8 +49,9 @@ sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site
   for (int r = 0; r < 6; ++r) {
     for (int c = 0; c < 6; ++c) m.covariance[r * 6 + c] = covariance(r, c);
   }
-  m.protection_level_m = position_bound_3sigma_m(covariance.topLeftCorner<3, 3>());
-  m.integrity_alert = integrity_alert(m.protection_level_m, alert_limit_m) ? 1 : 0;
+  m.protection_level_m =
+      protection_level_m(covariance.topLeftCorner<3, 3>(), integrity.protection_level_sigmas);
+  m.integrity_alert = integrity_alert(m.protection_level_m, integrity.alert_limit_m) ? 1 : 0;
   const bool has_velocity = velocity != nullptr && velocity->valid();
   for (int r = 0; r < 3; ++r) {
     m.velocity[r] = has_velocity ? velocity->mps(r) : kNaN;

@@ -25,8 +25,8 @@ Expected<std::unique_ptr<LcmPublisher>> LcmPublisher::create_with_sender(const L
 }
 
 Status LcmPublisher::publish_pose(const PoseEstimate& pose, const geo::SitePose* site,
-                                  const Velocity* velocity, double alert_limit_m) {
-  SITEPOSE_TRY(std::vector<std::uint8_t> bytes, encode_lcm(to_lcm_pose(pose, site, velocity, alert_limit_m)));
+                                  const Velocity* velocity, const IntegrityOptions& integrity) {
+  SITEPOSE_TRY(std::vector<std::uint8_t> bytes, encode_lcm(to_lcm_pose(pose, site, velocity, integrity)));
   return send({options_.pose_channel, std::move(bytes), true});
 }
 

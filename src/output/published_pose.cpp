@@ -66,11 +66,11 @@ PoseEstimate published_pose(const PoseEstimate& camera, const Eigen::Vector3d& l
   return out;
 }
 
-double position_bound_3sigma_m(const Eigen::Matrix3d& position_covariance) {
+double protection_level_m(const Eigen::Matrix3d& position_covariance, double sigmas) {
   if (!position_covariance.allFinite()) return std::numeric_limits<double>::infinity();
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(
       0.5 * (position_covariance + position_covariance.transpose()), Eigen::EigenvaluesOnly);
-  return 3.0 * std::sqrt(std::max(eig.eigenvalues().maxCoeff(), 0.0));
+  return sigmas * std::sqrt(std::max(eig.eigenvalues().maxCoeff(), 0.0));
 }
 
 Velocity finite_difference_velocity(const Eigen::Vector3d& p0, const Eigen::Matrix3d& covariance0,

@@ -44,7 +44,7 @@ Status write_csv(const std::string& path, const experiments::NeesResult& r) {
   std::fprintf(
       f.get(),
       "frame,t_s,ex_m,ey_m,ez_m,erx_rad,ery_rad,erz_rad,error_position_m,error_rotation_deg,"
-      "nees_position,nees_pose,bound_3sigma_m,alert,features_used,travelled_m,map_travel_m,x_m,y_m,z_m");
+      "nees_position,nees_pose,protection_level_m,alert,features_used,travelled_m,map_travel_m,x_m,y_m,z_m");
   // The tracker's own [dp; dtheta] covariance, upper triangle row by row
   // (tools/nees_calibrate.py re-scores other settings from it).
   for (int i = 0; i < 6; ++i)
@@ -57,7 +57,7 @@ Status write_csv(const std::string& path, const experiments::NeesResult& r) {
         s.frame, s.t_s, s.error_position_m.x(), s.error_position_m.y(), s.error_position_m.z(),
         s.error_rotation_rad.x(), s.error_rotation_rad.y(), s.error_rotation_rad.z(),
         s.error_position_m.norm(), s.error_rotation_rad.norm() * 180.0 / std::numbers::pi, s.nees_position,
-        s.nees_pose, s.bound_3sigma_m, s.alert ? 1 : 0, s.features_used, s.travelled_m, s.map_travel_m,
+        s.nees_pose, s.protection_level_m, s.alert ? 1 : 0, s.features_used, s.travelled_m, s.map_travel_m,
         s.position_m.x(), s.position_m.y(), s.position_m.z());
     for (int i = 0; i < 6; ++i)
       for (int j = i; j < 6; ++j) std::fprintf(f.get(), ",%.9g", s.tracker_covariance(i, j));
@@ -76,6 +76,34 @@ double largest_map_travel_m(const experiments::NeesResult& r) {
 
 double share(int count, int total) { return total > 0 ? static_cast<double>(count) / total : 0.0; }
 
+const char* in_band_word(double mean, const experiments::MeanBand& band) {
+  if (mean < band.low) return "below (cautious)";
+  if (mean > band.high) return "ABOVE (overconfident)";
+  return "inside";
+}
+
+// Means over consecutive windows of kWindowFrames scored frames (the
+// issue's "NEES over a window"): how many lie inside, below and above the
+// band of one chi2 value.
+void print_window_means(const experiments::NeesResult& r) {
+  constexpr std::size_t kWindowFrames = 50;
+  for (const int dof : {3, 6}) {
+    const auto band = experiments::chi_square_band_95(dof);
+    int below = 0;
+    int inside = 0;
+    int above = 0;
+    for (std::size_t begin = 0; begin + kWindowFrames <= r.samples.size(); begin += kWindowFrames) {
+      double sum = 0.0;
+      for (std::size_t i = begin; i < begin + kWindowFrames; ++i)
+        sum += dof == 3 ? r.samples[i].nees_position : r.samples[i].nees_pose;
+      const double mean = sum / kWindowFrames;
+      (mean < band.low ? below : mean > band.high ? above : inside) += 1;
+    }
+    std::printf("  %zu-frame windows, %d dof: %d inside, %d below, %d above\n", kWindowFrames, dof, inside,
+                below, above);
+  }
+}
+
 void print_result(const experiments::NeesResult& r, const Args& args) {
   const int n = static_cast<int>(r.samples.size());
   std::printf(
@@ -91,15 +119,20 @@ void print_result(const experiments::NeesResult& r, const Args& args) {
       c.scale, c.floor_position_m, c.floor_attitude_deg, c.drift_m_per_sqrt_m, c.drift_deg_per_sqrt_m,
       r.samples.empty() ? 0.0 : r.samples.back().travelled_m,
       r.samples.empty() ? 0.0 : r.samples.back().map_travel_m, largest_map_travel_m(r));
-  const auto band3 = experiments::chi_square_mean_band_95(n, 3);
-  const auto band6 = experiments::chi_square_mean_band_95(n, 6);
-  std::printf("mean NEES position (3 dof): %.3f   95 %% band of the mean [%.3f, %.3f]\n",
-              r.mean_nees_position(), band3.low, band3.high);
-  std::printf("mean NEES pose     (6 dof): %.3f   95 %% band of the mean [%.3f, %.3f]\n", r.mean_nees_pose(),
-              band6.low, band6.high);
-  std::printf("(band: chi-square quantiles by Wilson-Hilferty, frames taken as independent)\n");
-  std::printf("3-sigma bound covers the position error in %.1f %% of scored frames\n",
-              100.0 * r.bound_coverage());
+  for (const int dof : {3, 6}) {
+    const double mean = dof == 3 ? r.mean_nees_position() : r.mean_nees_pose();
+    const auto band = experiments::chi_square_band_95(dof);
+    const auto band_of_mean = experiments::chi_square_mean_band_95(n, dof);
+    std::printf(
+        "mean NEES %s (%d dof): %.3f, %s the 95 %% band of one chi2(%d) value [%.3f, %.3f] (band of the mean "
+        "of %d independent frames [%.3f, %.3f])\n",
+        dof == 3 ? "position" : "pose    ", dof, mean, in_band_word(mean, band), dof, band.low, band.high, n,
+        band_of_mean.low, band_of_mean.high);
+  }
+  print_window_means(r);
+  std::printf(
+      "protection level (%g x largest position std) covers the position error in %.1f %% of scored frames\n",
+      r.protection_level_sigmas, 100.0 * r.bound_coverage());
   std::printf(
       "integrity at alert limit %.3f m: %d alerts, %d frames with error > limit; false alarms %d "
       "(%.1f %% of scored frames), missed detections %d (%.1f %% of scored frames, %.1f %% of "
@@ -157,7 +190,10 @@ void add_covariance_options(CLI::App& sub, experiments::NeesOptions& nees) {
   add_override("--drift-m-per-sqrt-m", c.drift_m_per_sqrt_m, "outputs.covariance.drift_m_per_sqrt_m", 1.0);
   add_override("--drift-deg-per-sqrt-m", c.drift_deg_per_sqrt_m, "outputs.covariance.drift_deg_per_sqrt_m",
                10.0);
-  add_override("--alert-limit-m", nees.alert_limit_m, "outputs.integrity.alert_limit_m", 1000.0);
+  add_override("--alert-limit-m", nees.integrity.alert_limit_m, "outputs.integrity.alert_limit_m", 1000.0);
+  sub.add_option("--protection-level-sigmas", nees.integrity.protection_level_sigmas,
+                 "outputs.integrity.protection_level_sigmas (default the shipped)")
+      ->check(CLI::Range(1.0, 100.0));
 }
 
 void add_options(CLI::App& sub, Args& args) {

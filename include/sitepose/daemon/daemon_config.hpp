@@ -153,9 +153,9 @@ struct DaemonConfig {
   TrajectoryOutputConfig trajectory;
   CanOutputConfig can;
   LcmOutputConfig lcm;
-  output::ReferencePointOptions reference_point;                         // outputs.reference_point
-  output::CovarianceOptions covariance{1.0, 0.005, 0.02, 0.005, 0.012};  // outputs.covariance
-  double integrity_alert_limit_m = 0.10;                                 // outputs.integrity.alert_limit_m
+  output::ReferencePointOptions reference_point;                          // outputs.reference_point
+  output::CovarianceOptions covariance{1.0, 0.001, 0.005, 0.003, 0.008};  // outputs.covariance
+  output::IntegrityOptions integrity{0.10, 4.5};                          // outputs.integrity
   GeoConfig geo;
   config::SiteposeConfig sitepose;
   MapPersistenceConfig map;

@@ -69,7 +69,7 @@ class TimeBase {
 struct PublishOptions {
   Eigen::Vector3d lever_arm_m = Eigen::Vector3d::Zero();  // machine frame
   output::CovarianceOptions covariance;
-  double alert_limit_m = 0.0;  // outputs.integrity.alert_limit_m; 0 = never alert
+  output::IntegrityOptions integrity;  // outputs.integrity; alert limit 0 = never alert
 };
 PublishOptions publish_options(const DaemonConfig& config);
 
@@ -83,7 +83,8 @@ struct PublishedPose {
   // Geoid height above the ellipsoid at the site position (geo.geoid);
   // NaN without a site position or a geoid.
   double geoid_separation_m = std::numeric_limits<double>::quiet_NaN();
-  // 3-sigma position bound of the published covariance and whether it
+  // Protection level of the published covariance (outputs.integrity.
+  // protection_level_sigmas x the largest position std) and whether it
   // exceeds outputs.integrity.alert_limit_m (LCM and CAN carry both).
   double protection_level_m = std::numeric_limits<double>::infinity();
   bool integrity_alert = false;
@@ -115,7 +116,7 @@ class Anchoring {
   // The time base of every output (kept here so that each pose is mapped
   // once, like its site pose).
   TimeBase& time_base() { return time_base_; }
-  double alert_limit_m() const { return publish_.alert_limit_m; }
+  const output::IntegrityOptions& integrity() const { return publish_.integrity; }
 
   GeoMode mode() const { return config_.mode; }
   geo::ForwardAxis forward_axis() const { return config_.forward_axis_cam; }

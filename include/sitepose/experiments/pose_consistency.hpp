@@ -36,8 +36,8 @@ struct NeesOptions {
   // Copies of the daemon's shipped outputs.covariance and
   // outputs.integrity (the sitepose tool does not link the daemon module;
   // experiments_unit_test checks them against daemon::DaemonConfig).
-  output::CovarianceOptions covariance{1.0, 0.005, 0.02, 0.005, 0.012};
-  double alert_limit_m = 0.10;
+  output::CovarianceOptions covariance{1.0, 0.001, 0.005, 0.003, 0.008};
+  output::IntegrityOptions integrity{0.10, 4.5};
   std::function<void(int, int)> on_frame;  // (frame done, frames)
   // Polled before each frame; true ends the run there, scored so far
   // (NeesResult::partial).
@@ -49,10 +49,10 @@ struct NeesSample {
   double t_s = 0.0;
   Eigen::Vector3d error_position_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d error_rotation_rad = Eigen::Vector3d::Zero();
-  double nees_position = 0.0;   // 3 dof
-  double nees_pose = 0.0;       // 6 dof
-  double bound_3sigma_m = 0.0;  // protection level, as published
-  bool alert = false;           // integrity flag, as published
+  double nees_position = 0.0;       // 3 dof
+  double nees_pose = 0.0;           // 6 dof
+  double protection_level_m = 0.0;  // as published
+  bool alert = false;               // integrity flag, as published
   int features_used = 0;
   double travelled_m = 0.0;   // path length since the run's first pose (output::TravelledDistance)
   double map_travel_m = 0.0;  // distance of the map-drift term (PoseEstimate::map_travel_m)
@@ -70,6 +70,12 @@ struct MeanBand {
   double high = 0.0;
 };
 MeanBand chi_square_mean_band_95(int samples, int dof);
+// The 95 % band of one chi2(dof) value, dof 1..6 (exact quantiles; empty
+// band for other dof). A consistent covariance puts a run's mean NEES in
+// it: a run's error is mostly the map's slowly varying drift, so its
+// frames are far from independent and its mean scatters from run to run
+// like a single value, not like the mean of N (the band above).
+MeanBand chi_square_band_95(int dof);
 
 struct NeesResult {
   std::string name;
@@ -80,6 +86,7 @@ struct NeesResult {
   double anchor_offset_m = 0.0;  // |translation of T_gt_slam|
   std::vector<NeesSample> samples;
   double alert_limit_m = 0.0;
+  double protection_level_sigmas = 0.0;
 
   double mean_nees_position() const;
   double mean_nees_pose() const;
@@ -87,10 +94,10 @@ struct NeesResult {
   int missed_detections() const;  // |dp| > alert limit without alert
   int errors_over_limit() const;  // |dp| > alert limit
   int alerts() const;
-  double bound_coverage() const;  // share of samples with |dp| <= 3-sigma bound
+  double bound_coverage() const;  // share of samples with |dp| <= protection level
 
-  // The same counts had the alert limit been limit_m (alert: 3-sigma bound
-  // over it, output::integrity_alert).
+  // The same counts had the alert limit been limit_m (alert: protection
+  // level over it, output::integrity_alert).
   struct IntegrityCounts {
     int alerts = 0;
     int errors_over_limit = 0;

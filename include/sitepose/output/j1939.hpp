@@ -44,7 +44,7 @@ CanFrame encode_j1939_vehicle_direction_speed(const VehicleDirectionSpeed& v, st
 //   byte 0      CRC-8 SAE J1850 over [data id low, data id high, bytes 1..7]
 //   byte 1      bits 0-3 alive counter (0..15), bits 4-5 tracking state
 //               (0 OK, 1 RECOVERING, 2 LOST), bit 6 integrity alert (the
-//               3-sigma position bound exceeds the alert limit), bit 7 0
+//               protection level exceeds the alert limit), bit 7 0
 //   bytes 2-3   features used in the final pose, u16 1/bit (0..64255)
 //   bytes 4-5   position std = sqrt(trace of the 3x3 position covariance),
 //               u16 0.001 m/bit (0..64.255 m)
@@ -62,7 +62,7 @@ struct PoseQuality {
   double position_std_m = 0.0;
   double rotation_std_rad = 0.0;
   double masked_area_ratio = 0.0;  // [0, 1]
-  bool integrity_alert = false;    // 3-sigma position bound over the alert limit
+  bool integrity_alert = false;    // protection level over the alert limit (published_pose.hpp)
 };
 
 // The figures of a tracker's answer (covariance of the [translation;

@@ -58,9 +58,9 @@ std::int8_t lcm_state(TrackingState state);  // pose_t::STATE_*
 // everything from the SitePose. utime = t_ns / 1000 (floor).
 // velocity: of the published point in the message's frame; nullptr or
 // invalid: NaN.
-// alert_limit_m: outputs.integrity.alert_limit_m (0 = never alert).
+// integrity: outputs.integrity (protection level and alert).
 sitepose::pose_t to_lcm_pose(const PoseEstimate& pose, const geo::SitePose* site,
-                             const Velocity* velocity = nullptr, double alert_limit_m = 0.0);
+                             const Velocity* velocity = nullptr, const IntegrityOptions& integrity = {});
 sitepose::health_t to_lcm_health(const LcmHealth& health);
 sitepose::gnss_fix_t to_lcm_gnss_fix(const geo::GnssFix& fix);
 // Checks quality 0..8, non-negative satellites, and a valid WGS84 position

@@ -45,7 +45,7 @@ class LcmPublisher {
 
   // site: nullptr while the site anchor is unknown (see to_lcm_pose).
   Status publish_pose(const PoseEstimate& pose, const geo::SitePose* site, const Velocity* velocity = nullptr,
-                      double alert_limit_m = 0.0);
+                      const IntegrityOptions& integrity = {});
   Status publish_health(const LcmHealth& health);
   // Sends the pose of the last failed publish_pose again (same attempts
   // rule). Ok and nothing sent when no pose is pending.

@@ -82,10 +82,18 @@ PoseEstimate published_pose(const PoseEstimate& camera, const Eigen::Vector3d& l
                             const CovarianceOptions& covariance, double extra_position_std_m,
                             double extra_attitude_std_rad);
 
-// Integrity: the position's 3-sigma bound, 3 sqrt(largest eigenvalue of
-// the 3x3 [dp] covariance) (infinite when not finite), and the alert when
-// it exceeds the alert limit (0 = never).
-double position_bound_3sigma_m(const Eigen::Matrix3d& position_covariance);
+// Integrity (outputs.integrity): the protection level is
+// protection_level_sigmas times the largest position standard deviation,
+// sqrt(largest eigenvalue of the 3x3 [dp] covariance) (infinite when not
+// finite); the alert is raised when it exceeds the alert limit (0 = never).
+// The covariance is calibrated to be consistent (mean NEES in the chi2
+// band), so its 3 sigma does not cover every frame; the protection level's
+// multiple carries the integrity margin (docs/daemon/pose_quality.md).
+struct IntegrityOptions {
+  double alert_limit_m = 0.0;
+  double protection_level_sigmas = 3.0;
+};
+double protection_level_m(const Eigen::Matrix3d& position_covariance, double sigmas);
 inline bool integrity_alert(double bound_m, double alert_limit_m) {
   return alert_limit_m > 0.0 && !(bound_m <= alert_limit_m);
 }

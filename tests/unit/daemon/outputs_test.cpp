@@ -344,10 +344,10 @@ TEST(DaemonOutputs, TheMapDriftTermGrowsWithTheMapTravelOfEachPose) {
   }
 }
 
-TEST(DaemonOutputs, IntegrityAlertOnLcmAndCanWhenTheThreeSigmaBoundExceedsTheLimit) {
+TEST(DaemonOutputs, IntegrityAlertOnLcmAndCanWhenTheProtectionLevelExceedsTheLimit) {
   PublishOptions options;
-  options.alert_limit_m = 0.10;
-  // Position std 1 cm (bound 3 cm) and 5 cm (bound 15 cm) per axis.
+  options.integrity = {0.10, 3.0};
+  // Position std 1 cm (protection level 3 cm) and 5 cm (15 cm) per axis.
   for (const double std_m : {0.01, 0.05}) {
     Matrix6d covariance = Matrix6d::Identity() * 1e-8;
     covariance.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * std_m * std_m;

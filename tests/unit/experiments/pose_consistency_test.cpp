@@ -20,10 +20,24 @@ TEST(PoseConsistency, MeanBandMatchesChiSquareQuantiles) {
   EXPECT_EQ(none.high, 0.0);
 }
 
+// One value: chi2inv(0.025 / 0.975, 3) = 0.2158 / 9.3484, (.., 6) = 1.2373 /
+// 14.4494; the band of the mean of one frame is the same band (to the
+// Wilson-Hilferty approximation's error at 3 and 6 dof).
+TEST(PoseConsistency, BandOfOneValueMatchesChiSquareQuantiles) {
+  EXPECT_NEAR(chi_square_band_95(3).low, 0.2158, 1e-4);
+  EXPECT_NEAR(chi_square_band_95(3).high, 9.3484, 1e-4);
+  EXPECT_NEAR(chi_square_band_95(6).low, 1.2373, 1e-4);
+  EXPECT_NEAR(chi_square_band_95(6).high, 14.4494, 1e-4);
+  EXPECT_NEAR(chi_square_mean_band_95(1, 6).low, chi_square_band_95(6).low, 0.05);
+  EXPECT_NEAR(chi_square_mean_band_95(1, 6).high, chi_square_band_95(6).high, 0.1);
+  EXPECT_EQ(chi_square_band_95(7).high, 0.0);
+  EXPECT_EQ(chi_square_band_95(0).high, 0.0);
+}
+
 NeesSample sample(double error_m, double bound_m, bool alert) {
   NeesSample s;
   s.error_position_m = Eigen::Vector3d(error_m, 0.0, 0.0);
-  s.bound_3sigma_m = bound_m;
+  s.protection_level_m = bound_m;
   s.alert = alert;
   return s;
 }
@@ -57,7 +71,8 @@ TEST(PoseConsistency, OptionsAreTheDaemonsShippedDefaults) {
   EXPECT_EQ(options.covariance.floor_attitude_deg, shipped.covariance.floor_attitude_deg);
   EXPECT_EQ(options.covariance.drift_m_per_sqrt_m, shipped.covariance.drift_m_per_sqrt_m);
   EXPECT_EQ(options.covariance.drift_deg_per_sqrt_m, shipped.covariance.drift_deg_per_sqrt_m);
-  EXPECT_EQ(options.alert_limit_m, shipped.integrity_alert_limit_m);
+  EXPECT_EQ(options.integrity.alert_limit_m, shipped.integrity.alert_limit_m);
+  EXPECT_EQ(options.integrity.protection_level_sigmas, shipped.integrity.protection_level_sigmas);
 }
 
 }  // namespace

@@ -198,16 +198,18 @@ TEST(Velocity, FromTwoPositionsWithTheirCovariances) {
   EXPECT_FALSE(finite_difference_velocity({0, 0, 0}, c, 5, {1, 0, 0}, c, 5).valid());
 }
 
-TEST(Integrity, ThreeSigmaBoundOfTheLargestAxisAgainstTheAlertLimit) {
+TEST(Integrity, ProtectionLevelIsSigmasTimesTheLargestAxisAgainstTheAlertLimit) {
   Eigen::Matrix3d c = Eigen::Vector3d(1e-4, 4e-4, 1e-4).asDiagonal();
-  const double bound = position_bound_3sigma_m(c);
+  const double bound = protection_level_m(c, 3.0);
   EXPECT_NEAR(bound, 3 * 0.02, 1e-12);
+  EXPECT_NEAR(protection_level_m(c, 4.5), 4.5 * 0.02, 1e-12);
   EXPECT_TRUE(integrity_alert(bound, 0.05));
   EXPECT_FALSE(integrity_alert(bound, 0.10));
+  EXPECT_TRUE(integrity_alert(protection_level_m(c, 6.0), 0.10));
   EXPECT_FALSE(integrity_alert(bound, 0.0));  // no limit: never
   c(0, 0) = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_TRUE(std::isinf(position_bound_3sigma_m(c)));
-  EXPECT_TRUE(integrity_alert(position_bound_3sigma_m(c), 0.10));
+  EXPECT_TRUE(std::isinf(protection_level_m(c, 4.5)));
+  EXPECT_TRUE(integrity_alert(protection_level_m(c, 4.5), 0.10));
 }
 
 }  // namespace
