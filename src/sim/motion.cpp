@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <Eigen/Geometry>
+
 #include "sitepose/core/expected.hpp"
 
 namespace sitepose::sim {
@@ -84,6 +86,41 @@ Eigen::Vector2d Polyline::position(double s_m) const {
   const double len = cumulative_[i + 1] - cumulative_[i];
   const double a = len > 0.0 ? (s_m - cumulative_[i]) / len : 0.0;
   return points_[i] + a * (points_[i + 1] - points_[i]);
+}
+
+std::vector<Eigen::Vector2d> rounded_corners(const std::vector<Eigen::Vector2d>& points, double radius_m,
+                                             double step_m) {
+  if (points.size() < 3 || !(radius_m > 0.0)) return points;
+  std::vector<Eigen::Vector2d> out{points.front()};
+  for (std::size_t i = 1; i + 1 < points.size(); ++i) {
+    const Eigen::Vector2d in = points[i] - points[i - 1];
+    const Eigen::Vector2d next = points[i + 1] - points[i];
+    const double turn = std::atan2(in.x() * next.y() - in.y() * next.x(), in.dot(next));  // left > 0
+    if (in.norm() <= 0.0 || next.norm() <= 0.0 || std::abs(turn) < 1e-9) {
+      out.push_back(points[i]);
+      continue;
+    }
+    // Tangent length r tan(|turn| / 2), at most half of either segment.
+    const double tangent_m =
+        std::min({radius_m * std::tan(0.5 * std::abs(turn)), 0.5 * in.norm(), 0.5 * next.norm()});
+    const double r = tangent_m / std::tan(0.5 * std::abs(turn));
+    const Eigen::Vector2d u_in = in.normalized();
+    const Eigen::Vector2d start = points[i] - tangent_m * u_in;
+    const Eigen::Vector2d left(-u_in.y(), u_in.x());
+    const Eigen::Vector2d centre = start + (turn > 0.0 ? r : -r) * left;
+    const double arc_m = r * std::abs(turn);
+    const int n = std::max(2, static_cast<int>(std::ceil(arc_m / step_m)));
+    const Eigen::Vector2d from_centre = start - centre;
+    for (int k = 0; k <= n; ++k) out.push_back(centre + Eigen::Rotation2Dd(turn * k / n) * from_centre);
+  }
+  out.push_back(points.back());
+  // Where two arcs meet (each took half the segment between them) the same
+  // point comes twice: a zero-length segment has no heading.
+  out.erase(
+      std::unique(out.begin(), out.end(),
+                  [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return (a - b).norm() < 1e-9; }),
+      out.end());
+  return out;
 }
 
 double Polyline::heading_rad(double s_m) const {

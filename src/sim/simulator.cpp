@@ -98,7 +98,8 @@ SpeedProfile ego_speed_profile(const EgoSpec& ego) {
   return SpeedProfile(changes, ego.accel_mps2);
 }
 
-// The background over the lane stretch the camera travels in `frames`.
+// The background over the lane stretch the camera travels in `frames` (or
+// the x range of the ego's path).
 MeshPtr site_background(const Scenario& s, const SpeedProfile& ego_profile, int frames) {
   const double duration = std::max(1.0, (frames - 1) / s.fps);
   double x_min = 0.0, x_max = 0.0;
@@ -110,6 +111,13 @@ MeshPtr site_background(const Scenario& s, const SpeedProfile& ego_profile, int 
   detail::BackgroundLayout layout;
   layout.x_min_m = s.ego.start_x_m + x_min;
   layout.x_max_m = s.ego.start_x_m + x_max;
+  if (!s.ego.waypoints.empty()) {
+    layout.x_min_m = layout.x_max_m = s.ego.waypoints.front()[0];
+    for (const auto& w : s.ego.waypoints) {
+      layout.x_min_m = std::min(layout.x_min_m, w[0]);
+      layout.x_max_m = std::max(layout.x_max_m, w[0]);
+    }
+  }
   layout.view_sign = s.camera.side == "right" ? -1.0 : 1.0;
   layout.structures_min_m = s.world.structures_min_m;
   layout.structures_max_m = s.world.structures_max_m;
@@ -153,6 +161,11 @@ Expected<Simulator> Simulator::create(const Scenario& scenario_in, const SimOpti
                              s.camera.baseline_m, s.camera.width, s.camera.height};
   SITEPOSE_TRY_STATUS(sim.camera_.validate());
   sim.ego_profile_ = ego_speed_profile(s.ego);
+  if (!s.ego.waypoints.empty()) {
+    std::vector<Eigen::Vector2d> pts;
+    for (const auto& w : s.ego.waypoints) pts.emplace_back(w[0], w[1]);
+    sim.ego_path_ = Polyline(rounded_corners(pts, s.ego.turn_radius_m));
+  }
   Rng rng(mix64(static_cast<std::uint64_t>(s.seed)) ^ 0x5173ull);
   for (double& p : sim.vib_phase_) p = rng.uniform(0, 2 * std::numbers::pi);
   for (double& p : sim.exposure_phase_) p = rng.uniform(0, 2 * std::numbers::pi);
@@ -238,8 +251,14 @@ void Simulator::make_distortion_maps() {
 
 SE3 Simulator::T_site_cam(double t_s) const {
   const Scenario& s = scenario_;
-  const double x = s.ego.start_x_m + ego_profile_.distance_m(t_s);
-  const SE3 T_site_body = planar_pose(x, s.ego.start_y_m, 0.0);
+  SE3 T_site_body;
+  if (ego_path_) {
+    const double along_m = ego_profile_.distance_m(t_s);
+    const Eigen::Vector2d p = ego_path_->position(along_m);
+    T_site_body = planar_pose(p.x(), p.y(), ego_path_->heading_rad(along_m));
+  } else {
+    T_site_body = planar_pose(s.ego.start_x_m + ego_profile_.distance_m(t_s), s.ego.start_y_m, 0.0);
+  }
   // Drum vibration: full amplitude while driving, a quarter at standstill.
   const VibrationSpec& vib = s.ego.vibration;
   const double activity = 0.25 + 0.75 * std::min(1.0, std::abs(ego_profile_.speed_mps(t_s)) / 0.3);

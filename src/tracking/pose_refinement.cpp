@@ -17,13 +17,21 @@ optim::PoseObservation observation_of(const map::ScalePyramid& pyramid, const Pr
 
 bool established(const PointView& point) { return point.observed_span_s >= kEstablishedSpanS; }
 
+// Established points the frame could match: in the image and seen from
+// within their viewing range (a point seen only from another side or
+// another scale cannot be matched, so it does not count as hidden: in a
+// turn the structures the map saw head-on are in the image at a slant).
 int established_in_view(const StereoCamera& camera, const std::vector<PointView>& points,
                         const SE3& T_cam_world) {
+  const Eigen::Vector3d camera_center = T_cam_world.inverse().translation();
   int n = 0;
   for (const PointView& point : points) {
     if (!established(point)) continue;
     const Eigen::Vector3d p_cam = T_cam_world * point.p_world;
-    if (p_cam.z() > 0.0 && camera.in_image(camera.project(p_cam))) ++n;
+    double view_cos = 0.0;
+    if (p_cam.z() > 0.0 && camera.in_image(camera.project(p_cam)) &&
+        within_viewing_range(point, camera_center, view_cos))
+      ++n;
   }
   return n;
 }

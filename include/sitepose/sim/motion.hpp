@@ -36,6 +36,13 @@ class SpeedProfile {
   std::vector<Piece> pieces_;
 };
 
+// The polyline through `points` with each interior corner replaced by a
+// circular arc of `radius_m` tangent to both segments, sampled every
+// `step_m` (at most half of each segment is taken by one corner's arc, so
+// a tight corner gets a smaller radius). radius_m = 0: the points as given.
+std::vector<Eigen::Vector2d> rounded_corners(const std::vector<Eigen::Vector2d>& points, double radius_m,
+                                             double step_m = 0.05);
+
 // A polyline on the ground (site frame, metres) walked by arc length.
 class Polyline {
  public:

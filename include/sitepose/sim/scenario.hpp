@@ -31,13 +31,19 @@ struct VibrationSpec {
 };
 
 struct EgoSegment {
-  double speed_mps = 0.0;  // along +x; negative = reversing; |v| <= 3.1
+  double speed_mps = 0.0;  // along +x (or the path); negative = reversing; |v| <= 3.1
   double duration_s = 1.0;
 };
 
 struct EgoSpec {
   double start_x_m = 0.0;
   double start_y_m = 0.0;
+  // Optional: the ego drives this path (site frame, [x, y] each, >= 2)
+  // instead of the lane along +x, heading along it; its corners rounded to
+  // circular arcs of turn_radius_m (0 = sharp), the segments' speeds along
+  // the path's arc length from its first point (clamped to the path).
+  std::vector<std::vector<double>> waypoints;
+  double turn_radius_m = 0.0;
   double accel_mps2 = 0.25;
   std::vector<EgoSegment> segments;  // after the last one the roller stops
   VibrationSpec vibration;

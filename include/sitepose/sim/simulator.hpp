@@ -148,6 +148,7 @@ class Simulator {
   MeshPtr background_;
   std::vector<Object> objects_;
   SpeedProfile ego_profile_;
+  std::optional<Polyline> ego_path_;  // ego.waypoints, corners rounded; none: the +x lane
   SE3 T_site_world_;
   double vib_phase_[4] = {0, 0, 0, 0};
   double exposure_phase_[2] = {0, 0};

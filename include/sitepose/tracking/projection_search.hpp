@@ -30,6 +30,12 @@ PointView make_point_view(const map::MapPoint& point);
 // (`map`: the map `point` belongs to).
 PointView make_point_view_with_span(const map::MapData& map, const map::MapPoint& point);
 
+// Whether the point can be matched from `camera_center` (world frame) by
+// its appearance: the distance within its scale range (0.8 x min to 1.2 x
+// max) and the viewing direction within 60 deg of its mean one (ORB-SLAM2
+// isInFrustum). `view_cos` gets the cosine of that angle.
+bool within_viewing_range(const PointView& point, const Eigen::Vector3d& camera_center, double& view_cos);
+
 struct SearchParams {
   double radius_px = 7.0;  // scaled by the level's scale factor
   double ratio = 1.0;      // best < ratio * second best (1.0 = off)

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace sitepose::sim {
@@ -42,6 +43,44 @@ TEST(Polyline, WalksByArcLengthAndClampsAtTheEnds) {
   EXPECT_TRUE(line.position(50.0).isApprox(Eigen::Vector2d(3.0, 10.0)));
   EXPECT_TRUE(line.position(-1.0).isApprox(Eigen::Vector2d(0.0, 0.0)));
   EXPECT_NEAR(line.heading_rad(7.0), M_PI / 2, 1e-12);
+}
+
+// A right turn of 90 deg rounded with a 4 m radius: the arc starts and ends
+// 4 m (r tan 45 deg) from the corner, every point of it is 4 m from the
+// centre, the heading turns in small steps, and no point comes twice.
+TEST(RoundedCorners, ReplacesACornerByATangentArcOfTheRadius) {
+  const std::vector<Eigen::Vector2d> rounded = rounded_corners({{0, 0}, {10, 0}, {10, -10}}, 4.0, 0.1);
+  ASSERT_GT(rounded.size(), 10u);
+  EXPECT_TRUE(rounded.front().isApprox(Eigen::Vector2d(0, 0)));
+  EXPECT_TRUE(rounded.back().isApprox(Eigen::Vector2d(10, -10)));
+  EXPECT_TRUE(rounded[1].isApprox(Eigen::Vector2d(6, 0)));                     // the arc's start
+  EXPECT_TRUE(rounded[rounded.size() - 2].isApprox(Eigen::Vector2d(10, -4)));  // its end
+  const Eigen::Vector2d centre(6, -4);
+  for (std::size_t i = 1; i + 1 < rounded.size(); ++i) EXPECT_NEAR((rounded[i] - centre).norm(), 4.0, 1e-9);
+  const Polyline path(rounded);
+  EXPECT_NEAR(path.length_m(), 6.0 + 2.0 * M_PI + 6.0, 0.01);  // the arc: r pi / 2
+  double largest_step_rad = 0.0;
+  for (double s = 0.0; s + 0.05 < path.length_m(); s += 0.05) {
+    largest_step_rad = std::max(largest_step_rad, std::abs(path.heading_rad(s + 0.05) - path.heading_rad(s)));
+  }
+  EXPECT_LT(largest_step_rad, 0.03);  // 0.1 m of a 4 m arc: 0.025 rad
+  EXPECT_NEAR(path.heading_rad(path.length_m()), -M_PI / 2, 1e-9);
+  for (std::size_t i = 1; i < rounded.size(); ++i) EXPECT_GT((rounded[i] - rounded[i - 1]).norm(), 1e-9);
+}
+
+// Two corners sharing a short segment: each arc takes at most half of it
+// (a smaller radius there), so they meet without a point twice; a straight
+// run and a zero radius are left as given.
+TEST(RoundedCorners, TightCornersShrinkTheRadiusAndStraightRunsStay) {
+  const std::vector<Eigen::Vector2d> rounded =
+      rounded_corners({{0, 0}, {10, 0}, {10, -2}, {0, -2}}, 4.0, 0.1);
+  for (std::size_t i = 1; i < rounded.size(); ++i) EXPECT_GT((rounded[i] - rounded[i - 1]).norm(), 1e-9);
+  EXPECT_TRUE(std::any_of(rounded.begin(), rounded.end(),
+                          [](const Eigen::Vector2d& p) { return p.isApprox(Eigen::Vector2d(10, -1)); }));
+  const std::vector<Eigen::Vector2d> straight{{0, 0}, {5, 0}, {9, 0}};
+  EXPECT_EQ(rounded_corners(straight, 4.0), straight);
+  const std::vector<Eigen::Vector2d> sharp{{0, 0}, {5, 0}, {5, 5}};
+  EXPECT_EQ(rounded_corners(sharp, 0.0), sharp);
 }
 
 }  // namespace

@@ -75,6 +75,12 @@ TEST(Scenario, BadFilesNameTheKeyValueAndExpectation) {
       "name: t\ndescription: d\nduration_s: 2\nego:\n  segments:\n    - {speed_mps: 9, duration_s: 1}\n",
       {"ego.segments[0].speed_mps", "9"});
   expect_error("name: t\ndescription: d\nduration_s: 2\ncamera: {side: up}\n", {"camera.side", "up"});
+  expect_error("name: t\ndescription: d\nduration_s: 2\nego: {start_x_m: 1, waypoints: [[0, 0], [5, 0]]}\n",
+               {"ego.waypoints", "not both"});
+  expect_error("name: t\ndescription: d\nduration_s: 2\nego: {waypoints: [[0, 0], [0, 0]]}\n",
+               {"ego.waypoints", "zero length"});
+  expect_error("name: t\ndescription: d\nduration_s: 2\nego: {turn_radius_m: 3}\n",
+               {"ego.turn_radius_m", "needs waypoints"});
   expect_error("name: t\ndescription: d\nduration_s: 2\nrealism: {motion_blur_samples: 2}\n",
                {"realism.motion_blur_samples", "must be odd"});
   expect_error(

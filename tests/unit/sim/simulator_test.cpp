@@ -189,6 +189,39 @@ TEST(Simulator, DistortedOutputMovesPixelsOutwardButKeepsTheCentre) {
   EXPECT_LE(cv::countNonZero(fd.instance_mask), cv::countNonZero(fr.instance_mask));
 }
 
+// An ego with waypoints drives the rounded path with its heading along it:
+// clockwise round a block, the right-hand camera's axis points into the
+// block, so over the loop it points along -y, -x, +y and +x in turn, and
+// the camera stays on the path (its lateral offset from the body is small).
+TEST(Simulator, AnEgoWithWaypointsDrivesThePathLookingIntoTheBlock) {
+  auto s = parse_scenario(R"(name: unit
+description: "unit test"
+fps: 6
+duration_s: 60
+ego:
+  turn_radius_m: 3
+  waypoints: [[0, 0], [12, 0], [12, -8], [0, -8], [0, 0]]
+  segments: [{speed_mps: 1.0, duration_s: 60}]
+)",
+                          "unit.yaml");
+  ASSERT_TRUE(s.has_value()) << s.error().message;
+  auto sim = Simulator::create(*s, small_options());
+  ASSERT_TRUE(sim.has_value()) << sim.error().message;
+  bool looked[4] = {false, false, false, false};  // -y, -x, +y, +x
+  const Eigen::Vector2d directions[4] = {{0, -1}, {-1, 0}, {0, 1}, {1, 0}};
+  for (double t = 0.0; t < 36.0; t += 0.5) {
+    const SE3 T = sim->T_site_cam(t);
+    const Eigen::Vector2d p = T.translation().head<2>();
+    EXPECT_GT(p.x(), -1.0) << t;
+    EXPECT_LT(p.x(), 13.0) << t;
+    EXPECT_GT(p.y(), -9.0) << t;
+    EXPECT_LT(p.y(), 1.0) << t;
+    const Eigen::Vector2d axis = (T.rotation() * Eigen::Vector3d::UnitZ()).head<2>().normalized();
+    for (int k = 0; k < 4; ++k) looked[k] = looked[k] || axis.dot(directions[k]) > std::cos(0.1);
+  }
+  for (int k = 0; k < 4; ++k) EXPECT_TRUE(looked[k]) << k;
+}
+
 TEST(Simulator, BadOverridesAreRejected) {
   SimOptions o;
   o.frames = 0;
