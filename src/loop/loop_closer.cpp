@@ -231,7 +231,9 @@ std::optional<VerifiedLoop> LoopCloser::verify(map::KeyFrameId keyframe,
       loop_points = std::move(v.loop_points);
       return std::move(*loop);
     }
-    spdlog::info("loop closing: keyframe={} candidate={}: {}", keyframe, candidate, loop.error().message);
+    // Routine (hundreds a run round a block: scenario loop); counted in the
+    // stats, so debug, not the journal's info.
+    spdlog::debug("loop closing: keyframe={} candidate={}: {}", keyframe, candidate, loop.error().message);
     std::lock_guard lock(mutex_);
     ++stats_.loops_refused;
   }
