@@ -24,7 +24,8 @@ struct StandingScene {
 };
 
 // Adds `n` points at depth [min, max] m, observed (noisy) where they are now;
-// the map holds them shifted by -travel (world x), with the given span.
+// the map holds them shifted by -travel (world x), with the given span, seen
+// by the map from this camera (normal along the ray, distance range 0.5x-2x).
 void add_points(StandingScene& s, int n, double min_depth_m, double max_depth_m, double travel_m,
                 double observed_span_s, std::mt19937& rng) {
   const SE3 T_world_cam = s.T_cam_world_true.inverse();
@@ -35,6 +36,10 @@ void add_points(StandingScene& s, int n, double min_depth_m, double max_depth_m,
     PointView view;
     view.id = static_cast<map::PointId>(s.points.size() + 1);
     view.p_world = p_now - Eigen::Vector3d(travel_m, 0.0, 0.0);
+    const Eigen::Vector3d ray = view.p_world - T_world_cam.translation();
+    view.normal = ray.normalized();
+    view.min_distance_m = 0.5 * ray.norm();
+    view.max_distance_m = 2.0 * ray.norm();
     view.observed_span_s = observed_span_s;
     s.match_of_keypoint.push_back(static_cast<int>(s.points.size()));
     s.points.push_back(view);
@@ -105,6 +110,23 @@ TEST(EstablishedFirst, HiddenEstablishedMapGivesNoPose) {
   const PassResult result = solve(s, true);
   EXPECT_EQ(result.n_inliers, 0);
   EXPECT_NE(result.failure.find("established map is hidden"), std::string::npos) << result.failure;
+}
+
+// The same frame, but the map saw its established points from the side (a
+// camera turning past structures it mapped head-on: their mean viewing
+// direction 90 deg from the ray now). No search could match them from
+// here, so they are not "in view": nothing is hidden, all matches count.
+TEST(EstablishedFirst, PointsSeenFromTheSideAreNotInViewSoNothingIsHidden) {
+  StandingScene s = machine_in_front(60, 100);
+  for (int k = 10; k < 60; ++k) s.match_of_keypoint[k] = -1;
+  for (int k = 0; k < 60; ++k) {
+    const Eigen::Vector3d n = s.points[k].normal;
+    s.points[k].normal = n.cross(Eigen::Vector3d::UnitY()).normalized();
+  }
+  const PassResult result = solve(s, true);
+  EXPECT_EQ(result.established_in_view, 0);
+  EXPECT_TRUE(result.failure.empty()) << result.failure;
+  EXPECT_GT(result.n_inliers, 0);
 }
 
 // Enough established matches to solve on (>= kMinEstablishedMatches), but
