@@ -24,24 +24,23 @@ using config::YamlMap;
 // 4 km/h is the paper's range; 11 km/h its maximum.
 constexpr double kMaxSpeedMps = 11.0 / 3.6;
 
-auto every_waypoint_two_numbers() {
-  return config::make_rule(
+// `waypoints` of an ego or a machine: [x, y] each, at least 2, a path of
+// nonzero length (reported on `m`). True when the key was given.
+bool read_waypoints(const YamlMap& m, std::vector<std::vector<double>>& waypoints) {
+  const auto two_numbers = config::make_rule(
       [](const std::vector<std::vector<double>>& pts) {
         return std::all_of(pts.begin(), pts.end(), [](const auto& p) { return p.size() == 2; });
       },
       "every waypoint must be [x, y]");
-}
-
-auto at_least_two_waypoints() {
-  return config::make_rule([](const std::vector<std::vector<double>>& pts) { return pts.size() >= 2; },
-                           "needs at least 2 waypoints");
-}
-
-double path_length_m(const std::vector<std::vector<double>>& waypoints) {
+  const auto at_least_two =
+      config::make_rule([](const std::vector<std::vector<double>>& pts) { return pts.size() >= 2; },
+                        "needs at least 2 waypoints");
+  if (!m.read("waypoints", waypoints, two_numbers, at_least_two)) return false;
   double length = 0.0;
   for (size_t i = 1; i < waypoints.size(); ++i)
     length += std::hypot(waypoints[i][0] - waypoints[i - 1][0], waypoints[i][1] - waypoints[i - 1][1]);
-  return length;
+  if (!(length > 0.0)) m.report("waypoints", "the path has zero length");
+  return true;
 }
 
 void read_camera(const YamlMap& m, CameraSpec& c) {
@@ -58,8 +57,7 @@ void read_camera(const YamlMap& m, CameraSpec& c) {
 void read_ego(const YamlMap& m, EgoSpec& e) {
   m.read("start_x_m", e.start_x_m);
   m.read("start_y_m", e.start_y_m);
-  if (m.read("waypoints", e.waypoints, every_waypoint_two_numbers(), at_least_two_waypoints())) {
-    if (!(path_length_m(e.waypoints) > 0.0)) m.report("waypoints", "the path has zero length");
+  if (read_waypoints(m, e.waypoints)) {
     if (m.has("start_x_m") || m.has("start_y_m")) {
       m.report("waypoints",
                "give either waypoints or a start on the +x lane (start_x_m, start_y_m), not both");
@@ -145,8 +143,7 @@ void read_machine(const YamlMap& m, MachineSpec& s) {
   m.read("x_m", s.x_m);
   m.read("y_m", s.y_m);
   m.read("yaw_deg", s.yaw_deg, in_range(-360.0, 360.0));
-  if (m.read("waypoints", s.waypoints, every_waypoint_two_numbers(), at_least_two_waypoints())) {
-    if (!(path_length_m(s.waypoints) > 0.0)) m.report("waypoints", "the path has zero length");
+  if (read_waypoints(m, s.waypoints)) {
     if (m.has("x_m") || m.has("y_m") || m.has("yaw_deg")) {
       m.report("waypoints", "give either waypoints or a parked pose (x_m, y_m, yaw_deg), not both");
     }

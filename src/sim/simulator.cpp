@@ -98,25 +98,34 @@ SpeedProfile ego_speed_profile(const EgoSpec& ego) {
   return SpeedProfile(changes, ego.accel_mps2);
 }
 
-// The background over the lane stretch the camera travels in `frames` (or
-// the x range of the ego's path).
+// [x, y] waypoints of a scenario as points on the ground.
+std::vector<Eigen::Vector2d> ground_points(const std::vector<std::vector<double>>& waypoints) {
+  std::vector<Eigen::Vector2d> points;
+  points.reserve(waypoints.size());
+  for (const auto& w : waypoints) points.emplace_back(w[0], w[1]);
+  return points;
+}
+
+// The background over the lane stretch the camera travels in `frames`, or
+// the x range of the ego's path when it has one.
 MeshPtr site_background(const Scenario& s, const SpeedProfile& ego_profile, int frames) {
-  const double duration = std::max(1.0, (frames - 1) / s.fps);
-  double x_min = 0.0, x_max = 0.0;
-  for (int k = 0; k <= 400; ++k) {
-    const double x = ego_profile.distance_m(duration * k / 400.0);
-    x_min = std::min(x_min, x);
-    x_max = std::max(x_max, x);
-  }
   detail::BackgroundLayout layout;
-  layout.x_min_m = s.ego.start_x_m + x_min;
-  layout.x_max_m = s.ego.start_x_m + x_max;
   if (!s.ego.waypoints.empty()) {
     layout.x_min_m = layout.x_max_m = s.ego.waypoints.front()[0];
     for (const auto& w : s.ego.waypoints) {
       layout.x_min_m = std::min(layout.x_min_m, w[0]);
       layout.x_max_m = std::max(layout.x_max_m, w[0]);
     }
+  } else {
+    const double duration = std::max(1.0, (frames - 1) / s.fps);
+    double x_min = 0.0, x_max = 0.0;
+    for (int k = 0; k <= 400; ++k) {
+      const double x = ego_profile.distance_m(duration * k / 400.0);
+      x_min = std::min(x_min, x);
+      x_max = std::max(x_max, x);
+    }
+    layout.x_min_m = s.ego.start_x_m + x_min;
+    layout.x_max_m = s.ego.start_x_m + x_max;
   }
   layout.view_sign = s.camera.side == "right" ? -1.0 : 1.0;
   layout.structures_min_m = s.world.structures_min_m;
@@ -161,11 +170,8 @@ Expected<Simulator> Simulator::create(const Scenario& scenario_in, const SimOpti
                              s.camera.baseline_m, s.camera.width, s.camera.height};
   SITEPOSE_TRY_STATUS(sim.camera_.validate());
   sim.ego_profile_ = ego_speed_profile(s.ego);
-  if (!s.ego.waypoints.empty()) {
-    std::vector<Eigen::Vector2d> pts;
-    for (const auto& w : s.ego.waypoints) pts.emplace_back(w[0], w[1]);
-    sim.ego_path_ = Polyline(rounded_corners(pts, s.ego.turn_radius_m));
-  }
+  if (!s.ego.waypoints.empty())
+    sim.ego_path_ = Polyline(rounded_corners(ground_points(s.ego.waypoints), s.ego.turn_radius_m));
   Rng rng(mix64(static_cast<std::uint64_t>(s.seed)) ^ 0x5173ull);
   for (double& p : sim.vib_phase_) p = rng.uniform(0, 2 * std::numbers::pi);
   for (double& p : sim.exposure_phase_) p = rng.uniform(0, 2 * std::numbers::pi);
@@ -204,10 +210,8 @@ void Simulator::add_objects() {
     }
     o.parked = planar_pose(m.x_m, m.y_m, m.yaw_deg * kDegToRad);
     if (!m.waypoints.empty()) {
-      std::vector<Eigen::Vector2d> pts;
-      for (const auto& w : m.waypoints) pts.emplace_back(w[0], w[1]);
       o.has_path = true;
-      o.path = Polyline(pts);
+      o.path = Polyline(ground_points(m.waypoints));
       o.reverse = m.reverse;
       o.profile = machine_speed_profile(m);
     }

@@ -28,9 +28,8 @@ int established_in_view(const StereoCamera& camera, const std::vector<PointView>
   for (const PointView& point : points) {
     if (!established(point)) continue;
     const Eigen::Vector3d p_cam = T_cam_world * point.p_world;
-    double view_cos = 0.0;
     if (p_cam.z() > 0.0 && camera.in_image(camera.project(p_cam)) &&
-        within_viewing_range(point, camera_center, view_cos))
+        within_viewing_range(point, camera_center))
       ++n;
   }
   return n;

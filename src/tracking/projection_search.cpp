@@ -25,12 +25,14 @@ PointView make_point_view_with_span(const map::MapData& map, const map::MapPoint
   return view;
 }
 
-bool within_viewing_range(const PointView& point, const Eigen::Vector3d& camera_center, double& view_cos) {
+std::optional<ViewingGeometry> within_viewing_range(const PointView& point,
+                                                    const Eigen::Vector3d& camera_center) {
   const Eigen::Vector3d ray = point.p_world - camera_center;
   const double distance = ray.norm();
-  if (distance < 0.8 * point.min_distance_m || distance > 1.2 * point.max_distance_m) return false;
-  view_cos = ray.dot(point.normal) / distance;
-  return view_cos >= 0.5;
+  if (distance < 0.8 * point.min_distance_m || distance > 1.2 * point.max_distance_m) return std::nullopt;
+  const double view_cos = ray.dot(point.normal) / distance;
+  if (view_cos < 0.5) return std::nullopt;
+  return ViewingGeometry{distance, view_cos};
 }
 
 namespace {
@@ -61,11 +63,11 @@ PointCandidate search_point(const PreparedFrame& frame, const StereoCamera& came
   int level = point.octave_hint;
   double radius_scale = 1.0;
   if (params.check_view_angle) {
-    double view_cos = 0.0;
-    if (!within_viewing_range(point, camera_center, view_cos)) return out;
-    level = pyramid.predict_level((point.p_world - camera_center).norm(), point.max_distance_m);
+    const std::optional<ViewingGeometry> seen = within_viewing_range(point, camera_center);
+    if (!seen) return out;
+    level = pyramid.predict_level(seen->distance_m, point.max_distance_m);
     // ORB-SLAM2: a wider window when the view direction differs.
-    radius_scale = view_cos > 0.998 ? 2.5 : 4.0;
+    radius_scale = seen->view_cos > 0.998 ? 2.5 : 4.0;
   }
   out.visible = true;
   const int search_level = level < 0 ? 0 : level;

@@ -3,6 +3,7 @@
 // pose guess (ORB-SLAM2 SearchByProjection, written for sitepose). Pure
 // functions over value snapshots of map points; no map access.
 
+#include <optional>
 #include <vector>
 
 #include "sitepose/core/se3.hpp"
@@ -30,11 +31,16 @@ PointView make_point_view(const map::MapPoint& point);
 // (`map`: the map `point` belongs to).
 PointView make_point_view_with_span(const map::MapData& map, const map::MapPoint& point);
 
-// Whether the point can be matched from `camera_center` (world frame) by
-// its appearance: the distance within its scale range (0.8 x min to 1.2 x
-// max) and the viewing direction within 60 deg of its mean one (ORB-SLAM2
-// isInFrustum). `view_cos` gets the cosine of that angle.
-bool within_viewing_range(const PointView& point, const Eigen::Vector3d& camera_center, double& view_cos);
+// How the point is seen from `camera_center` (world frame), when it can be
+// matched there by its appearance: the distance within its scale range
+// (0.8 x min to 1.2 x max) and the viewing direction within 60 deg of its
+// mean one (ORB-SLAM2 isInFrustum); none otherwise.
+struct ViewingGeometry {
+  double distance_m = 0.0;
+  double view_cos = 0.0;  // cosine of the angle to the point's mean viewing direction
+};
+std::optional<ViewingGeometry> within_viewing_range(const PointView& point,
+                                                    const Eigen::Vector3d& camera_center);
 
 struct SearchParams {
   double radius_px = 7.0;  // scaled by the level's scale factor
