@@ -150,6 +150,12 @@ TEST(DaemonConfig, BadValuesAreNamedWithFileLineKeyAndRule) {
   const std::string zero_floor = load_error(
       "source:\n  replay: {sequence: /nonexistent}\noutputs:\n  covariance: {floor_position_m: 0}\n");
   EXPECT_TRUE(contains(zero_floor, "outputs.covariance.floor_position_m = 0")) << zero_floor;
+  // A protection level under one standard deviation would claim an
+  // integrity the covariance does not give.
+  const std::string thin_protection = load_error(
+      "source:\n  replay: {sequence: /nonexistent}\noutputs:\n  integrity: {protection_level_sigmas: 0.5}\n");
+  EXPECT_TRUE(contains(thin_protection, "outputs.integrity.protection_level_sigmas = 0.5"))
+      << thin_protection;
 }
 
 TEST(DaemonConfig, RequirementsThatDependOnOtherKeys) {
