@@ -32,7 +32,7 @@ Expected<FrameReport> TwoPassTracker::process(const StereoFrame& frame,
   if (full() && passes.pass1.valid) {
     const auto t_classify = SteadyClock::now();
     current = classify(prepared, mask, passes.pass1, report);
-    const dynamic::InstanceSet static_objects = check_against_map(prepared, passes.pass1, *current, report);
+    const dynamic::InstanceSet static_objects = check_against_map(prepared, passes, *current, report);
     report.timings.classify_ms = ms_since(t_classify);
     track_pass2(prepared, static_objects, passes, report);
   } else if (full()) {
@@ -107,14 +107,15 @@ dynamic::ObjectFeatures TwoPassTracker::classify(const tracking::PreparedFrame& 
 }
 
 dynamic::InstanceSet TwoPassTracker::check_against_map(const tracking::PreparedFrame& prepared,
-                                                       const tracking::PassResult& pass1,
-                                                       const dynamic::ObjectFeatures& current,
+                                                       Passes& passes, const dynamic::ObjectFeatures& current,
                                                        FrameReport& report) {
   dynamic::InstanceSet static_objects = dynamic::static_objects(report.objects);
   // The paper has no such test.
   if (static_objects.empty() || config_.classifier == config::ClassifierMode::kPaper) return static_objects;
-  const auto map_point_of_keypoint = tracker_.matched_map_points(
-      prepared, dynamic::keypoints_of(prepared, static_objects), pass1, kMapCheckRadiusPx);
+  passes.pass1_local_map = tracker_.local_map_of(prepared, passes.pass1);
+  const auto map_point_of_keypoint =
+      tracker_.matched_map_points(prepared, dynamic::keypoints_of(prepared, static_objects), passes.pass1,
+                                  kMapCheckRadiusPx, &*passes.pass1_local_map);
   const std::vector<dynamic::MapCheck> checks =
       classifier_.check_against_map(prepared, map_point_of_keypoint, current, static_objects.ids());
   report.remasked_by_map_check = dynamic::apply_map_checks(checks, report.objects, static_objects);
@@ -128,7 +129,8 @@ void TwoPassTracker::track_pass2(const tracking::PreparedFrame& prepared,
   if (static_objects.empty()) return;
   const auto start = SteadyClock::now();
   passes.usable2 = dynamic::with_keypoints_of(passes.usable1, prepared, static_objects);
-  passes.pass2 = tracker_.estimate(prepared, passes.usable2, &passes.pass1);
+  passes.pass2 = tracker_.estimate(prepared, passes.usable2, &passes.pass1,
+                                   passes.pass1_local_map ? &*passes.pass1_local_map : nullptr);
   if (passes.pass2.valid) {
     if (dynamic::pass2_agrees_with_pass1(passes.pass1, passes.pass2)) {
       tracker_.carry_over_matches(prepared, passes.pass1, passes.pass2);

@@ -179,8 +179,8 @@ const PassResult& Tracker::settle_provisional_map(const PreparedFrame& frame,
   joined.point_of_keypoint.assign(frame.size(), map::kNoPoint);
   joined.n_usable_keypoints = result.n_usable_keypoints;
   const bool found = relocaliser_.relocalise(
-      map_, frame, usable, joined,
-      [&](PassResult& r) { return holds_as_relocalisation(frame, usable, nullptr, r); }, provisional_since_);
+      map_, frame, usable, joined, [&](PassResult& r) { return holds_as_relocalisation(frame, usable, r); },
+      provisional_since_);
   if (!found) {
     join_correction_.reset();
     join_agreements_ = 0;

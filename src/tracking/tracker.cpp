@@ -21,6 +21,10 @@ constexpr double kMotionModelRadiusPx = 7.0;  // stereo (ORB-SLAM2 TrackWithMoti
 constexpr double kLocalMapRadiusPx = 1.0;     // times 2.5 / 4 by viewing angle
 constexpr double kLocalMapRatio = 0.8;
 constexpr int kMaxLocalKeyframes = 80;
+// Local points are viewed in up to this many runs on the pool, of at least
+// kMinPointViewsPerRun points each (fewer points: one run on the caller).
+constexpr int kPointViewRuns = 4;
+constexpr int kMinPointViewsPerRun = 64;
 
 // ORB-SLAM2's local map search: ratio test, viewing angle and scale checks,
 // radius times 2.5 (head-on) or 4.
@@ -212,6 +216,7 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
   // Local keyframes: those sharing the tracked points, plus their best
   // covisible ones; local points: all their points.
   std::vector<PointView> points;
+  std::vector<map::PointId> local_ids;  // the local keyframes' other points, first seen first
   match.assign(frame.size(), -1);
   map_.read([&](const map::MapData& map) {
     std::map<map::KeyFrameId, int> votes = map.keyframes_sharing(tracked);
@@ -244,19 +249,55 @@ std::vector<PointView> Tracker::local_points(const PreparedFrame& frame,
       const map::KeyFrame* kf = map.keyframe(id);
       if (kf == nullptr) continue;
       for (map::PointId pid : kf->point_of_keypoint) {
-        if (pid == map::kNoPoint || !seen.insert(pid)) continue;
-        if (const map::MapPoint* p = map.good_point(pid); p != nullptr) points.push_back(point_view(map, *p));
+        if (pid != map::kNoPoint && seen.insert(pid)) local_ids.push_back(pid);
       }
     }
   });
+  append_point_views(local_ids, points);
   return points;
+}
+
+void Tracker::append_point_views(const std::vector<map::PointId>& ids, std::vector<PointView>& points) const {
+  // A few thousand points a frame, ~0.2 us each in cache misses: in runs on
+  // the pool, each run under its own read lock (SharedMap's lock is a leaf:
+  // no thread waits on the pool while holding it). A point culled between
+  // the caller's lock and a run's is left out, as if culled a moment earlier.
+  const int n_ids = static_cast<int>(ids.size());
+  const int n_runs = pool_ != nullptr ? std::clamp(n_ids / kMinPointViewsPerRun, 1, kPointViewRuns) : 1;
+  std::vector<std::vector<PointView>> runs(static_cast<std::size_t>(n_runs));
+  const auto view_run = [&](int r) {
+    const int begin = static_cast<int>(static_cast<std::int64_t>(n_ids) * r / n_runs);
+    const int end = static_cast<int>(static_cast<std::int64_t>(n_ids) * (r + 1) / n_runs);
+    std::vector<PointView>& out = runs[static_cast<std::size_t>(r)];
+    out.reserve(static_cast<std::size_t>(end - begin));
+    map_.read([&](const map::MapData& map) {
+      for (int i = begin; i < end; ++i) {
+        if (const map::MapPoint* p = map.good_point(ids[i]); p != nullptr) out.push_back(point_view(map, *p));
+      }
+    });
+  };
+  if (n_runs > 1) {
+    pool_->run(n_runs, view_run);
+  } else {
+    view_run(0);
+  }
+  for (const std::vector<PointView>& run : runs) points.insert(points.end(), run.begin(), run.end());
+}
+
+AnchorLocalMap Tracker::local_map_of(const PreparedFrame& frame, const PassResult& anchor) const {
+  AnchorLocalMap local;
+  local.points = local_points(frame, anchor.point_of_keypoint, true, local.match_of_anchor);
+  return local;
 }
 
 std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
                                                     const std::vector<std::uint8_t>& usable,
-                                                    const PassResult& anchor, double radius_px) const {
-  std::vector<int> match;
-  const std::vector<PointView> points = local_points(frame, anchor.point_of_keypoint, true, match);
+                                                    const PassResult& anchor, double radius_px,
+                                                    const AnchorLocalMap* anchor_local) const {
+  std::optional<AnchorLocalMap> listed_here;
+  if (anchor_local == nullptr) anchor_local = &listed_here.emplace(local_map_of(frame, anchor));
+  const std::vector<PointView>& points = anchor_local->points;
+  std::vector<int> match = anchor_local->match_of_anchor;
   search_by_projection(frame, camera_, pyramid_, anchor.T_cam_world, points, usable,
                        local_map_search(radius_px), match, nullptr, pool_);
   std::vector<map::PointId> out(frame.size(), map::kNoPoint);
@@ -268,8 +309,9 @@ std::vector<map::PointId> Tracker::search_local_map(const PreparedFrame& frame,
 
 std::vector<std::optional<Eigen::Vector3d>> Tracker::matched_map_points(
     const PreparedFrame& frame, const std::vector<std::uint8_t>& usable, const PassResult& anchor,
-    double radius_px) const {
-  const std::vector<map::PointId> point_of_keypoint = search_local_map(frame, usable, anchor, radius_px);
+    double radius_px, const AnchorLocalMap* anchor_local) const {
+  const std::vector<map::PointId> point_of_keypoint =
+      search_local_map(frame, usable, anchor, radius_px, anchor_local);
   std::vector<std::optional<Eigen::Vector3d>> out(frame.size());
   map_.read([&](const map::MapData& map) {
     for (int k = 0; k < frame.size(); ++k) {
@@ -280,19 +322,27 @@ std::vector<std::optional<Eigen::Vector3d>> Tracker::matched_map_points(
 }
 
 void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                              const PassResult* anchor, PassResult& result) const {
+                              const PassResult* anchor, const AnchorLocalMap* anchor_local,
+                              PassResult& result) const {
   const auto start = SteadyClock::now();
   std::vector<int> match;
-  const std::vector<PointView> points = anchor != nullptr
-                                            ? local_points(frame, anchor->point_of_keypoint, false, match)
-                                            : local_points(frame, result.point_of_keypoint, true, match);
+  std::vector<PointView> listed_here;
+  const std::vector<PointView>* points = &listed_here;
+  if (anchor == nullptr) {
+    listed_here = local_points(frame, result.point_of_keypoint, true, match);
+  } else if (anchor_local != nullptr) {
+    points = &anchor_local->points;
+    match.assign(frame.size(), -1);  // every keypoint matched afresh
+  } else {
+    listed_here = local_points(frame, anchor->point_of_keypoint, false, match);
+  }
   std::vector<int> visible;
-  search_by_projection(frame, camera_, pyramid_, result.T_cam_world, points, usable,
+  search_by_projection(frame, camera_, pyramid_, result.T_cam_world, *points, usable,
                        local_map_search(kLocalMapRadiusPx), match, &visible, pool_);
   result.visible_points.clear();
-  for (int i : visible) result.visible_points.push_back(points[i].id);
+  for (int i : visible) result.visible_points.push_back((*points)[i].id);
   result.timings.local_map_ms += ms_since(start);  // BA time is counted in motion_ba_ms
-  optimise_pose(frame, points, match, result);
+  optimise_pose(frame, *points, match, result);
 }
 
 std::string Tracker::distant_found_text(const PassResult& result) const {
@@ -302,15 +352,15 @@ std::string Tracker::distant_found_text(const PassResult& result) const {
 }
 
 bool Tracker::holds_as_relocalisation(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                                      const PassResult* anchor, PassResult& candidate) const {
-  track_local_map(frame, usable, anchor, candidate);
+                                      PassResult& candidate) const {
+  track_local_map(frame, usable, nullptr, nullptr, candidate);
   return precise_pose(candidate, config_.tracking.min_inliers_ok) &&
          found_share(candidate) >= kMinRelocalisationFoundShare &&
          map_.read([&](const map::MapData& map) { return finds_distant_background(map, candidate); });
 }
 
 PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                             const PassResult* anchor) const {
+                             const PassResult* anchor, const AnchorLocalMap* anchor_local) const {
   const auto t0 = SteadyClock::now();
   PassResult result;
   result.point_of_keypoint.assign(frame.size(), map::kNoPoint);
@@ -356,7 +406,7 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     // as precise as an OK pose; otherwise the next candidate, and the next
     // frame, try again (on repeated structure a weak one landed 2.7 m off).
     relocalised = relocaliser_.relocalise(map_, frame, usable, result, [&](PassResult& r) {
-      return holds_as_relocalisation(frame, usable, anchor, r);
+      return holds_as_relocalisation(frame, usable, r);
     });
     tracked = relocalised;
     if (relocalised && spdlog::default_logger_raw()->should_log(spdlog::level::debug))
@@ -373,7 +423,7 @@ PassResult Tracker::estimate(const PreparedFrame& frame, const std::vector<std::
     result.timings.total_ms = ms_since(t0);
     return result;
   }
-  if (!relocalised) track_local_map(frame, usable, anchor, result);
+  if (!relocalised) track_local_map(frame, usable, anchor, anchor_local, result);
   result.valid = result.n_inliers >= config_.tracking.min_inliers_recovering;
   if (!result.valid) result.failure = "only " + std::to_string(result.n_inliers) + " inliers";
   result.timings.total_ms = ms_since(t0);

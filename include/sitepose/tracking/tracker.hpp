@@ -57,6 +57,19 @@ struct MapperLink {
   std::function<void(map::KeyFrameId)> removed;
 };
 
+// The local map of a pass on one frame (the points of the keyframes that
+// observe its matches), listed once and searched by each later step that
+// starts from that pass: the map check and pass 2 both search pass 1's
+// local map. Listing it costs 1-3 ms a frame (tens of thousands of keyframe
+// slots, a few thousand distinct points). A snapshot: points the mapper
+// moves meanwhile keep the position they had when it was taken.
+struct AnchorLocalMap {
+  std::vector<PointView> points;
+  // Per keypoint of the frame: the index into `points` of the point the
+  // anchor matched there, or -1.
+  std::vector<int> match_of_anchor;
+};
+
 struct TrackerCounters {
   int frames = 0;
   int keyframes_created = 0;
@@ -104,9 +117,14 @@ class Tracker {
   // and whose local map to search, matching every keypoint afresh;
   // default: the motion model, or without a velocity (after a
   // relocalisation) Relocaliser::track_against_keyframe on the reference
-  // keyframe.
+  // keyframe. anchor_local: the anchor's local map when the caller has
+  // listed it already (local_map_of(frame, *anchor)); else listed here.
   PassResult estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                      const PassResult* anchor = nullptr) const;
+                      const PassResult* anchor = nullptr, const AnchorLocalMap* anchor_local = nullptr) const;
+
+  // The local map of `anchor` (a pass on `frame`), for the calls below and
+  // estimate() to share.
+  AnchorLocalMap local_map_of(const PreparedFrame& frame, const PassResult& anchor) const;
 
   // Pass 2 matches every keypoint afresh and re-finds only about 80 % of
   // pass 1's matches (its local-map search has the ratio test that pass 1's
@@ -127,17 +145,18 @@ class Tracker {
 
   // Matches the usable keypoints to the local map of `anchor` (its matched
   // points' keyframes) seen from anchor's pose, searching radius_px; no
-  // pose is estimated. Per keypoint the point id, or kNoPoint.
+  // pose is estimated. Per keypoint the point id, or kNoPoint. anchor_local:
+  // as for estimate().
   std::vector<map::PointId> search_local_map(const PreparedFrame& frame,
                                              const std::vector<std::uint8_t>& usable,
-                                             const PassResult& anchor, double radius_px) const;
+                                             const PassResult& anchor, double radius_px,
+                                             const AnchorLocalMap* anchor_local = nullptr) const;
 
   // search_local_map(), then per keypoint the world position of the point it
   // matched (nullopt where none, or the point is no longer good).
-  std::vector<std::optional<Eigen::Vector3d>> matched_map_points(const PreparedFrame& frame,
-                                                                 const std::vector<std::uint8_t>& usable,
-                                                                 const PassResult& anchor,
-                                                                 double radius_px) const;
+  std::vector<std::optional<Eigen::Vector3d>> matched_map_points(
+      const PreparedFrame& frame, const std::vector<std::uint8_t>& usable, const PassResult& anchor,
+      double radius_px, const AnchorLocalMap* anchor_local = nullptr) const;
 
   // prepare + estimate(all keypoints) + commit: plain stereo SLAM (mode none).
   Expected<PoseEstimate> track(const StereoFrame& frame);
@@ -188,16 +207,21 @@ class Tracker {
   // kMinRelocalisationFoundShare of the map points in view and the distant
   // background (finds_distant_background).
   bool holds_as_relocalisation(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                               const PassResult* anchor, PassResult& candidate) const;
+                               PassResult& candidate) const;
   // Without anchor: the local map of result's own matches, which stay.
-  // With anchor: the anchor's local map, every keypoint matched afresh.
+  // With anchor: the anchor's local map (anchor_local when given), every
+  // keypoint matched afresh.
   void track_local_map(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
-                       const PassResult* anchor, PassResult& result) const;
+                       const PassResult* anchor, const AnchorLocalMap* anchor_local,
+                       PassResult& result) const;
   // The local map of the keyframes observing `tracked` (per keypoint a point
   // or kNoPoint). keep_tracked: `match` gets the tracked keypoints' indices
   // into the result; else all keypoints start unmatched.
   std::vector<PointView> local_points(const PreparedFrame& frame, const std::vector<map::PointId>& tracked,
                                       bool keep_tracked, std::vector<int>& match) const;
+  // Appends to `points` the views of those of `ids` that are still good
+  // points, in the order of `ids` (on the pool when there is one).
+  void append_point_views(const std::vector<map::PointId>& ids, std::vector<PointView>& points) const;
   // Keypoint k's reprojection error of p_world seen from T_cam_world within
   // the motion-only BA's chi2 gate (stereo or mono, by the keypoint).
   bool within_reprojection_gate(const PreparedFrame& frame, int k, const Eigen::Vector3d& p_world,

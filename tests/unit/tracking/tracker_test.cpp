@@ -341,6 +341,50 @@ TEST_F(TrackerAtFrame10, SearchLocalMapMatchesOnlyTheUsableKeypoints) {
                               << ", same " << same_as_full;
 }
 
+// The map check and pass 2 share pass 1's local map, listed once: searching
+// the listed map gives what listing it again gives. The anchor's matches
+// point into the list; a tracker with a pool lists the same points in the
+// same order.
+TEST_F(TrackerAtFrame10, ALocalMapListedOnceServesTheMapCheckAndPassTwo) {
+  std::vector<std::uint8_t> even(prepared.size(), 0), odd(prepared.size(), 0);
+  for (int k = 0; k < prepared.size(); ++k) (k % 2 == 0 ? even : odd)[k] = 1;
+  const PassResult pass1 = tracker.estimate(prepared, even);
+  ASSERT_TRUE(pass1.valid);
+  const AnchorLocalMap local = tracker.local_map_of(prepared, pass1);
+  ASSERT_EQ(local.match_of_anchor.size(), static_cast<std::size_t>(prepared.size()));
+  int anchored = 0;
+  for (int k = 0; k < prepared.size(); ++k) {
+    const int i = local.match_of_anchor[k];
+    if (pass1.point_of_keypoint[k] == map::kNoPoint) {
+      EXPECT_EQ(i, -1);
+      continue;
+    }
+    ASSERT_GE(i, 0);
+    EXPECT_EQ(local.points[static_cast<std::size_t>(i)].id, pass1.point_of_keypoint[k]);
+    ++anchored;
+  }
+  EXPECT_EQ(anchored, pass1.n_inliers);
+  EXPECT_GT(local.points.size(), static_cast<std::size_t>(anchored));  // the keyframes' other points too
+
+  EXPECT_EQ(tracker.search_local_map(prepared, odd, pass1, 7.0, &local),
+            tracker.search_local_map(prepared, odd, pass1, 7.0));
+  const std::vector<std::uint8_t> all(prepared.size(), 1);
+  const PassResult pass2_listed_again = tracker.estimate(prepared, all, &pass1);
+  const PassResult pass2_shared = tracker.estimate(prepared, all, &pass1, &local);
+  ASSERT_TRUE(pass2_shared.valid);
+  EXPECT_EQ(pass2_shared.point_of_keypoint, pass2_listed_again.point_of_keypoint);
+  EXPECT_EQ(pass2_shared.visible_points, pass2_listed_again.visible_points);
+  EXPECT_LT((pass2_shared.T_cam_world.matrix() - pass2_listed_again.T_cam_world.matrix()).norm(), 1e-15);
+
+  features::TaskPool pool(1);
+  const Tracker pooled{site.simulator.camera(), small_config(), map, {}, &pool};
+  const AnchorLocalMap pooled_local = pooled.local_map_of(prepared, pass1);
+  ASSERT_EQ(pooled_local.points.size(), local.points.size());
+  for (std::size_t i = 0; i < local.points.size(); ++i)
+    EXPECT_EQ(pooled_local.points[i].id, local.points[i].id);
+  EXPECT_EQ(pooled_local.match_of_anchor, local.match_of_anchor);
+}
+
 // The dynamic layer's pass 1 tracks on the background (instance 0) alone.
 // An unmasked static object keeps the total inlier count high while the
 // background shrinks; the keyframe rule must still renew the background.
