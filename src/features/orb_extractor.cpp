@@ -269,26 +269,44 @@ Expected<std::vector<OrbFeatures>> OrbExtractor::extract_sides(const cv::Mat& im
 
 Expected<OrbExtraction> OrbExtractor::begin(const cv::Mat& image, const cv::Mat& mask, int inside_features,
                                             std::vector<CornerHint> hints) const {
-  SITEPOSE_TRY_STATUS(check_extract_inputs(image, mask));
-  if (inside_features < 0 || inside_features > kMaxFeatures) {
-    return make_error(ErrorCode::kInvalidArgument,
-                      fmt::format("ORB extraction: inside_features = {}: must be in [0, {}]", inside_features,
-                                  kMaxFeatures));
-  }
+  SITEPOSE_TRY_STATUS(check_extract_inputs(image, cv::Mat()));
   OrbExtraction x;
   x.image_ = image;
-  x.mask_ = mask;
   x.hints_ = std::move(hints);
   x.budgets_.push_back(features_per_level_);
-  if (inside_features > 0) {
-    x.budgets_.push_back(level_budgets(inside_features, config_.scale_factor, config_.n_levels));
-  }
   const int n_levels = config_.n_levels;
   x.candidates_.resize(n_levels);
   x.picked_.assign(n_levels, OrbExtraction::Sides(x.budgets_.size()));
   x.described_.resize(n_levels);
   x.descriptors_.resize(n_levels);
+  SITEPOSE_TRY_STATUS(set_mask(x, mask, inside_features));
   return x;
+}
+
+Status OrbExtractor::set_mask(OrbExtraction& x, const cv::Mat& mask, int inside_features) const {
+  SITEPOSE_TRY_STATUS(check_extract_inputs(x.image_, mask));
+  if (inside_features < 0 || inside_features > kMaxFeatures) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      fmt::format("ORB extraction: inside_features = {}: must be in [0, {}]", inside_features,
+                                  kMaxFeatures));
+  }
+  x.mask_ = mask;
+  x.budgets_.resize(1);
+  if (inside_features > 0) {
+    x.budgets_.push_back(level_budgets(inside_features, config_.scale_factor, config_.n_levels));
+  }
+  x.picked_.assign(static_cast<std::size_t>(config_.n_levels), OrbExtraction::Sides(x.budgets_.size()));
+  if (mask.empty()) return ok_status();
+  // Masked pixel counts over rectangles, to skip the fallback FAST in cells
+  // that hold no pixel of a side.
+  {
+    std::lock_guard lock(recycled_->mutex);
+    x.mask_binary_ = std::move(recycled_->mask_binary);
+    x.mask_integral_ = std::move(recycled_->mask_integral);
+  }
+  cv::threshold(x.mask_, x.mask_binary_, 0, 1, cv::THRESH_BINARY);
+  cv::integral(x.mask_binary_, x.mask_integral_, CV_32S);
+  return ok_status();
 }
 
 void OrbExtractor::build_pyramid(OrbExtraction& x) const {
@@ -296,18 +314,8 @@ void OrbExtractor::build_pyramid(OrbExtraction& x) const {
   {
     std::lock_guard lock(recycled_->mutex);
     levels = std::move(recycled_->pyramid_levels);
-    if (!x.mask_.empty()) {
-      x.mask_binary_ = std::move(recycled_->mask_binary);
-      x.mask_integral_ = std::move(recycled_->mask_integral);
-    }
   }
   x.pyramid_ = make_pyramid(x.image_, std::move(levels));
-  // Masked pixel counts over rectangles, to skip the fallback FAST in cells
-  // that hold no pixel of a side.
-  if (!x.mask_.empty()) {
-    cv::threshold(x.mask_, x.mask_binary_, 0, 1, cv::THRESH_BINARY);
-    cv::integral(x.mask_binary_, x.mask_integral_, CV_32S);
-  }
 }
 
 void OrbExtractor::detect_level(OrbExtraction& x, int level) const {

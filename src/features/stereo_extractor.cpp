@@ -1,5 +1,6 @@
 #include "sitepose/features/stereo_extractor.hpp"
 
+#include <algorithm>
 #include <array>
 #include <opencv2/core.hpp>
 #include <string>
@@ -51,6 +52,52 @@ Expected<StereoExtractor> StereoExtractor::create(const config::OrbConfig& orb,
 Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv::Mat& right,
                                                   const cv::Mat& left_mask,
                                                   std::vector<CornerHint> left_hints) {
+  return extract(
+      left, right, [&]() -> Expected<cv::Mat> { return left_mask; }, std::move(left_hints));
+}
+
+Status StereoExtractor::pyramids_beside_mask(OrbExtraction& left_extraction, OrbExtraction& right_extraction,
+                                             const LeftMaskMaker& make_left_mask,
+                                             std::array<double, 2>& work_ms, double& mask_overrun_ms) {
+  // The mask is made on this thread while the pyramids are built (they do
+  // not read it); its integral counts as the left image's work.
+  Status mask_status = ok_status();
+  const auto make_and_set_mask = [&] {
+    Expected<cv::Mat> mask = make_left_mask();
+    if (!mask) {
+      mask_status = make_error(mask.error().code, mask.error().message);
+      return;
+    }
+    const auto start = SteadyClock::now();
+    const bool both_sides = masked_area_features_ > 0 && !mask->empty();
+    mask_status = left_.set_mask(left_extraction, *mask, both_sides ? masked_area_features_ : 0);
+    work_ms[0] += ms_since(start);
+  };
+  const std::array<const OrbExtractor*, 2> extractors{&left_, &right_};
+  const std::array<OrbExtraction*, 2> extractions{&left_extraction, &right_extraction};
+  std::array<double, 2> pyramid_ms{0.0, 0.0};
+  const auto pyramid_job = [&](int j) {
+    const auto start = SteadyClock::now();
+    extractors[j]->build_pyramid(*extractions[j]);
+    pyramid_ms[j] = ms_since(start);
+  };
+  const auto phase_start = SteadyClock::now();
+  if (pool_ != nullptr) {
+    pool_->run_beside(2, pyramid_job, make_and_set_mask);
+  } else {
+    make_and_set_mask();
+    pyramid_job(0);
+    pyramid_job(1);
+  }
+  mask_overrun_ms = std::max(0.0, ms_since(phase_start) - std::max(pyramid_ms[0], pyramid_ms[1]));
+  work_ms[0] += pyramid_ms[0];
+  work_ms[1] += pyramid_ms[1];
+  return mask_status;
+}
+
+Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv::Mat& right,
+                                                  const LeftMaskMaker& make_left_mask,
+                                                  std::vector<CornerHint> left_hints) {
   if (left.size() != right.size() || left.type() != right.type()) {
     return make_error(ErrorCode::kInvalidArgument,
                       "stereo extraction: left " + std::to_string(left.cols) + "x" +
@@ -58,9 +105,7 @@ Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv:
                           std::to_string(right.cols) + "x" + std::to_string(right.rows) + " type " +
                           std::to_string(right.type()) + " must have the same size and type");
   }
-  const bool both_sides = masked_area_features_ > 0 && !left_mask.empty();
-  SITEPOSE_TRY(OrbExtraction left_extraction,
-               left_.begin(left, left_mask, both_sides ? masked_area_features_ : 0, std::move(left_hints)));
+  SITEPOSE_TRY(OrbExtraction left_extraction, left_.begin(left, cv::Mat(), 0, std::move(left_hints)));
   SITEPOSE_TRY(OrbExtraction right_extraction, right_.begin(right, cv::Mat()));
   // The two images' steps go into shared batches (both pyramids, then all
   // levels' FAST of both, ...), so the threads stay busy until a step is
@@ -85,8 +130,10 @@ Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv:
     }
     for (int j = 0; j < 2 * per_image; ++j) work_ms[j % 2] += job_ms[j];
   };
+  double mask_overrun_ms = 0.0;
+  SITEPOSE_TRY_STATUS(
+      pyramids_beside_mask(left_extraction, right_extraction, make_left_mask, work_ms, mask_overrun_ms));
   const int n_levels = left_.n_levels();
-  run_step(1, [](const OrbExtractor& e, OrbExtraction& x, int) { e.build_pyramid(x); });
   run_step(n_levels, [](const OrbExtractor& e, OrbExtraction& x, int level) { e.detect_level(x, level); });
   run_step(1, [](const OrbExtractor& e, OrbExtraction& x, int) { e.select(x); });
   run_step(n_levels, [](const OrbExtractor& e, OrbExtraction& x, int level) { e.describe_level(x, level); });
@@ -98,6 +145,7 @@ Expected<StereoFeatures> StereoExtractor::extract(const cv::Mat& left, const cv:
   StereoTimings timings;
   timings.extract_left_ms = work_ms[0];
   timings.extract_right_ms = work_ms[1];
+  timings.mask_overrun_ms = mask_overrun_ms;
 
   const auto match_start = SteadyClock::now();
   SITEPOSE_TRY(StereoMatches matches, matcher_.match(left_ok, right_ok, pool_));

@@ -76,17 +76,49 @@ void TaskPool::run(int n_jobs, const std::function<void(int)>& job) {
     if (error) std::rethrow_exception(error);
     return;
   }
+  join(*post(n_jobs, job));
+}
+
+void TaskPool::run_beside(int n_jobs, const std::function<void(int)>& job, const std::function<void()>& own) {
+  if (workers_.empty() || n_jobs <= 0) {
+    own();
+    run(n_jobs, job);
+    return;
+  }
+  const std::shared_ptr<Batch> batch = post(n_jobs, job);
+  std::exception_ptr own_error;
+  try {
+    own();
+  } catch (...) {
+    own_error = std::current_exception();
+  }
+  if (own_error) {
+    try {
+      join(*batch);
+    } catch (...) {  // own's exception is the one reported
+    }
+    std::rethrow_exception(own_error);
+  }
+  join(*batch);
+}
+
+std::shared_ptr<TaskPool::Batch> TaskPool::post(int n_jobs, const std::function<void(int)>& job) {
   auto batch = std::make_shared<Batch>();
   batch->job = &job;
   batch->n_jobs = n_jobs;
-  std::unique_lock lock(mutex_);
-  queue_.push_back(batch);
-  lock.unlock();
+  {
+    const std::lock_guard lock(mutex_);
+    queue_.push_back(batch);
+  }
   wake_.notify_all();
-  lock.lock();
-  while (batch->next < n_jobs) execute(*batch, take_job(*batch, queue_), lock);
-  batch->done.wait(lock, [&] { return batch->finished == n_jobs; });
-  if (batch->error) std::rethrow_exception(batch->error);
+  return batch;
+}
+
+void TaskPool::join(Batch& batch) {
+  std::unique_lock lock(mutex_);
+  while (batch.next < batch.n_jobs) execute(batch, take_job(batch, queue_), lock);
+  batch.done.wait(lock, [&] { return batch.finished == batch.n_jobs; });
+  if (batch.error) std::rethrow_exception(batch.error);
 }
 
 }  // namespace sitepose::features

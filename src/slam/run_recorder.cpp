@@ -64,8 +64,12 @@ void RunRecorder::add(const FrameReport& report) {
   stage_ms_["detect"].push_back(t.detect_ms);
   stage_ms_["mask"].push_back(t.mask_ms);
   stage_ms_["segment"].push_back(t.segment_ms);
+  stage_ms_["mask_overrun"].push_back(t.mask_overrun_ms);
   // Our share of the frame: a detector plugin's own time varies with it.
-  stage_ms_["frame_excl_detector"].push_back(t.total_ms - t.detect_ms - t.segment_ms);
+  // Its segmentation runs beside the pyramids; only the part the frame
+  // waited for counts as the detector's.
+  stage_ms_["frame_excl_detector"].push_back(t.total_ms - t.detect_ms -
+                                             std::min(t.segment_ms, t.mask_overrun_ms));
   stage_ms_["classify"].push_back(t.classify_ms);
   stage_ms_["pass2"].push_back(t.pass2_ms);
   add_dynamic(report.mar, report.pixel_mask_used);

@@ -24,9 +24,14 @@ Expected<FrameReport> TwoPassTracker::process(const StereoFrame& frame,
   const auto start = SteadyClock::now();
   FrameReport report;
   report.dynamic_layer = true;
-  SITEPOSE_TRY(const dynamic::MaskResult mask, build_mask(frame, objects, report));
+  // The mask (the detector's segmentation) is made while the pyramids are
+  // built, on this thread.
+  dynamic::MaskResult mask;
   SITEPOSE_TRY(const tracking::PreparedFrame prepared,
-               tracker_.prepare(frame, mask.instance_labels, dynamic::extraction_mask(mask)));
+               tracker_.prepare(frame, [&]() -> Expected<tracking::FrameMasks> {
+                 SITEPOSE_TRY(mask, build_mask(frame, objects, report));
+                 return tracking::FrameMasks{mask.instance_labels, dynamic::extraction_mask(mask)};
+               }));
   Passes passes = track_pass1(prepared, report);
   std::optional<dynamic::ObjectFeatures> current;
   if (full() && passes.pass1.valid) {

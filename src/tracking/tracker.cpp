@@ -47,7 +47,7 @@ features::StereoExtractorOptions extraction_options(const config::OrbConfig& orb
   return options;
 }
 
-Status check_frame(const StereoFrame& frame, const cv::Mat& instance_labels, const StereoCamera& camera) {
+Status check_images(const StereoFrame& frame, const StereoCamera& camera) {
   if (frame.left.empty() || frame.right.empty() || frame.left.size() != frame.right.size() ||
       frame.left.type() != CV_8UC1 || frame.right.type() != CV_8UC1) {
     return make_error(
@@ -61,8 +61,12 @@ Status check_frame(const StereoFrame& frame, const cv::Mat& instance_labels, con
                           " differs from the camera's " + std::to_string(camera.width) + "x" +
                           std::to_string(camera.height));
   }
+  return ok_status();
+}
+
+Status check_instance_labels(const cv::Mat& instance_labels, const cv::Size& image_size) {
   if (!instance_labels.empty() &&
-      (instance_labels.type() != CV_16UC1 || instance_labels.size() != frame.left.size())) {
+      (instance_labels.type() != CV_16UC1 || instance_labels.size() != image_size)) {
     return make_error(ErrorCode::kInvalidArgument, "instance labels must be CV_16UC1 of the image size");
   }
   return ok_status();
@@ -113,16 +117,31 @@ void Tracker::apply_map_correction(const SE3& correction) {
 
 Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const cv::Mat& instance_labels,
                                          const cv::Mat& extraction_mask) {
+  return prepare(frame, [&]() -> Expected<FrameMasks> {
+    return FrameMasks{instance_labels, extraction_mask};
+  });
+}
+
+Expected<PreparedFrame> Tracker::prepare(const StereoFrame& frame, const MaskMaker& make_masks) {
   const auto start = SteadyClock::now();
-  SITEPOSE_TRY_STATUS(check_frame(frame, instance_labels, camera_));
+  SITEPOSE_TRY_STATUS(check_images(frame, camera_));
   PreparedFrame out;
   out.seq = frame.seq;
   out.t_ns = frame.t_ns();
+  cv::Mat instance_labels;
+  const auto make_extraction_mask = [&]() -> Expected<cv::Mat> {
+    SITEPOSE_TRY(FrameMasks masks, make_masks());
+    SITEPOSE_TRY_STATUS(check_instance_labels(masks.instance_labels, frame.left.size()));
+    instance_labels = masks.instance_labels;
+    return masks.extraction_mask;
+  };
   // The background gets the full budget, the masked area a share of its own.
-  SITEPOSE_TRY(out.features, extractor_.extract(frame, extraction_mask, corner_hints()));
+  SITEPOSE_TRY(out.features,
+               extractor_.extract(frame.left, frame.right, make_extraction_mask, corner_hints()));
   out.timings.extract_left_ms = out.features.timings.extract_left_ms;
   out.timings.extract_right_ms = out.features.timings.extract_right_ms;
   out.timings.stereo_match_ms = out.features.timings.stereo_match_ms;
+  out.timings.mask_overrun_ms = out.features.timings.mask_overrun_ms;
   tag_keypoints(instance_labels, out);
   out.grid = map::KeypointGrid(camera_.width, camera_.height, out.uv_px, out.octave);
   out.timings.total_ms = ms_since(start);

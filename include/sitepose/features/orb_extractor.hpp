@@ -142,6 +142,11 @@ class OrbExtractor {
   // hints: corners to keep (CornerHint), at most half of a level's budget.
   Expected<OrbExtraction> begin(const cv::Mat& image, const cv::Mat& mask, int inside_features = 0,
                                 std::vector<CornerHint> hints = {}) const;
+  // Replaces the mask and the masked area's budget that begin() set (same
+  // checks and meaning), up to the start of detect_level: a caller can begin
+  // without the mask, build the pyramid while the mask is being made, and
+  // set it then (build_pyramid does not read it).
+  Status set_mask(OrbExtraction& x, const cv::Mat& mask, int inside_features) const;
   void build_pyramid(OrbExtraction& x) const;
   void detect_level(OrbExtraction& x, int level) const;
   void select(OrbExtraction& x) const;
@@ -191,7 +196,8 @@ class OrbExtractor {
   TaskPool* pool_;
   // The mask's binary image and integral (2.6 MB at 960x540) and the
   // pyramid's levels 1.. (1.1 MB), handed from one extraction's finish()
-  // (the pyramid: from recycle()) to the next one's build_pyramid(), so
+  // (the pyramid: from recycle()) to the next one's set_mask() (the
+  // pyramid: build_pyramid()), so
   // that a frame writes into memory the process already touched: a fresh
   // allocation of that size cost 1-9 ms of page faults in some frames on
   // the 2-core machine (0.1 ms reused). Extractions running at once on one

@@ -10,13 +10,16 @@
 // own (so a later pass can unmask objects), appended after the others; both
 // come from one pyramid and one FAST pass (OrbExtractor::extract_both_sides).
 // Threads: the two images' extraction steps (OrbExtractor::begin) run as
-// shared batches on the lent TaskPool: both pyramids, then every level's
+// shared batches on the lent TaskPool: both pyramids (beside them, on the
+// caller's thread, the left mask when a maker is given), then every level's
 // FAST of both images, both selections, every level's descriptors (no
 // pool: all on the caller's thread, same result); one extract() at a time
 // per instance. Ownership: the result owns its data and shares nothing with
 // the caller's images; the pyramids go back to the extractors for the next
 // pair (OrbExtractor::recycle).
 
+#include <array>
+#include <functional>
 #include <vector>
 
 #include "sitepose/config/sitepose_config.hpp"
@@ -36,6 +39,9 @@ struct StereoTimings {
   double extract_left_ms = 0.0;
   double extract_right_ms = 0.0;
   double stereo_match_ms = 0.0;
+  // Wall time the frame waited on the mask maker beyond the pyramids it ran
+  // beside: max(0, maker + its pyramid wait - the longer pyramid job).
+  double mask_overrun_ms = 0.0;
 };
 
 // Features of one stereo pair, indexed by left keypoint.
@@ -85,12 +91,26 @@ class StereoExtractor {
                                    std::vector<CornerHint> left_hints = {}) {
     return extract(frame.left, frame.right, left_mask, std::move(left_hints));
   }
+  // The same with the left mask made by make_left_mask, on the calling
+  // thread while the pool builds the two pyramids (a detector's
+  // segmentation overlaps them); its error is returned.
+  using LeftMaskMaker = std::function<Expected<cv::Mat>()>;
+  Expected<StereoFeatures> extract(const cv::Mat& left, const cv::Mat& right,
+                                   const LeftMaskMaker& make_left_mask,
+                                   std::vector<CornerHint> left_hints = {});
 
   // Per-level scale tables (identical for both images).
   const OrbExtractor& orb() const { return left_; }
   const StereoMatcher& matcher() const { return matcher_; }
 
  private:
+  // Both pyramids on the pool while make_left_mask runs on this thread and
+  // its mask is set on the left extraction; adds each image's work to
+  // work_ms. Returns the maker's error or the mask's.
+  Status pyramids_beside_mask(OrbExtraction& left_extraction, OrbExtraction& right_extraction,
+                              const LeftMaskMaker& make_left_mask, std::array<double, 2>& work_ms,
+                              double& mask_overrun_ms);
+
   OrbExtractor left_;
   OrbExtractor right_;
   int masked_area_features_;  // 0: no keypoints on the mask

@@ -24,8 +24,12 @@ struct FrameTimings {
   // that ran the detector (it is outside process()) and counted in total_ms
   // only if the caller adds it.
   double detect_ms = 0.0;
-  double mask_ms = 0.0;      // Algorithm 1 incl. pixel segmentation
-  double segment_ms = 0.0;   // of mask_ms: the detector's pixel segmentation
+  double mask_ms = 0.0;     // Algorithm 1 incl. pixel segmentation
+  double segment_ms = 0.0;  // of mask_ms: the detector's pixel segmentation
+  // The mask is made beside the image pyramids: how long the frame waited
+  // on it beyond them (features::StereoTimings::mask_overrun_ms), so the
+  // segmentation's share of the frame is min(segment_ms, this).
+  double mask_overrun_ms = 0.0;
   double classify_ms = 0.0;  // Algorithm 2 (matching + tests) and the map check
   double pass2_ms = 0.0;     // the second pose estimate
   double total_ms = 0.0;     // the whole frame, excluding inline mapping
@@ -105,6 +109,7 @@ inline void copy_stage_timings(const tracking::PreparedFrame& prepared, const tr
   timings.extract_right_ms = prepared.timings.extract_right_ms;
   timings.stereo_match_ms = prepared.timings.stereo_match_ms;
   timings.prepare_ms = prepared.timings.total_ms;
+  timings.mask_overrun_ms = prepared.timings.mask_overrun_ms;
   timings.motion_model_ms = pass.timings.motion_model_ms;
   timings.local_map_ms = pass.timings.local_map_ms;
   timings.motion_ba_ms = pass.timings.motion_ba_ms;

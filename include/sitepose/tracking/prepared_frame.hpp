@@ -15,6 +15,7 @@ struct PrepareTimings {
   double extract_left_ms = 0.0;
   double extract_right_ms = 0.0;
   double stereo_match_ms = 0.0;
+  double mask_overrun_ms = 0.0;  // features::StereoTimings::mask_overrun_ms
   double total_ms = 0.0;
 };
 

@@ -57,6 +57,12 @@ struct MapperLink {
   std::function<void(map::KeyFrameId)> removed;
 };
 
+// What the dynamic layer gives prepare(): see there.
+struct FrameMasks {
+  cv::Mat instance_labels;
+  cv::Mat extraction_mask;
+};
+
 // The local map of a pass on one frame (the points of the keyframes that
 // observe its matches), listed once and searched by each later step that
 // starts from that pass: the map check and pass 2 both search pass 1's
@@ -111,6 +117,11 @@ class Tracker {
   // of its own, so pass 2 still has object keypoints to unmask).
   Expected<PreparedFrame> prepare(const StereoFrame& frame, const cv::Mat& instance_labels = {},
                                   const cv::Mat& extraction_mask = {});
+  // The same with both masks made by make_masks, on the calling thread
+  // while the pool builds the image pyramids (StereoExtractor); its error
+  // is returned.
+  using MaskMaker = std::function<Expected<FrameMasks>()>;
+  Expected<PreparedFrame> prepare(const StereoFrame& frame, const MaskMaker& make_masks);
 
   // usable: per keypoint of `frame`, 1 = may be used. anchor: an earlier
   // pass on the same frame (pass 2 gets pass 1) whose pose to start from

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <thread>
 
 #include "sitepose/testing/cameras.hpp"
 #include "sitepose/testing/images.hpp"
@@ -137,6 +139,46 @@ TEST(StereoExtractor, RejectsABadMaskAndBudget) {
   options.masked_area_features = 300;
   EXPECT_TRUE(
       StereoExtractor::create(config::OrbConfig{}, config::StereoMatchConfig{}, camera, options).has_value());
+}
+
+// A mask made by a maker (a detector's segmentation) runs on the calling
+// thread beside the pyramids and gives what the same mask given directly
+// gives; the maker's error, or a bad mask it makes, is returned.
+TEST(StereoExtractor, AMaskMadeBesideThePyramidsGivesTheSameFeatures) {
+  TaskPool pool(1);
+  StereoExtractor extractor = make_extractor(&pool, 300);
+  const Pair pair = shapes_pair(36);
+  const auto caller = std::this_thread::get_id();
+  int made = 0;
+  const auto maker = [&]() -> Expected<cv::Mat> {
+    EXPECT_EQ(std::this_thread::get_id(), caller);
+    ++made;
+    return band_mask();
+  };
+  auto from_maker = extractor.extract(pair.left, pair.right, maker);
+  ASSERT_TRUE(from_maker.has_value()) << from_maker.error().message;
+  EXPECT_EQ(made, 1);
+  expect_identical(*from_maker, extract_ok(extractor, pair, band_mask()));
+
+  const auto failing = []() -> Expected<cv::Mat> {
+    return make_error(ErrorCode::kInvalidArgument, "detector: no model");
+  };
+  auto failed = extractor.extract(pair.left, pair.right, failing);
+  ASSERT_FALSE(failed.has_value());
+  EXPECT_EQ(failed.error().message, "detector: no model");
+  const auto bad_mask = []() -> Expected<cv::Mat> { return cv::Mat(cv::Mat::zeros(10, 10, CV_8UC1)); };
+  EXPECT_FALSE(extractor.extract(pair.left, pair.right, bad_mask).has_value());
+  // The extractor still works afterwards.
+  expect_identical(extract_ok(extractor, pair, band_mask()), *from_maker);
+
+  // A slow maker: the frame waits on it beyond the pyramids (about 1 ms).
+  const auto slow = []() -> Expected<cv::Mat> {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    return band_mask();
+  };
+  auto waited = extractor.extract(pair.left, pair.right, slow);
+  ASSERT_TRUE(waited.has_value());
+  EXPECT_GE(waited->timings.mask_overrun_ms, 50.0);
 }
 
 }  // namespace

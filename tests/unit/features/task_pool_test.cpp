@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <set>
 #include <stdexcept>
 #include <thread>
@@ -90,6 +91,58 @@ TEST(TaskPool, RethrowsAJobsExceptionAfterTheOthersFinished) {
     pool.run(3, [&](int) { ++again; });
     EXPECT_EQ(again.load(), 3);
   }
+}
+
+// run_beside: own() stays on the caller while a worker already runs the
+// jobs (own waits for a job to start: it cannot finish unless both run at
+// once), and every job runs once.
+TEST(TaskPool, RunBesideKeepsOwnOnTheCallerWhileTheWorkersRunTheJobs) {
+  TaskPool pool(1);
+  const auto caller = std::this_thread::get_id();
+  std::atomic<int> started{0};
+  std::vector<std::atomic<int>> calls(3);
+  bool own_ran = false;
+  pool.run_beside(
+      3,
+      [&](int i) {
+        ++started;
+        ++calls[static_cast<std::size_t>(i)];
+      },
+      [&] {
+        EXPECT_EQ(std::this_thread::get_id(), caller);
+        while (started.load() == 0) std::this_thread::yield();
+        own_ran = true;
+      });
+  EXPECT_TRUE(own_ran);
+  for (const auto& c : calls) EXPECT_EQ(c.load(), 1);
+}
+
+TEST(TaskPool, RunBesideWithoutWorkersRunsOwnThenTheJobsInOrder) {
+  TaskPool pool(0);
+  std::vector<int> order;
+  pool.run_beside(
+      3, [&](int i) { order.push_back(i); }, [&] { order.push_back(-1); });
+  EXPECT_EQ(order, (std::vector<int>{-1, 0, 1, 2}));
+}
+
+// own's exception wins over a job's and comes after every job finished.
+TEST(TaskPool, RunBesideRethrowsOwnsExceptionAfterTheJobs) {
+  TaskPool pool(2);
+  std::atomic<int> finished{0};
+  try {
+    pool.run_beside(
+        6,
+        [&](int i) {
+          if (i == 1) throw std::logic_error("job 1");
+          std::this_thread::sleep_for(std::chrono::milliseconds(2));
+          ++finished;
+        },
+        [] { throw std::runtime_error("own"); });
+    ADD_FAILURE() << "no exception";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "own");
+  }
+  EXPECT_EQ(finished.load(), 5);
 }
 
 }  // namespace
