@@ -37,7 +37,7 @@ Expected<FrameReport> TwoPassTracker::process(const StereoFrame& frame,
   if (full() && passes.pass1.valid) {
     const auto t_classify = SteadyClock::now();
     current = classify(prepared, mask, passes.pass1, report);
-    const dynamic::InstanceSet static_objects = check_against_map(prepared, passes, *current, report);
+    const dynamic::InstanceSet static_objects = check_against_map(prepared, passes.pass1, *current, report);
     report.timings.classify_ms = ms_since(t_classify);
     track_pass2(prepared, static_objects, passes, report);
   } else if (full()) {
@@ -112,15 +112,17 @@ dynamic::ObjectFeatures TwoPassTracker::classify(const tracking::PreparedFrame& 
 }
 
 dynamic::InstanceSet TwoPassTracker::check_against_map(const tracking::PreparedFrame& prepared,
-                                                       Passes& passes, const dynamic::ObjectFeatures& current,
+                                                       const tracking::PassResult& pass1,
+                                                       const dynamic::ObjectFeatures& current,
                                                        FrameReport& report) {
   dynamic::InstanceSet static_objects = dynamic::static_objects(report.objects);
   // The paper has no such test.
   if (static_objects.empty() || config_.classifier == config::ClassifierMode::kPaper) return static_objects;
-  passes.pass1_local_map = tracker_.local_map_of(prepared, passes.pass1);
+  // Pass 1's own local map (listed around its motion-model matches), not
+  // listed again.
   const auto map_point_of_keypoint =
-      tracker_.matched_map_points(prepared, dynamic::keypoints_of(prepared, static_objects), passes.pass1,
-                                  kMapCheckRadiusPx, &*passes.pass1_local_map);
+      tracker_.matched_map_points(prepared, dynamic::keypoints_of(prepared, static_objects), pass1,
+                                  kMapCheckRadiusPx, pass1.local_map.get());
   const std::vector<dynamic::MapCheck> checks =
       classifier_.check_against_map(prepared, map_point_of_keypoint, current, static_objects.ids());
   report.remasked_by_map_check = dynamic::apply_map_checks(checks, report.objects, static_objects);
@@ -134,8 +136,7 @@ void TwoPassTracker::track_pass2(const tracking::PreparedFrame& prepared,
   if (static_objects.empty()) return;
   const auto start = SteadyClock::now();
   passes.usable2 = dynamic::with_keypoints_of(passes.usable1, prepared, static_objects);
-  passes.pass2 = tracker_.estimate(prepared, passes.usable2, &passes.pass1,
-                                   passes.pass1_local_map ? &*passes.pass1_local_map : nullptr);
+  passes.pass2 = tracker_.estimate(prepared, passes.usable2, &passes.pass1, passes.pass1.local_map.get());
   if (passes.pass2.valid) {
     if (dynamic::pass2_agrees_with_pass1(passes.pass1, passes.pass2)) {
       tracker_.carry_over_matches(prepared, passes.pass1, passes.pass2);

@@ -362,6 +362,17 @@ void Tracker::track_local_map(const PreparedFrame& frame, const std::vector<std:
   for (int i : visible) result.visible_points.push_back((*points)[i].id);
   result.timings.local_map_ms += ms_since(start);  // BA time is counted in motion_ba_ms
   optimise_pose(frame, *points, match, result);
+  if (anchor == nullptr) {
+    // optimise_pose keeps point_of_keypoint[k] == points[match[k]].id for
+    // the inliers.
+    auto local = std::make_shared<AnchorLocalMap>();
+    local->match_of_anchor.assign(match.size(), -1);
+    for (std::size_t k = 0; k < match.size(); ++k) {
+      if (result.point_of_keypoint[k] != map::kNoPoint) local->match_of_anchor[k] = match[k];
+    }
+    local->points = std::move(listed_here);
+    result.local_map = std::move(local);
+  }
 }
 
 std::string Tracker::distant_found_text(const PassResult& result) const {

@@ -54,9 +54,6 @@ class TwoPassTracker {
     tracking::PassResult pass2;
     bool pass2_used = false;
     int static_objects = 0;  // unmasked for pass 2
-    // Pass 1's local map, listed by the map check and searched again by
-    // pass 2 (empty when the map check did not run).
-    std::optional<tracking::AnchorLocalMap> pass1_local_map;
 
     const tracking::PassResult& final_pass() const { return pass2_used ? pass2 : pass1; }
     const dynamic::KeypointMask& final_usable() const { return pass2_used ? usable2 : usable1; }
@@ -69,7 +66,8 @@ class TwoPassTracker {
   Passes track_pass1(const tracking::PreparedFrame& prepared, FrameReport& report) const;
   dynamic::ObjectFeatures classify(const tracking::PreparedFrame& prepared, const dynamic::MaskResult& mask,
                                    const tracking::PassResult& pass1, FrameReport& report);
-  dynamic::InstanceSet check_against_map(const tracking::PreparedFrame& prepared, Passes& passes,
+  dynamic::InstanceSet check_against_map(const tracking::PreparedFrame& prepared,
+                                         const tracking::PassResult& pass1,
                                          const dynamic::ObjectFeatures& current, FrameReport& report);
   void track_pass2(const tracking::PreparedFrame& prepared, const dynamic::InstanceSet& static_objects,
                    Passes& passes, FrameReport& report) const;

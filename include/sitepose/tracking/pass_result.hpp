@@ -2,6 +2,7 @@
 // One tracking pass's answer (Tracker::estimate()); keypoint indices refer
 // to the PreparedFrame it was estimated on.
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -10,6 +11,8 @@
 #include "sitepose/map/map_data.hpp"
 
 namespace sitepose::tracking {
+
+struct AnchorLocalMap;  // tracker.hpp
 
 struct EstimateTimings {
   double motion_model_ms = 0.0;  // incl. relocalisation when it was needed
@@ -36,6 +39,11 @@ struct PassResult {
   int established_in_view = 0;
   std::string failure;  // why valid == false or the state is degraded
   EstimateTimings timings;
+  // The local map this pass listed and searched, with its inliers as
+  // indices into it: what later steps on the frame that start from this pass
+  // search (the map check, pass 2; Tracker::estimate's anchor_local). Empty
+  // when the pass searched no local map of its own.
+  std::shared_ptr<const AnchorLocalMap> local_map;
 };
 
 }  // namespace sitepose::tracking
