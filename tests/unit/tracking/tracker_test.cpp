@@ -385,6 +385,36 @@ TEST_F(TrackerAtFrame10, ALocalMapListedOnceServesTheMapCheckAndPassTwo) {
   EXPECT_EQ(pooled_local.match_of_anchor, local.match_of_anchor);
 }
 
+// A pass keeps the local map it listed and searched, its inliers as
+// indices into it, for the map check and pass 2; a pass from an anchor
+// (which searched the anchor's map) keeps none.
+TEST_F(TrackerAtFrame10, APassKeepsTheLocalMapItSearched) {
+  std::vector<std::uint8_t> even(prepared.size(), 0);
+  for (int k = 0; k < prepared.size(); k += 2) even[k] = 1;
+  const PassResult pass1 = tracker.estimate(prepared, even);
+  ASSERT_TRUE(pass1.valid);
+  ASSERT_NE(pass1.local_map, nullptr);
+  const AnchorLocalMap& local = *pass1.local_map;
+  ASSERT_EQ(local.match_of_anchor.size(), static_cast<std::size_t>(prepared.size()));
+  int anchored = 0;
+  for (int k = 0; k < prepared.size(); ++k) {
+    const int i = local.match_of_anchor[k];
+    if (pass1.point_of_keypoint[k] == map::kNoPoint) {
+      EXPECT_EQ(i, -1);
+      continue;
+    }
+    ASSERT_GE(i, 0);
+    EXPECT_EQ(local.points[static_cast<std::size_t>(i)].id, pass1.point_of_keypoint[k]);
+    ++anchored;
+  }
+  EXPECT_EQ(anchored, pass1.n_inliers);
+  const std::vector<std::uint8_t> all(prepared.size(), 1);
+  const PassResult pass2 = tracker.estimate(prepared, all, &pass1, pass1.local_map.get());
+  ASSERT_TRUE(pass2.valid);
+  EXPECT_GT(pass2.n_inliers, pass1.n_inliers);
+  EXPECT_EQ(pass2.local_map, nullptr);
+}
+
 // The dynamic layer's pass 1 tracks on the background (instance 0) alone.
 // An unmasked static object keeps the total inlier count high while the
 // background shrinks; the keyframe rule must still renew the background.
