@@ -63,12 +63,13 @@ struct FrameMasks {
   cv::Mat extraction_mask;
 };
 
-// The local map of a pass on one frame (the points of the keyframes that
-// observe its matches), listed once and searched by each later step that
-// starts from that pass: the map check and pass 2 both search pass 1's
-// local map. Listing it costs 1-3 ms a frame (tens of thousands of keyframe
-// slots, a few thousand distinct points). A snapshot: points the mapper
-// moves meanwhile keep the position they had when it was taken.
+// A local map on one frame (the points of the keyframes that observe a
+// set of matches), listed once and searched by each later step that starts
+// from the same pass: the map check and pass 2 both search the one pass 1
+// listed and searched (PassResult::local_map). Listing one costs 1-3 ms
+// (tens of thousands of keyframe slots, a few thousand distinct points). A
+// snapshot: points the mapper moves meanwhile keep the position they had
+// when it was taken.
 struct AnchorLocalMap {
   std::vector<PointView> points;
   // Per keypoint of the frame: the index into `points` of the point the
@@ -128,13 +129,14 @@ class Tracker {
   // and whose local map to search, matching every keypoint afresh;
   // default: the motion model, or without a velocity (after a
   // relocalisation) Relocaliser::track_against_keyframe on the reference
-  // keyframe. anchor_local: the anchor's local map when the caller has
-  // listed it already (local_map_of(frame, *anchor)); else listed here.
+  // keyframe. anchor_local: the local map to search from the anchor when
+  // the caller has it (anchor->local_map, or local_map_of(frame, *anchor));
+  // else the local map of the anchor's matches is listed here.
   PassResult estimate(const PreparedFrame& frame, const std::vector<std::uint8_t>& usable,
                       const PassResult* anchor = nullptr, const AnchorLocalMap* anchor_local = nullptr) const;
 
-  // The local map of `anchor` (a pass on `frame`), for the calls below and
-  // estimate() to share.
+  // The local map of `anchor`'s matches (a pass on `frame`), for the calls
+  // below and estimate() to share.
   AnchorLocalMap local_map_of(const PreparedFrame& frame, const PassResult& anchor) const;
 
   // Pass 2 matches every keypoint afresh and re-finds only about 80 % of
