@@ -65,7 +65,7 @@ Status StereoExtractor::pyramids_beside_mask(OrbExtraction& left_extraction, Orb
   const auto make_and_set_mask = [&] {
     Expected<cv::Mat> mask = make_left_mask();
     if (!mask) {
-      mask_status = make_error(mask.error().code, mask.error().message);
+      mask_status = Unexpected{mask.error()};
       return;
     }
     const auto start = SteadyClock::now();
