@@ -299,9 +299,26 @@ void MapData::set_keyframe_bad(KeyFrameId keyframe_id) {
       if (KeyFrame* p = keyframe(kf->parent); p != nullptr) p->children.insert(child);
     }
   }
-  if (KeyFrame* p = keyframe(kf->parent); p != nullptr) p->children.erase(keyframe_id);
+  if (KeyFrame* p = keyframe(kf->parent); p != nullptr) {
+    p->children.erase(keyframe_id);
+    if (keep_removed_links_) removed_links_[keyframe_id] = {kf->parent, p->T_cam_world() * kf->T_world_cam};
+  }
   if (last_keyframe_ == keyframe_id) last_keyframe_ = kf->parent;
   keyframes_.erase(keyframe_id);
+}
+
+std::optional<SE3> MapData::T_world_keyframe(KeyFrameId id) const {
+  SE3 T_at_cam;  // the asked keyframe relative to keyframe `id` as the chain is walked
+  // Each link points at a keyframe that was in the map when the link was
+  // made, so a chain is at most as long as the links are many.
+  for (std::size_t step = 0; step <= removed_links_.size(); ++step) {
+    if (const KeyFrame* kf = keyframe(id); kf != nullptr && !kf->bad) return kf->T_world_cam * T_at_cam;
+    const auto link = removed_links_.find(id);
+    if (link == removed_links_.end()) return std::nullopt;
+    T_at_cam = link->second.T_parent_cam * T_at_cam;
+    id = link->second.parent;
+  }
+  return std::nullopt;
 }
 
 void MapData::update_connections(KeyFrameId keyframe_id) {
@@ -563,6 +580,8 @@ std::vector<KeyFrameId> MapData::drop_keyframes_from(KeyFrameId first) {
     keyframes_.at(id).loop_edges.clear();
     set_keyframe_bad(id);
   }
+  // A frame tracked in the dropped keyframes has no place in the map.
+  std::erase_if(removed_links_, [&](const auto& entry) { return entry.first >= first; });
   last_keyframe_ = kNoKeyFrame;
   for (const auto& [id, kf] : keyframes_) last_keyframe_ = std::max(last_keyframe_, id);
   provisional_since_ = kNoKeyFrame;

@@ -39,6 +39,8 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const config::SiteposeConfig&
     : config_(config),
       options_(options),
       map_(map::ScalePyramid{config.orb.scale_factor, config.orb.n_levels}) {
+  if (options.keep_removed_keyframe_links)
+    map_.write([](map::MapData& map) { map.keep_removed_keyframe_links(true); });
   mapper_ = std::make_unique<mapping::LocalMapper>(camera, config.mapping, config.tracking, map_);
   if (options.vocabulary) {
     database_ = std::make_unique<placerec::KeyFrameDatabase>(options.vocabulary);
@@ -188,6 +190,7 @@ Status SlamSystem::load_map(map::MapData loaded) {
                           " levels, factor " + std::to_string(expected.scale_factor));
   }
   if (database_) database_->rebuild(loaded);  // not under the map lock (a leaf lock)
+  loaded.keep_removed_keyframe_links(options_.keep_removed_keyframe_links);
   map_.write([&](map::MapData& map) { map = std::move(loaded); });
   return ok_status();
 }
@@ -204,6 +207,21 @@ std::size_t SlamSystem::keyframe_count() const {
 
 std::size_t SlamSystem::point_count() const {
   return map_.read([](const map::MapData& map) { return map.point_count(); });
+}
+
+std::vector<std::optional<SE3>> SlamSystem::poses_in_final_map(const std::vector<PoseEstimate>& poses) const {
+  return map_.read([&](const map::MapData& map) {
+    std::vector<std::optional<SE3>> final_poses;
+    final_poses.reserve(poses.size());
+    for (const PoseEstimate& pose : poses) {
+      std::optional<SE3> T_world_reference;
+      if (pose.state != TrackingState::kLost)
+        T_world_reference = map.T_world_keyframe(pose.reference_keyframe);
+      final_poses.push_back(T_world_reference ? std::optional<SE3>(*T_world_reference * pose.T_reference_cam)
+                                              : std::nullopt);
+    }
+    return final_poses;
+  });
 }
 
 }  // namespace sitepose::slam

@@ -142,6 +142,7 @@ bool Tracker::start_provisional_map_if_due(const PreparedFrame& frame,
   pose.state = TrackingState::kRecovering;
   pose.state_reason = "provisional map started at the dead-reckoned pose: not joined to the site map";
   pose.T_world_cam = T_cam_world.inverse();
+  pose.reference_keyframe = provisional_since_;  // the frame is that keyframe
   pose.covariance = Matrix6d::Identity() * kGuessedPlaceVariance;
   pose.map_travel_m = map_travel_m_;
   return true;

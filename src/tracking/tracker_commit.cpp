@@ -113,6 +113,7 @@ void Tracker::commit_initialisation(const PreparedFrame& frame, const std::vecto
     pose.T_world_cam = SE3();
     pose.covariance = Matrix6d::Zero();  // the origin is exact by definition
     pose.map_travel_m = 0.0;
+    pose.reference_keyframe = reference_keyframe_;  // made at the origin: T_reference_cam = I
     last_matches_.clear();
     map_.read([&](const map::MapData& map) {
       const map::KeyFrame* kf = map.keyframe(reference_keyframe_);
@@ -192,10 +193,16 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
     }
   }
   count_close_repeatability(frame, result);
-  record_in_map(result);
+  record_in_map(result, pose);
   // A pose that has not held yet adds nothing to the map: if it is wrong,
   // its points would be wrong where the map is right.
-  if (!hold_.holding() && need_keyframe(frame, result, usable)) create_keyframe(frame, result, usable);
+  if (!hold_.holding() && need_keyframe(frame, result, usable)) {
+    create_keyframe(frame, result, usable);
+    // The frame is that keyframe now: the map's later corrections of the
+    // keyframe are the frame's.
+    pose.reference_keyframe = reference_keyframe_;
+    pose.T_reference_cam = SE3();
+  }
 
   pose.state = state_;
   pose.state_reason = state_reason(result, verdict);
@@ -212,9 +219,10 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
 
 // The map points' visible / found counts (culling of points), how far the
 // map was built out to this frame (map_travel_m_, from its close matches,
-// which count_close_repeatability() left in last_close_points_), and, with
-// site-map culling, the keyframes this frame uses (it must leave them).
-void Tracker::record_in_map(const PassResult& result) {
+// which count_close_repeatability() left in last_close_points_), with
+// site-map culling the keyframes this frame uses (it must leave them), and
+// in `pose` where the frame stands relative to its reference keyframe.
+void Tracker::record_in_map(const PassResult& result, PoseEstimate& pose) {
   const bool site_culling = config_.mapping.site_culling;
   const Eigen::Vector3d centre_world = result.T_cam_world.inverse().translation();
   map_.write([&](map::MapData& map) {
@@ -231,6 +239,10 @@ void Tracker::record_in_map(const PassResult& result) {
       map_travel_m_ = *travel_m;
     }
     if (site_culling) map.set_tracker_keyframes(tracker_keyframes(reference_keyframe_, sharing));
+    if (const map::KeyFrame* reference = map.keyframe(reference_keyframe_); reference != nullptr) {
+      pose.reference_keyframe = reference_keyframe_;
+      pose.T_reference_cam = reference->T_cam_world() * result.T_cam_world.inverse();
+    }
   });
 }
 

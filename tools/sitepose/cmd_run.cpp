@@ -36,6 +36,7 @@ struct RunArgs {
   std::string mode;
   std::string detector;
   std::string out;
+  std::string final_out;
   std::string format = "tum";
   std::string tracking_out;
   std::string states_out;
@@ -182,6 +183,33 @@ io::Json loop_stats_json(const loop::LoopClosingStats& s) {
                   {"last_global_ba_points", s.last_global_ba_points}};
 }
 
+// --final-out: the poses of the run re-expressed in the map as the run left
+// it (SlamSystem::poses_in_final_map). Returns how many poses it holds and
+// how many tracked poses could not be placed, or the write's error.
+struct FinalTrajectoryCounts {
+  int poses = 0;
+  int left_out = 0;
+};
+Expected<FinalTrajectoryCounts> write_final_trajectory(const std::string& path, io::TrajectoryFormat format,
+                                                       const slam::SlamSystem& system,
+                                                       const slam::RunRecorder& recorder) {
+  const std::vector<PoseEstimate>& poses = recorder.poses();
+  const std::vector<std::optional<SE3>> final_poses = system.poses_in_final_map(poses);
+  io::Trajectory trajectory;
+  FinalTrajectoryCounts counts;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (poses[i].state == TrackingState::kLost) continue;
+    if (!final_poses[i]) {
+      ++counts.left_out;
+      continue;
+    }
+    trajectory.push_back({static_cast<double>(poses[i].t_ns) * 1e-9, *final_poses[i]});
+  }
+  counts.poses = static_cast<int>(trajectory.size());
+  SITEPOSE_TRY_STATUS(io::write_trajectory(path, trajectory, format));
+  return counts;
+}
+
 // Writes the trajectory and the optional stats and states of the frames
 // tracked; `partial`: the run was interrupted before its last frame.
 int write_outputs(const RunArgs& args, const config::SiteposeConfig& config, bool with_detector,
@@ -190,6 +218,18 @@ int write_outputs(const RunArgs& args, const config::SiteposeConfig& config, boo
   const io::TrajectoryFormat format = *io::parse_trajectory_format(args.format);  // checked at parse
   if (auto st = recorder.write_trajectory(args.out, format); !st)
     return fail(kCommand, st.error().message, 1);
+  std::optional<FinalTrajectoryCounts> final_counts;
+  if (!args.final_out.empty()) {
+    auto written = write_final_trajectory(args.final_out, format, system, recorder);
+    if (!written) return fail(kCommand, written.error().message, 1);
+    final_counts = *written;
+    if (!args.quiet) {
+      std::fprintf(stderr,
+                   "sitepose run: final trajectory %s: %d poses in the final map, %d left out (tracked in "
+                   "a provisional map that was dropped)\n",
+                   args.final_out.c_str(), final_counts->poses, final_counts->left_out);
+    }
+  }
   if (!args.tracking_out.empty()) {
     if (auto st = recorder.write_tracking_states_csv(args.tracking_out); !st) {
       return fail(kCommand, st.error().message, 1);
@@ -215,6 +255,9 @@ int write_outputs(const RunArgs& args, const config::SiteposeConfig& config, boo
                    {"keyframes_culled_by_site", mapping.keyframes_culled_by_site},
                    {"partial", partial}};
     if (const auto loops = system.loop_stats(); loops) extra["loop_closing"] = loop_stats_json(*loops);
+    if (final_counts) {
+      extra["final_trajectory"] = {{"poses", final_counts->poses}, {"left_out", final_counts->left_out}};
+    }
     if (auto st = recorder.write_stats_json(args.stats_out, extra); !st)
       return fail(kCommand, st.error().message, 1);
   }
@@ -270,9 +313,14 @@ int resolve_config(const RunArgs& args, config::SiteposeConfig& config) {
 // Outputs are written after the whole run: a path that cannot be written
 // is bad usage now, not a failure then. Returns 0 or the exit status.
 int check_outputs(const RunArgs& args) {
-  const std::string kitti_times = args.format == "kitti" ? io::kitti_times_path(args.out) : std::string();
+  const bool kitti = args.format == "kitti";
+  const std::string kitti_times = kitti ? io::kitti_times_path(args.out) : std::string();
+  const std::string final_kitti_times =
+      kitti && !args.final_out.empty() ? io::kitti_times_path(args.final_out) : std::string();
   for (const auto& [option, path] :
        {std::pair{"--out", &args.out}, std::pair{"--out (its .times.txt)", &kitti_times},
+        std::pair{"--final-out", &args.final_out},
+        std::pair{"--final-out (its .times.txt)", &final_kitti_times},
         std::pair{"--states-out", &args.states_out}, std::pair{"--stats-out", &args.stats_out},
         std::pair{"--tracking-out", &args.tracking_out}, std::pair{"--map-out", &args.map_out}}) {
     if (path->empty()) continue;
@@ -409,6 +457,7 @@ int run(const RunArgs& args) {
   slam::SlamOptions slam_options;
   slam_options.mapper_thread = args.mapper_thread;
   slam_options.trace = !args.debug_out.empty();
+  slam_options.keep_removed_keyframe_links = !args.final_out.empty();
   if (const double hz = io::mean_frame_rate_hz(**sequence); hz > 0.0) slam_options.fps = hz;
   if (!args.vocabulary.empty()) {
     auto vocabulary = placerec::Vocabulary::load(args.vocabulary);
@@ -480,6 +529,11 @@ void add_options(CLI::App& sub, RunArgs& args) {
                  "opencv-dnn, or a plugin .so path (default: the config's detector.name, labels)");
   sub.add_option("--out", args.out, "Trajectory output (T_world_cam, left camera; frames not LOST)")
       ->required();
+  sub.add_option("--final-out", args.final_out,
+                 "The frames of --out re-expressed in the map as the run left it: each pose moves with "
+                 "its keyframe by the later corrections (loop closing, global BA, a provisional map "
+                 "joined), as ORB-SLAM2 saves a trajectory; for evaluation, not what was published live; "
+                 "frames tracked in a provisional map that was dropped are left out; same --format");
   sub.add_option("--format", args.format,
                  "Trajectory format: tum (t x y z qx qy qz qw), kitti (3x4 rows; times in OUT.times.txt) or "
                  "euroc (CSV, t in ns)")

@@ -39,6 +39,13 @@ struct PoseEstimate {
   double map_travel_m = 0.0;
   TrackingState state = TrackingState::kLost;
   std::string state_reason;  // why RECOVERING / LOST, empty when OK
+  // The keyframe the pose was tracked from (its id in the map, -1: none, as
+  // when LOST) and the pose relative to it. A map corrected later (loop
+  // closing, global BA, a provisional map joined) moves the keyframe, and
+  // the frame with it: ORB-SLAM2's relative frame poses, the trajectory
+  // re-expressed in the final map (slam::SlamSystem::poses_in_final_map).
+  std::int64_t reference_keyframe = -1;
+  SE3 T_reference_cam;
   PoseCounters counters;
 };
 

@@ -190,6 +190,19 @@ class MapData {
   // removed.
   std::vector<KeyFrameId> drop_keyframes_from(KeyFrameId first);
 
+  // Where removed keyframes hung: kept on, set_keyframe_bad records each
+  // removed keyframe's parent and its pose relative to that parent, so a
+  // frame tracked from it can still be re-expressed in the final map
+  // (ORB-SLAM2 keeps a culled keyframe's parent and Tcp). Off by default: a
+  // map that runs for days would collect one entry per keyframe ever
+  // culled. Keyframes dropped with a provisional map leave no entry. Not
+  // part of a saved map.
+  void keep_removed_keyframe_links(bool keep) { keep_removed_links_ = keep; }
+  // T_world_cam of keyframe `id`: its own when it is in the map, else its
+  // parent's composed with the pose relative to it, up to a keyframe in
+  // the map. nullopt: never known, or removed without a recorded link.
+  std::optional<SE3> T_world_keyframe(KeyFrameId id) const;
+
  private:
   ScalePyramid pyramid_;
   std::unordered_map<KeyFrameId, KeyFrame> keyframes_;
@@ -198,6 +211,12 @@ class MapData {
   PointId next_point_id_ = 0;
   KeyFrameId first_keyframe_ = kNoKeyFrame;
   KeyFrameId last_keyframe_ = kNoKeyFrame;
+  struct RemovedKeyFrameLink {
+    KeyFrameId parent = kNoKeyFrame;
+    SE3 T_parent_cam;
+  };
+  bool keep_removed_links_ = false;
+  std::unordered_map<KeyFrameId, RemovedKeyFrameLink> removed_links_;
   std::vector<KeyFrameId> tracker_keyframes_;
   KeyFrameId provisional_since_ = kNoKeyFrame;
   KeyFrameId joined_unconfirmed_since_ = kNoKeyFrame;

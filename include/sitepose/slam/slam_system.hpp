@@ -73,6 +73,12 @@ struct SlamOptions {
   // Loop closing runs when config.mapping.loop_closing is set and there is
   // a vocabulary (its keyframe database); on its own thread with
   // mapper_thread, else inline after the mapper (reproducible runs).
+
+  // Keep a link for every keyframe the mapper removes
+  // (map::MapData::keep_removed_keyframe_links), so that every frame can be
+  // re-expressed in the final map (poses_in_final_map). For runs over a
+  // recording (`sitepose run --final-out`); the daemon leaves it off.
+  bool keep_removed_keyframe_links = false;
 };
 
 class SlamSystem {
@@ -131,6 +137,15 @@ class SlamSystem {
   std::optional<loop::LoopClosingStats> loop_stats() const;
   std::size_t keyframe_count() const;
   std::size_t point_count() const;
+
+  // Each pose re-expressed in the map as it is now: its reference
+  // keyframe's pose now (map::MapData::T_world_keyframe) composed with the
+  // pose relative to it when tracked, so corrections made after the frame
+  // (loop closing, global BA, a provisional map joined) move it too; call
+  // after finish(). nullopt where the pose is LOST or its keyframe can no
+  // longer be placed (dropped with a provisional map, or removed without
+  // SlamOptions::keep_removed_keyframe_links).
+  std::vector<std::optional<SE3>> poses_in_final_map(const std::vector<PoseEstimate>& poses) const;
 
  private:
   SlamSystem(const StereoCamera& camera, const config::SiteposeConfig& config, const SlamOptions& options);

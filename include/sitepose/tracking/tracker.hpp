@@ -344,8 +344,9 @@ class Tracker {
   // Updates the close-point repeatability counters with a committed frame.
   void count_close_repeatability(const PreparedFrame& frame, const PassResult& result);
   // The map points' visible / found counts and the keyframes the frame
-  // uses; updates map_travel_m_.
-  void record_in_map(const PassResult& result);
+  // uses; updates map_travel_m_; sets pose's reference keyframe and the
+  // pose relative to it.
+  void record_in_map(const PassResult& result, PoseEstimate& pose);
 
   StereoCamera camera_;
   config::SiteposeConfig config_;

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -123,7 +124,7 @@ TEST_F(RunCli, BenchFpsRendersTheScenarioAtThatRateButNotASequence) {
 // the whole run.
 TEST_F(RunCli, UnwritableOutputsExitTwoBeforeTracking) {
   const std::string no_dir = (dir_ / "no" / "such" / "dir" / "x.txt").string();
-  for (const std::string option : {"--out", "--states-out", "--stats-out"}) {
+  for (const std::string option : {"--out", "--states-out", "--stats-out", "--final-out"}) {
     const RunResult r = sitepose("run --sequence " + seq().string() + " --quiet --out " +
                                  (option == "--out" ? no_dir : (dir_ / "traj.txt").string()) +
                                  (option == "--out" ? "" : " " + option + " " + no_dir));
@@ -230,9 +231,10 @@ TEST_F(RunCli, StatsCountTheProvisionalMaps) {
   const fs::path config = dir_ / "c.yaml";
   std::ofstream(config) << "tracking:\n  new_map_after_lost_s: 0.5\n";
   const fs::path stats = dir_ / "stats.json";
-  const RunResult r =
-      sitepose("run --sequence " + seq.string() + " --out " + (dir_ / "t.txt").string() +
-               " --quiet --mode none --config " + config.string() + " --stats-out " + stats.string());
+  const fs::path final_trajectory = dir_ / "final.txt";
+  const RunResult r = sitepose("run --sequence " + seq.string() + " --out " + (dir_ / "t.txt").string() +
+                               " --quiet --mode none --config " + config.string() + " --stats-out " +
+                               stats.string() + " --final-out " + final_trajectory.string());
   ASSERT_EQ(r.exit_status, 0) << r.err;
   const nlohmann::json json = nlohmann::json::parse(testing::read_text(stats.string()));
   ASSERT_TRUE(json.contains("provisional_maps")) << json.dump();
@@ -247,6 +249,23 @@ TEST_F(RunCli, StatsCountTheProvisionalMaps) {
   EXPECT_EQ(joined, 0);
   EXPECT_EQ(dropped, 0);
   EXPECT_EQ(unconfirmed, 0);
+
+  // --final-out: the frames of --out, each moved with its keyframe. The
+  // provisional map was neither joined nor dropped, so every frame is placed.
+  ASSERT_TRUE(json.contains("final_trajectory")) << json.dump();
+  const auto times_of = [](const fs::path& path) {
+    std::vector<std::string> times;
+    std::istringstream lines(testing::read_text(path.string()));
+    for (std::string line; std::getline(lines, line);) {
+      if (!line.empty() && line[0] != '#') times.push_back(line.substr(0, line.find(' ')));
+    }
+    return times;
+  };
+  const std::vector<std::string> tracked = times_of(dir_ / "t.txt");
+  EXPECT_GT(tracked.size(), 50u);  // 79: lostmap is LOST for half its frames
+  EXPECT_EQ(times_of(final_trajectory), tracked);
+  EXPECT_EQ(json["final_trajectory"].value("poses", -1), static_cast<int>(tracked.size()));
+  EXPECT_EQ(json["final_trajectory"].value("left_out", -1), 0);
 }
 
 }  // namespace

@@ -184,6 +184,75 @@ TEST(MapData, DroppingAJoinedMapNotYetConfirmedClearsItsMark) {
   EXPECT_EQ(m.map.keyframe_count(), 3u);
 }
 
+SE3 turned_pose(double angle_rad, const Eigen::Vector3d& t_m) {
+  return SE3(Eigen::Quaterniond(Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitY())), t_m);
+}
+
+void expect_same_pose(const std::optional<SE3>& got, const SE3& expected) {
+  ASSERT_TRUE(got.has_value());
+  EXPECT_LT((got->matrix() - expected.matrix()).cwiseAbs().maxCoeff(), 1e-12)
+      << got->matrix() << "\nexpected\n"
+      << expected.matrix();
+}
+
+// ChainMap with a keyframe 3 hanging from keyframe 1 (it shares only the
+// points keyframe 1 made); poses turned so that compositions in the wrong
+// order show.
+struct ChainWithBranch : ChainMap {
+  KeyFrameId branch = kNoKeyFrame;
+  ChainWithBranch() : ChainMap(20) {
+    map.keep_removed_keyframe_links(true);
+    KeyFrame k3 = make_keyframe(40, 3.0);
+    for (int i = 0; i < 20; ++i)
+      k3.point_of_keypoint.push_back(map.keyframe(kf[1])->point_of_keypoint[20 + i]);
+    branch = map.add_keyframe(std::move(k3));
+    map.keyframe(kf[1])->T_world_cam = turned_pose(0.3, {1.0, 0.2, -0.1});
+    map.keyframe(branch)->T_world_cam = turned_pose(-0.2, {3.0, 0.1, 0.4});
+  }
+};
+
+TEST(MapData, ARemovedKeyFrameIsPlacedThroughTheParentsItHungFrom) {
+  ChainWithBranch m;
+  ASSERT_EQ(m.map.keyframe(m.branch)->parent, m.kf[1]);
+  ASSERT_EQ(m.map.keyframe(m.kf[1])->parent, m.kf[0]);
+  const SE3 T_world_branch = m.map.keyframe(m.branch)->T_world_cam;
+  const SE3 T_world_1 = m.map.keyframe(m.kf[1])->T_world_cam;
+  m.map.set_keyframe_bad(m.branch);
+  m.map.set_keyframe_bad(m.kf[1]);
+  ASSERT_EQ(m.map.keyframe(m.branch), nullptr);
+  ASSERT_EQ(m.map.keyframe(m.kf[1]), nullptr);
+  expect_same_pose(m.map.T_world_keyframe(m.branch), T_world_branch);
+  expect_same_pose(m.map.T_world_keyframe(m.kf[1]), T_world_1);
+  expect_same_pose(m.map.T_world_keyframe(m.kf[2]), m.map.keyframe(m.kf[2])->T_world_cam);
+  // A correction of the map after the removals (a loop closed) moves the
+  // removed keyframes with the keyframe they hang from.
+  const SE3 correction = turned_pose(0.1, {0.5, -0.3, 0.2});
+  m.map.keyframe(m.kf[0])->T_world_cam = correction * m.map.keyframe(m.kf[0])->T_world_cam;
+  expect_same_pose(m.map.T_world_keyframe(m.branch), correction * T_world_branch);
+  expect_same_pose(m.map.T_world_keyframe(m.kf[1]), correction * T_world_1);
+  EXPECT_FALSE(m.map.T_world_keyframe(m.branch + 100).has_value());
+}
+
+TEST(MapData, RemovedKeyFramesLeaveNoLinkUnlessAsked) {
+  ChainMap m(20);
+  m.map.set_keyframe_bad(m.kf[1]);
+  EXPECT_FALSE(m.map.T_world_keyframe(m.kf[1]).has_value());
+  expect_same_pose(m.map.T_world_keyframe(m.kf[0]), m.map.keyframe(m.kf[0])->T_world_cam);
+}
+
+TEST(MapData, KeyFramesDroppedWithAProvisionalMapCannotBePlaced) {
+  ChainWithProvisionalMap m;
+  m.map.keep_removed_keyframe_links(true);
+  const KeyFrameId second = m.first_provisional + 1;
+  m.map.set_keyframe_bad(second);  // culled while the provisional map was tracked
+  ASSERT_TRUE(m.map.T_world_keyframe(second).has_value());
+  m.map.set_keyframe_bad(m.kf[1]);
+  m.map.drop_keyframes_from(m.first_provisional);
+  EXPECT_FALSE(m.map.T_world_keyframe(second).has_value());
+  EXPECT_FALSE(m.map.T_world_keyframe(m.first_provisional).has_value());
+  EXPECT_TRUE(m.map.T_world_keyframe(m.kf[1]).has_value()) << "a site-map keyframe's link was dropped";
+}
+
 TEST(MapData, ReplacePointMovesObservations) {
   ChainMap m(20);
   const PointId a = m.points[0];
