@@ -194,15 +194,7 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
   }
   count_close_repeatability(frame, result);
   record_in_map(result, pose);
-  // A pose that has not held yet adds nothing to the map: if it is wrong,
-  // its points would be wrong where the map is right.
-  if (!hold_.holding() && need_keyframe(frame, result, usable)) {
-    create_keyframe(frame, result, usable);
-    // The frame is that keyframe now: the map's later corrections of the
-    // keyframe are the frame's.
-    pose.reference_keyframe = reference_keyframe_;
-    pose.T_reference_cam = SE3();
-  }
+  create_keyframe_if_needed(frame, result, usable, pose);
 
   pose.state = state_;
   pose.state_reason = state_reason(result, verdict);
@@ -215,6 +207,18 @@ PoseEstimate Tracker::commit(const PreparedFrame& frame, const PassResult& track
   pose.counters.features_used = result.n_inliers;
   pose.counters.features_used_pass1 = result.n_inliers;
   return pose;
+}
+
+void Tracker::create_keyframe_if_needed(const PreparedFrame& frame, const PassResult& result,
+                                        const std::vector<std::uint8_t>& usable, PoseEstimate& pose) {
+  // A pose that has not held yet adds nothing to the map: if it is wrong,
+  // its points would be wrong where the map is right.
+  if (hold_.holding() || !need_keyframe(frame, result, usable)) return;
+  create_keyframe(frame, result, usable);
+  // The frame is that keyframe now: the map's later corrections of the
+  // keyframe are the frame's.
+  pose.reference_keyframe = reference_keyframe_;
+  pose.T_reference_cam = SE3();
 }
 
 // The map points' visible / found counts (culling of points), how far the

@@ -104,6 +104,39 @@ Expected<std::unique_ptr<views::DebugRecordWriter>> open_debug_record(const Args
   return views::DebugRecordWriter::open(args.debug_out, info, config::to_yaml(config));
 }
 
+// Tracks the first `frames` frames, timing the detector as a stage of the
+// frame; interrupted, `frames` becomes the number done. `trace_ms`: the
+// time spent filling the debug record's traces. Returns 0 or the exit status.
+int track_frames(const io::Sequence& sequence, detect::Detector& detector, slam::SlamSystem& system,
+                 views::DebugRecordWriter* debug, int& frames, slam::RunRecorder& recorder,
+                 double& trace_ms) {
+  for (int i = 0; i < frames; ++i) {
+    if (interrupted()) {
+      frames = i;  // the figures are of the frames done
+      break;
+    }
+    auto frame = sequence.read_frame(i);
+    if (!frame) return fail(kCommand, frame.error().message, 2);
+    const auto t0 = std::chrono::steady_clock::now();
+    auto objects = slam::detect_objects(detector, *frame);
+    if (!objects) return fail(kCommand, objects.error().message, 1);
+    const double detect_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    auto report = system.process(*frame, *objects);
+    if (!report) return fail(kCommand, report.error().message, 1);
+    report->timings.detect_ms = detect_ms;
+    report->timings.total_ms += detect_ms;
+    recorder.add(*report);
+    if (debug != nullptr) {
+      trace_ms += report->trace.fill_ms;
+      if (auto st = debug->write(*report); !st) return fail(kCommand, st.error().message, 1);
+    }
+    if ((i + 1) % 50 == 0 || i + 1 == frames)
+      std::fprintf(stderr, "bench dynamic: %d/%d frames\n", i + 1, frames);
+  }
+  return 0;
+}
+
 int run(Args args) {
   install_interrupt_handlers();
   auto loaded = load_command_config(args.config_path, args.mode);
@@ -149,7 +182,6 @@ int run(Args args) {
     if (!opened) return fail(kCommand, "--debug-out: " + opened.error().message, 2);
     debug = std::move(*opened);
   }
-  double trace_ms = 0.0;
   const std::size_t n = (*sequence)->size();
   auto system = slam::SlamSystem::create((*sequence)->camera(), config, options);
   if (!system) return fail(kCommand, system.error().message, 2);
@@ -157,29 +189,11 @@ int run(Args args) {
                    ? static_cast<int>(n)
                    : std::min<int>(args.source.frames, static_cast<int>(n));
   slam::RunRecorder recorder;
-  for (int i = 0; i < frames; ++i) {
-    if (interrupted()) {
-      frames = i;  // the figures below are of the frames done
-      break;
-    }
-    auto frame = (*sequence)->read_frame(i);
-    if (!frame) return fail(kCommand, frame.error().message, 2);
-    const auto t0 = std::chrono::steady_clock::now();
-    auto objects = slam::detect_objects(**detector, *frame);
-    if (!objects) return fail(kCommand, objects.error().message, 1);
-    const double detect_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    auto report = (*system)->process(*frame, *objects);
-    if (!report) return fail(kCommand, report.error().message, 1);
-    report->timings.detect_ms = detect_ms;
-    report->timings.total_ms += detect_ms;
-    recorder.add(*report);
-    if (debug) {
-      trace_ms += report->trace.fill_ms;
-      if (auto st = debug->write(*report); !st) return fail(kCommand, st.error().message, 1);
-    }
-    if ((i + 1) % 50 == 0 || i + 1 == frames)
-      std::fprintf(stderr, "bench dynamic: %d/%d frames\n", i + 1, frames);
+  double trace_ms = 0.0;
+  if (const int status =
+          track_frames(**sequence, **detector, **system, debug.get(), frames, recorder, trace_ms);
+      status != 0) {
+    return status;
   }
   (*system)->finish();
   print_stage_shares(recorder, **system, dir, frames, config, args.detector);

@@ -341,6 +341,10 @@ class Tracker {
   // (marked so under the same lock).
   void create_keyframe(const PreparedFrame& frame, const PassResult& result,
                        const std::vector<std::uint8_t>& usable, bool starts_provisional_map = false);
+  // create_keyframe when the map needs one and the pose has held; the new
+  // keyframe becomes pose's reference (T_reference_cam = I).
+  void create_keyframe_if_needed(const PreparedFrame& frame, const PassResult& result,
+                                 const std::vector<std::uint8_t>& usable, PoseEstimate& pose);
   // Updates the close-point repeatability counters with a committed frame.
   void count_close_repeatability(const PreparedFrame& frame, const PassResult& result);
   // The map points' visible / found counts and the keyframes the frame
