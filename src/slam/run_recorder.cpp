@@ -164,11 +164,13 @@ io::Json RunRecorder::stats_json() const {
                     {"max", round4(s.max_ms)}};
   }
   io::Json pass1 = io::Json::array(), pass2 = io::Json::array(), states = io::Json::array(),
-           mar = io::Json::array();
+           mar = io::Json::array(), matches = io::Json::array(), old_matches = io::Json::array();
   for (const PoseEstimate& p : poses_) {
     pass1.push_back(p.counters.features_used_pass1);
     pass2.push_back(p.counters.features_used);
     states.push_back(to_string(p.state));
+    matches.push_back(p.counters.matches);
+    old_matches.push_back(p.counters.matches_from_old_keyframes);
   }
   for (double r : masked_area_ratio_) mar.push_back(round4(r));
   return io::Json{{"frames", frames()},
@@ -177,6 +179,8 @@ io::Json RunRecorder::stats_json() const {
                   {"stages_ms", stages},
                   {"features_pass1", pass1},
                   {"features_pass2", pass2},
+                  {"matches", matches},
+                  {"matches_from_old_keyframes", old_matches},
                   {"states", states},
                   {"mar", mar},
                   {"pixel_mask_calls", pixel_mask_calls_},

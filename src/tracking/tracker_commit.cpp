@@ -225,7 +225,8 @@ void Tracker::create_keyframe_if_needed(const PreparedFrame& frame, const PassRe
 // map was built out to this frame (map_travel_m_, from its close matches,
 // which count_close_repeatability() left in last_close_points_), with
 // site-map culling the keyframes this frame uses (it must leave them), and
-// in `pose` where the frame stands relative to its reference keyframe.
+// in `pose` where the frame stands relative to its reference keyframe and
+// how many of its matches old keyframes observe.
 void Tracker::record_in_map(const PassResult& result, PoseEstimate& pose) {
   const bool site_culling = config_.mapping.site_culling;
   const Eigen::Vector3d centre_world = result.T_cam_world.inverse().translation();
@@ -233,9 +234,21 @@ void Tracker::record_in_map(const PassResult& result, PoseEstimate& pose) {
     for (map::PointId pid : result.visible_points) {
       if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_visible;
     }
+    const std::int64_t old_before_ns = pose.t_ns - static_cast<std::int64_t>(kOldKeyFrameAge_s * 1e9);
     for (map::PointId pid : result.point_of_keypoint) {
-      if (map::MapPoint* p = map.point(pid); p != nullptr) ++p->n_found;
+      map::MapPoint* p = map.point(pid);
+      if (p == nullptr) continue;
+      ++p->n_found;
+      ++pose.counters.matches;
+      // Keyframe ids grow with time, so the first observation is the oldest.
+      if (p->observations.empty()) continue;
+      if (const map::KeyFrame* oldest = map.keyframe(p->observations.begin()->first);
+          oldest != nullptr && oldest->t_ns <= old_before_ns) {
+        ++pose.counters.matches_from_old_keyframes;
+      }
     }
+    counters_.matches += pose.counters.matches;
+    counters_.matches_from_old_keyframes += pose.counters.matches_from_old_keyframes;
     const std::map<map::KeyFrameId, int> sharing = map.keyframes_sharing(result.point_of_keypoint);
     const std::map<map::KeyFrameId, int> sharing_close = map.keyframes_sharing(last_close_points_);
     if (const std::optional<double> travel_m =

@@ -249,6 +249,10 @@ int write_outputs(const RunArgs& args, const config::SiteposeConfig& config, boo
                      {"joined", counters.provisional_maps_joined},
                      {"dropped", counters.provisional_maps_dropped},
                      {"joins_dropped_unconfirmed", counters.joins_dropped_unconfirmed}}},
+                   {"old_keyframe_matches",
+                    {{"age_s", tracking::kOldKeyFrameAge_s},
+                     {"matches", counters.matches},
+                     {"from_old_keyframes", counters.matches_from_old_keyframes}}},
                    {"keyframes_in_map", system.keyframe_count()},
                    {"points_in_map", system.point_count()},
                    {"keyframes_culled", mapping.keyframes_culled},
@@ -417,6 +421,13 @@ int finish_run(const RunArgs& args, const config::SiteposeConfig& config, bool w
       tracked.recorder.frames(), tracked.recorder.frames_ok(),
       tracked.recorder.frames() ? 100.0 * tracked.recorder.frames_ok() / tracked.recorder.frames() : 0.0,
       tracked.recorder.frames_per_second(), system.keyframe_count(), system.point_count());
+  const auto& counters = system.tracker_counters();
+  std::printf(
+      "matches to points that keyframes made %.0f s or more before the frame observe: %ld of %ld (%.1f %%)\n",
+      tracking::kOldKeyFrameAge_s, counters.matches_from_old_keyframes, counters.matches,
+      counters.matches > 0 ? 100.0 * static_cast<double>(counters.matches_from_old_keyframes) /
+                                 static_cast<double>(counters.matches)
+                           : 0.0);
   if (const auto loops = system.loop_stats(); loops) {
     std::printf(
         "loop closing: keyframes checked %lld, consistent candidates %lld, refused %lld, loops closed %lld; "

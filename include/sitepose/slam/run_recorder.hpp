@@ -2,7 +2,8 @@
 // Collects the per-frame reports of a run and writes what FORMATS.md "Per-
 // frame outputs of a run" asks for: the trajectory (TUM) and stats.json
 // (frames, frames OK, per-stage p50/p99, mar per frame, pixel-mask calls,
-// features per frame for pass 1 / pass 2, peak RSS).
+// features per frame for pass 1 / pass 2, matches and those old keyframes
+// observe per frame, peak RSS).
 
 #include <map>
 #include <string>

@@ -101,7 +101,18 @@ struct TrackerCounters {
   // reckoning had put a provisional map.
   double largest_join_move_m = 0.0;
   double largest_join_rotation_deg = 0.0;
+  // Over the frames committed with a pose: matched map points, and those of
+  // them a keyframe made at least kOldKeyFrameAge_s before the frame
+  // observes (PoseCounters::matches_from_old_keyframes).
+  long matches = 0;
+  long matches_from_old_keyframes = 0;
 };
+
+// What "an old keyframe" is for TrackerCounters::matches_from_old_keyframes:
+// made this long before the frame (keyframe and frame timestamps), the age
+// at which issue 19 asks whether the tracker re-uses the map of an earlier
+// pass rather than re-mapping it.
+inline constexpr double kOldKeyFrameAge_s = 60.0;
 
 class Tracker {
  public:

@@ -266,6 +266,16 @@ TEST_F(RunCli, StatsCountTheProvisionalMaps) {
   EXPECT_EQ(times_of(final_trajectory), tracked);
   EXPECT_EQ(json["final_trajectory"].value("poses", -1), static_cast<int>(tracked.size()));
   EXPECT_EQ(json["final_trajectory"].value("left_out", -1), 0);
+
+  // Matches per frame, and their sums: nothing here is 60 s old (27 s run).
+  ASSERT_TRUE(json.contains("matches") && json["matches"].is_array()) << json.dump();
+  EXPECT_EQ(json["matches"].size(), 160u);
+  ASSERT_TRUE(json.contains("old_keyframe_matches")) << json.dump();
+  long sum = 0;
+  for (const auto& m : json["matches"]) sum += m.get<long>();
+  EXPECT_GT(sum, 0);
+  EXPECT_EQ(json["old_keyframe_matches"].value("matches", -1L), sum);
+  EXPECT_EQ(json["old_keyframe_matches"].value("from_old_keyframes", -1L), 0);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <set>
 
@@ -42,6 +43,57 @@ config::SiteposeConfig small_config() {
   config::SiteposeConfig config;
   config.orb.n_features = 1000;
   return config;
+}
+
+// Issue 19 asks whether the tracker re-uses the map of an earlier pass:
+// each committed pose counts its matches, and those whose point a keyframe
+// made kOldKeyFrameAge_s or more before the frame observes. Here the older
+// half of the keyframes is made to look 100 s older than it is.
+TEST(Tracker, MatchesToPointsOfOldKeyFramesAreCounted) {
+  const SmallSite site = SmallSite::make("static", 30);
+  map::SharedMap map;
+  Tracker tracker(site.simulator.camera(), small_config(), map);
+  PoseEstimate pose;
+  for (int i = 0; i < 29; ++i) {
+    auto tracked = tracker.track(site.frame(i));
+    ASSERT_TRUE(tracked.has_value());
+    pose = *tracked;
+  }
+  ASSERT_EQ(pose.state, TrackingState::kOk);
+  EXPECT_GT(pose.counters.matches, 50);
+  EXPECT_EQ(pose.counters.matches_from_old_keyframes, 0) << "every keyframe is under 5 s old";
+
+  std::set<map::KeyFrameId> old;
+  map.write([&](map::MapData& m) {
+    const map::KeyFrameId middle = (m.first_keyframe() + m.last_keyframe()) / 2;
+    for (const auto& entry : m.keyframes()) {
+      if (entry.first <= middle) old.insert(entry.first);
+    }
+    for (const map::KeyFrameId id : old) m.keyframe(id)->t_ns -= 100'000'000'000;
+  });
+  auto last = tracker.prepare(site.frame(29));
+  ASSERT_TRUE(last.has_value());
+  const std::vector<std::uint8_t> all(last->size(), 1);
+  const PassResult result = tracker.estimate(*last, all);
+  pose = tracker.commit(*last, result, all);
+  ASSERT_EQ(pose.state, TrackingState::kOk);
+  int matched = 0;
+  int seen_by_old = 0;
+  map.read([&](const map::MapData& m) {
+    for (const map::PointId id : result.point_of_keypoint) {
+      const map::MapPoint* p = m.point(id);
+      if (p == nullptr) continue;
+      ++matched;
+      const bool is_old = std::any_of(p->observations.begin(), p->observations.end(),
+                                      [&](const auto& view) { return old.count(view.first) != 0; });
+      if (is_old) ++seen_by_old;
+    }
+  });
+  EXPECT_EQ(pose.counters.matches, matched);
+  EXPECT_EQ(pose.counters.matches_from_old_keyframes, seen_by_old);
+  EXPECT_GT(seen_by_old, 0);
+  EXPECT_LT(seen_by_old, matched) << "some matched points were made by the newer keyframes";
+  EXPECT_EQ(tracker.counters().matches_from_old_keyframes, seen_by_old);
 }
 
 TEST(Tracker, TracksASmallStaticSite) {
