@@ -21,11 +21,11 @@ struct PoseCounters {
   int features_used_pass1 = 0;  // inliers of pass 1 (background only)
   int features_used = 0;        // inliers of the final pose
   int static_objects_unmasked = 0;
-  // Of the final pose's matched map points, those a keyframe made at least
-  // tracking::kOldKeyFrameAge_s (60 s) before this frame observes: the tracker meeting the
-  // map of an earlier pass (issue 19). 0 when LOST.
+  int matches = 0;  // the final pose's matched map points; 0 when LOST
+  // Of those, the ones a keyframe made tracking::kOldKeyFrameAge_s (60 s)
+  // or more before this frame observes: the tracker meeting the map of an
+  // earlier pass (issue 19).
   int matches_from_old_keyframes = 0;
-  int matches = 0;                 // the final pose's matched map points
   double masked_area_ratio = 0.0;  // mar of Algorithm 1, [0, 1]
 };
 
