@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <limits>
 #include <string>
@@ -32,7 +33,9 @@ struct SimArgs {
 int list_scenarios() {
   auto entries = sim::list_scenarios();
   if (!entries) return fail("sim", entries.error().message, 2);
-  for (const auto& e : *entries) std::printf("%-10s %s\n", e.name.c_str(), e.description.c_str());
+  int name_width = 0;
+  for (const auto& e : *entries) name_width = std::max(name_width, static_cast<int>(e.name.size()));
+  for (const auto& e : *entries) std::printf("%-*s  %s\n", name_width, e.name.c_str(), e.description.c_str());
   return 0;
 }
 
@@ -93,10 +96,12 @@ const CommandRegistrar kSim{
        auto args = std::make_shared<SimArgs>();
        sub.add_option("--scenario", args->scenario,
                       "Scenario name (see --list) or path to a scenario YAML file");
-       sub.add_option("--out", args->out, "Output folder (sitepose sequence layout); must be empty unless --force");
+       sub.add_option("--out", args->out,
+                      "Output folder (sitepose sequence layout); must be empty unless --force");
        sub.add_option("--frames", args->frames, "Number of frames (default: the scenario's duration_s x fps)")
            ->check(CLI::Range(1, std::numeric_limits<int>::max()));
-       sub.add_option("--seed", args->seed, "Seed of textures, layout, exposure and noise (default: the scenario's)");
+       sub.add_option("--seed", args->seed,
+                      "Seed of textures, layout, exposure and noise (default: the scenario's)");
        sub.add_option("--width", args->width, "Image width in pixels (focal length scales, the view is kept)")
            ->check(CLI::Range(1, std::numeric_limits<int>::max()));
        sub.add_option("--height", args->height,
