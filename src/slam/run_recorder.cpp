@@ -127,13 +127,39 @@ Status RunRecorder::write_tum(const std::string& path) const {
   return write_trajectory(path, io::TrajectoryFormat::kTum);
 }
 
-Status RunRecorder::write_trajectory(const std::string& path, io::TrajectoryFormat format) const {
+io::Trajectory RunRecorder::trajectory(const std::vector<std::optional<SE3>>* final_poses,
+                                       int* left_out) const {
   io::Trajectory trajectory;
-  for (const PoseEstimate& p : poses_) {
+  for (std::size_t i = 0; i < poses_.size(); ++i) {
+    const PoseEstimate& p = poses_[i];
     if (p.state == TrackingState::kLost) continue;
-    trajectory.push_back({static_cast<double>(p.t_ns) * 1e-9, p.T_world_cam});
+    if (final_poses != nullptr && !(*final_poses)[i]) {
+      ++*left_out;
+      continue;
+    }
+    trajectory.push_back(
+        {static_cast<double>(p.t_ns) * 1e-9, final_poses != nullptr ? *(*final_poses)[i] : p.T_world_cam});
   }
-  return io::write_trajectory(path, trajectory, format);
+  return trajectory;
+}
+
+Status RunRecorder::write_trajectory(const std::string& path, io::TrajectoryFormat format) const {
+  return io::write_trajectory(path, trajectory(), format);
+}
+
+Expected<RunRecorder::FinalTrajectoryCounts> RunRecorder::write_final_trajectory(
+    const std::string& path, io::TrajectoryFormat format,
+    const std::vector<std::optional<SE3>>& final_poses) const {
+  if (final_poses.size() != poses_.size()) {
+    return make_error(ErrorCode::kInvalidArgument, "final trajectory: " + std::to_string(final_poses.size()) +
+                                                       " final poses for " + std::to_string(poses_.size()) +
+                                                       " frames");
+  }
+  FinalTrajectoryCounts counts;
+  const io::Trajectory final_trajectory = trajectory(&final_poses, &counts.left_out);
+  counts.poses = static_cast<int>(final_trajectory.size());
+  SITEPOSE_TRY_STATUS(io::write_trajectory(path, final_trajectory, format));
+  return counts;
 }
 
 Status RunRecorder::write_tracking_states_csv(const std::string& path) const {

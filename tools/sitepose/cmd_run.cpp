@@ -183,33 +183,6 @@ io::Json loop_stats_json(const loop::LoopClosingStats& s) {
                   {"last_global_ba_points", s.last_global_ba_points}};
 }
 
-// --final-out: the poses of the run re-expressed in the map as the run left
-// it (SlamSystem::poses_in_final_map). Returns how many poses it holds and
-// how many tracked poses could not be placed, or the write's error.
-struct FinalTrajectoryCounts {
-  int poses = 0;
-  int left_out = 0;
-};
-Expected<FinalTrajectoryCounts> write_final_trajectory(const std::string& path, io::TrajectoryFormat format,
-                                                       const slam::SlamSystem& system,
-                                                       const slam::RunRecorder& recorder) {
-  const std::vector<PoseEstimate>& poses = recorder.poses();
-  const std::vector<std::optional<SE3>> final_poses = system.poses_in_final_map(poses);
-  io::Trajectory trajectory;
-  FinalTrajectoryCounts counts;
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    if (poses[i].state == TrackingState::kLost) continue;
-    if (!final_poses[i]) {
-      ++counts.left_out;
-      continue;
-    }
-    trajectory.push_back({static_cast<double>(poses[i].t_ns) * 1e-9, *final_poses[i]});
-  }
-  counts.poses = static_cast<int>(trajectory.size());
-  SITEPOSE_TRY_STATUS(io::write_trajectory(path, trajectory, format));
-  return counts;
-}
-
 // Writes the trajectory and the optional stats and states of the frames
 // tracked; `partial`: the run was interrupted before its last frame.
 int write_outputs(const RunArgs& args, const config::SiteposeConfig& config, bool with_detector,
@@ -218,9 +191,10 @@ int write_outputs(const RunArgs& args, const config::SiteposeConfig& config, boo
   const io::TrajectoryFormat format = *io::parse_trajectory_format(args.format);  // checked at parse
   if (auto st = recorder.write_trajectory(args.out, format); !st)
     return fail(kCommand, st.error().message, 1);
-  std::optional<FinalTrajectoryCounts> final_counts;
+  std::optional<slam::RunRecorder::FinalTrajectoryCounts> final_counts;
   if (!args.final_out.empty()) {
-    auto written = write_final_trajectory(args.final_out, format, system, recorder);
+    auto written =
+        recorder.write_final_trajectory(args.final_out, format, system.poses_in_final_map(recorder.poses()));
     if (!written) return fail(kCommand, written.error().message, 1);
     final_counts = *written;
     if (!args.quiet) {

@@ -6,6 +6,7 @@
 // observe per frame, peak RSS).
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,17 @@ class RunRecorder {
   Status write_tum(const std::string& path) const;
   // The same poses in `format` (io::write_trajectory).
   Status write_trajectory(const std::string& path, io::TrajectoryFormat format) const;
+  // The frames write_trajectory writes, each at its pose in `final_poses`
+  // (SlamSystem::poses_in_final_map of poses(), one per frame); a frame
+  // without one is left out. Returns how many poses were written and how
+  // many frames were left out.
+  struct FinalTrajectoryCounts {
+    int poses = 0;
+    int left_out = 0;
+  };
+  Expected<FinalTrajectoryCounts> write_final_trajectory(
+      const std::string& path, io::TrajectoryFormat format,
+      const std::vector<std::optional<SE3>>& final_poses) const;
   // header frame,t_s,state; one row per frame tracked, LOST ones included,
   // so RECOVERING poses in the trajectory can be told from OK ones.
   Status write_tracking_states_csv(const std::string& path) const;
@@ -85,6 +97,12 @@ class RunRecorder {
   double stage_total_ms(const std::string& stage) const;
 
  private:
+  // The frames that are not LOST, at their tracked pose, or at
+  // (*final_poses)[i] when given (a frame without one is counted in
+  // *left_out and skipped).
+  io::Trajectory trajectory(const std::vector<std::optional<SE3>>* final_poses = nullptr,
+                            int* left_out = nullptr) const;
+
   std::vector<PoseEstimate> poses_;
   std::map<std::string, std::vector<double>> stage_ms_;
   std::vector<double> masked_area_ratio_;

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -52,6 +53,38 @@ TEST(RunRecorder, WritesStatesCsvOfDynamicReports) {
   ASSERT_TRUE(recorder.write_states_csv(path));
   EXPECT_EQ(testing::read_text(path),
             "frame,instance,class,state,score,points,reason\n7,12,truck,static,1.2500,40,\n");
+}
+
+// --final-out writes the frames --out writes (not LOST), each at its final
+// pose; a frame without one is left out and counted.
+TEST(RunRecorder, FinalTrajectoryHasTheFramesOfTheTrajectoryAtTheirFinalPoses) {
+  RunRecorder recorder;
+  const TrackingState states[] = {TrackingState::kOk, TrackingState::kLost, TrackingState::kRecovering,
+                                  TrackingState::kOk};
+  for (int i = 0; i < 4; ++i) {
+    FrameReport report;
+    report.pose.t_ns = (i + 1) * 1'000'000'000LL;
+    report.pose.state = states[i];
+    report.pose.T_world_cam = SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(i, 0, 0));
+    recorder.add(report);
+  }
+  const SE3 moved(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 5, 0));
+  const std::vector<std::optional<SE3>> final_poses{moved, std::nullopt, moved, std::nullopt};
+  const testing::TempDir dir;
+  const auto counts =
+      recorder.write_final_trajectory(dir / "final.txt", io::TrajectoryFormat::kTum, final_poses);
+  ASSERT_TRUE(counts) << counts.error().message;
+  EXPECT_EQ(counts->poses, 2);
+  EXPECT_EQ(counts->left_out, 1);  // frame 3; frame 1 is LOST, in neither file
+  ASSERT_TRUE(recorder.write_trajectory(dir / "live.txt", io::TrajectoryFormat::kTum));
+  const std::string header = "# t x y z qx qy qz qw (T_world_cam of the left camera)\n";
+  EXPECT_EQ(testing::read_text(dir / "final.txt"),
+            header + "1.000000000 0 5 0 0 0 0 1\n3.000000000 0 5 0 0 0 0 1\n");
+  EXPECT_EQ(testing::read_text(dir / "live.txt"),
+            header + "1.000000000 0 0 0 0 0 0 1\n3.000000000 2 0 0 0 0 0 1\n4.000000000 3 0 0 0 0 0 1\n");
+  // One final pose per frame, or nothing is written.
+  EXPECT_FALSE(recorder.write_final_trajectory(dir / "bad.txt", io::TrajectoryFormat::kTum, {moved}));
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad.txt"));
 }
 
 TEST(SlamSystem, PixelModeWithoutSegmenterIsUnsupported) {
