@@ -94,12 +94,31 @@ KeyframeContext read_keyframe_context(const map::MapData& map, map::KeyFrameId r
   return context;
 }
 
-// The pose of the keyframe observing most of the frame's inlier matches
-// (none when nothing is matched).
-std::optional<SE3> most_shared_keyframe_pose(const map::MapData& map, const PassResult& result) {
-  const map::KeyFrame* kf =
-      map.keyframe(map::keyframe_sharing_most(map.keyframes_sharing(result.point_of_keypoint)));
-  return kf != nullptr ? std::optional<SE3>(kf->T_world_cam) : std::nullopt;
+// The pose of the keyframe nearest the camera among those that share a
+// good part of the frame's inlier matches: at least kCovisibilityThreshold
+// and a quarter of the most any keyframe shares, so that a keyframe seeing
+// only a few far points of the view does not count (none when nothing is
+// matched). Not the keyframe sharing most: once a pass has made a keyframe,
+// the frames match its fresh points best, and a strip driven again would be
+// mapped again keyframe by keyframe (docs/placerec/README.md).
+std::optional<SE3> nearest_sharing_keyframe_pose(const map::MapData& map, const PassResult& result) {
+  const std::map<map::KeyFrameId, int> votes = map.keyframes_sharing(result.point_of_keypoint);
+  int most = 0;
+  for (const auto& [id, n] : votes) most = std::max(most, n);
+  const int min_shared = std::max(map::kCovisibilityThreshold, most / 4);
+  const Eigen::Vector3d centre_world = result.T_cam_world.inverse().translation();
+  std::optional<SE3> nearest;
+  double nearest_m = 0.0;
+  for (const auto& [id, n] : votes) {
+    const map::KeyFrame* kf = map.keyframe(id);
+    if (kf == nullptr || n < min_shared) continue;
+    const double distance_m = (kf->camera_center() - centre_world).norm();
+    if (!nearest || distance_m < nearest_m) {
+      nearest = kf->T_world_cam;
+      nearest_m = distance_m;
+    }
+  }
+  return nearest;
 }
 
 }  // namespace
@@ -162,18 +181,17 @@ bool Tracker::need_keyframe(const PreparedFrame& frame, const PassResult& result
   const bool background_thinning = background_inliers < ratio * context.reference_background_matches;
   // The view changed by travel, whether or not points were lost (a tracker
   // that keeps its points would otherwise make too few keyframes): away from
-  // the reference keyframe and from the keyframe sharing most of the
-  // frame's matches. On a strip driven again the reference keyframe (the
+  // the reference keyframe and from every keyframe sharing a good part of
+  // the frame's matches. On a strip driven again the reference keyframe (the
   // last one made) lies behind while an old keyframe of the strip stands
   // beside the camera. The votes are counted only when the first test holds.
   const double travel_share = config_.tracking.keyframe_travel_depth_share;
   bool travelled =
       T_world_reference && travelled_from(*T_world_reference, result.T_cam_world, frame, travel_share);
   if (travelled) {
-    const auto T_world_most_shared =
-        map_.read([&](const map::MapData& map) { return most_shared_keyframe_pose(map, result); });
-    travelled =
-        !T_world_most_shared || travelled_from(*T_world_most_shared, result.T_cam_world, frame, travel_share);
+    const auto T_world_nearest =
+        map_.read([&](const map::MapData& map) { return nearest_sharing_keyframe_pose(map, result); });
+    travelled = !T_world_nearest || travelled_from(*T_world_nearest, result.T_cam_world, frame, travel_share);
   }
   const bool c2 =
       (result.n_inliers < ratio * reference_matches || background_thinning || need_close || travelled) &&

@@ -82,8 +82,9 @@ struct TrackingConfig {
   // the rest of the budget (docs/tracking/extraction.md).
   bool keep_tracked_corners = true;
   // A keyframe also when the camera is this share of the frame's median
-  // stereo depth away from its reference keyframe and from the keyframe
-  // sharing most of its matches; 0 = off (the ORB-SLAM2 rules alone).
+  // stereo depth away from its reference keyframe and from every keyframe
+  // sharing a good part of its matches (a strip driven again keeps its
+  // keyframes); 0 = off (the ORB-SLAM2 rules alone).
   // keep_tracked_corners wants it (docs/tracking/extraction.md).
   double keyframe_travel_depth_share = 0.05;
   // Lost this long (counted from the first lost frame with enough stereo

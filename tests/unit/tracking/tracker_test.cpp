@@ -515,6 +515,41 @@ TEST(Tracker, RenewsTheBackgroundWhileStaticObjectsKeepTheTotalHigh) {
   EXPECT_GE(shrinking.keyframes, plain.keyframes + 3);
 }
 
+// Issue 19: a strip driven again is tracked against the keyframes of the
+// first pass, not mapped again. `backforth` drives 16 m out (frames 12-108),
+// stands, and drives the same 16 m back (120-216). The travel rule asks for
+// a keyframe only away from every keyframe that shares a good part of the
+// frame's matches. When it looked only at the one sharing most (mostly the
+// last made, whose fresh points the frame matches best) the way back made
+// 10 keyframes here (the way out 17); now 1.
+TEST(Tracker, AStripDrivenAgainIsTrackedAgainstItsKeyframes) {
+  constexpr int kFrames = 240;
+  constexpr int kWayBackFrom = 120;
+  const SmallSite site = SmallSite::make("backforth", kFrames);
+  map::SharedMap map;
+  const config::SiteposeConfig config = small_config();
+  mapping::LocalMapper mapper(site.simulator.camera(), config.mapping, config.tracking, map);
+  Tracker tracker(site.simulator.camera(), config, map, link_to(mapper));
+  long keyframes_out = 0;
+  double max_error_m = 0.0;
+  for (int i = 0; i < kFrames; ++i) {
+    if (i == kWayBackFrom) keyframes_out = tracker.counters().keyframes_created;
+    sim::SimFrame truth;
+    auto pose = tracker.track(site.frame(i, &truth));
+    ASSERT_TRUE(pose.has_value()) << pose.error().message;
+    EXPECT_EQ(pose->state, TrackingState::kOk) << "frame " << i << ": " << pose->state_reason;
+    max_error_m =
+        std::max(max_error_m, (pose->T_world_cam.translation() - truth.T_world_cam.translation()).norm());
+    ASSERT_TRUE(mapper.process_pending().has_value());
+  }
+  const long keyframes_back = tracker.counters().keyframes_created - keyframes_out;
+  std::printf("[figures] keyframes made on the way out %ld, on the way back %ld; largest error %.4f m\n",
+              keyframes_out, keyframes_back, max_error_m);
+  EXPECT_GE(keyframes_out, 8) << "the way out maps the strip";
+  EXPECT_LE(keyframes_back, 3) << "the way back re-uses it";
+  EXPECT_LT(max_error_m, 0.1);
+}
+
 TEST(Tracker, PrepareTagsInstancesAndMovesTheBudget) {
   const SmallSite site = SmallSite::make("parked", 1);
   map::SharedMap map;
