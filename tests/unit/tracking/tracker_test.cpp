@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 #include <set>
 
 #include <opencv2/imgproc.hpp>
@@ -43,6 +44,21 @@ config::SiteposeConfig small_config() {
   config::SiteposeConfig config;
   config.orb.n_features = 1000;
   return config;
+}
+
+// Tracks frame i of the site, expects it OK and keeps the largest position
+// error against the simulator's truth in max_error_m (world = first camera
+// in both, so no alignment is needed). nullopt when tracking failed.
+std::optional<PoseEstimate> track_expecting_ok(Tracker& tracker, const SmallSite& site, int i,
+                                               double& max_error_m) {
+  sim::SimFrame truth;
+  auto pose = tracker.track(site.frame(i, &truth));
+  EXPECT_TRUE(pose.has_value()) << pose.error().message;
+  if (!pose) return std::nullopt;
+  EXPECT_EQ(pose->state, TrackingState::kOk) << "frame " << i << ": " << pose->state_reason;
+  max_error_m =
+      std::max(max_error_m, (pose->T_world_cam.translation() - truth.T_world_cam.translation()).norm());
+  return *pose;
 }
 
 // Issue 19 asks whether the tracker re-uses the map of an earlier pass:
@@ -102,13 +118,8 @@ TEST(Tracker, TracksASmallStaticSite) {
   Tracker tracker(site.simulator.camera(), small_config(), map);
   double max_error_m = 0.0;
   for (int i = 0; i < 30; ++i) {
-    sim::SimFrame truth;
-    auto pose = tracker.track(site.frame(i, &truth));
-    ASSERT_TRUE(pose.has_value()) << pose.error().message;
-    EXPECT_EQ(pose->state, TrackingState::kOk) << "frame " << i << ": " << pose->state_reason;
-    // World = first camera in both, so no alignment is needed.
-    max_error_m =
-        std::max(max_error_m, (pose->T_world_cam.translation() - truth.T_world_cam.translation()).norm());
+    const std::optional<PoseEstimate> pose = track_expecting_ok(tracker, site, i, max_error_m);
+    ASSERT_TRUE(pose.has_value());
     EXPECT_GT(pose->counters.features_used, 50);
   }
   EXPECT_LT(max_error_m, 0.03);
@@ -534,12 +545,7 @@ TEST(Tracker, AStripDrivenAgainIsTrackedAgainstItsKeyframes) {
   double max_error_m = 0.0;
   for (int i = 0; i < kFrames; ++i) {
     if (i == kWayBackFrom) keyframes_out = tracker.counters().keyframes_created;
-    sim::SimFrame truth;
-    auto pose = tracker.track(site.frame(i, &truth));
-    ASSERT_TRUE(pose.has_value()) << pose.error().message;
-    EXPECT_EQ(pose->state, TrackingState::kOk) << "frame " << i << ": " << pose->state_reason;
-    max_error_m =
-        std::max(max_error_m, (pose->T_world_cam.translation() - truth.T_world_cam.translation()).norm());
+    ASSERT_TRUE(track_expecting_ok(tracker, site, i, max_error_m).has_value());
     ASSERT_TRUE(mapper.process_pending().has_value());
   }
   const long keyframes_back = tracker.counters().keyframes_created - keyframes_out;
