@@ -16,8 +16,9 @@ namespace {
 
 // Measured on main (f6292a7), 83 s on an idle machine: every frame OK, ATE
 // 0.0048 m (largest 0.0106 m), 150 keyframes made and 40 left in the map,
-// 66.6 % of the matches to points of keyframes 60 s old or more. Before f6292a7 the travel rule re-mapped the
-// strip every pass: 568 keyframes made, 38.4 % (docs/placerec/README.md).
+// 66.6 % of the matches to points of keyframes 60 s old or more. Before
+// f6292a7 the travel rule re-mapped the strip every pass: 568 keyframes
+// made, 38.4 % (docs/placerec/README.md).
 TEST(SiteMapSweep, ALongBackAndForthWithMachinesMeetsItsOldKeyframesAgain) {
   auto source = open_simulated(std::string(SITEPOSE_SCENARIO_DIR) + "/backforth-site.yaml", 0, 11, 640, 360);
   ASSERT_TRUE(source.has_value()) << source.error().message;

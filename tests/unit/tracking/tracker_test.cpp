@@ -541,15 +541,15 @@ TEST(Tracker, AStripDrivenAgainIsTrackedAgainstItsKeyframes) {
   const config::SiteposeConfig config = small_config();
   mapping::LocalMapper mapper(site.simulator.camera(), config.mapping, config.tracking, map);
   Tracker tracker(site.simulator.camera(), config, map, link_to(mapper));
-  long keyframes_out = 0;
+  int keyframes_out = 0;
   double max_error_m = 0.0;
   for (int i = 0; i < kFrames; ++i) {
     if (i == kWayBackFrom) keyframes_out = tracker.counters().keyframes_created;
     ASSERT_TRUE(track_expecting_ok(tracker, site, i, max_error_m).has_value());
     ASSERT_TRUE(mapper.process_pending().has_value());
   }
-  const long keyframes_back = tracker.counters().keyframes_created - keyframes_out;
-  std::printf("[figures] keyframes made on the way out %ld, on the way back %ld; largest error %.4f m\n",
+  const int keyframes_back = tracker.counters().keyframes_created - keyframes_out;
+  std::printf("[figures] keyframes made on the way out %d, on the way back %d; largest error %.4f m\n",
               keyframes_out, keyframes_back, max_error_m);
   EXPECT_GE(keyframes_out, 8) << "the way out maps the strip";
   EXPECT_LE(keyframes_back, 3) << "the way back re-uses it";
